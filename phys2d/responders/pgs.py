@@ -28,45 +28,139 @@ def apply_impulses(i, j, JM, lam, V):
 
 
 @njit(cache=True)
+def solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
+    """Row k's projected Gauss-Seidel update; returns |delta lambda_k| A_kk (m/s)."""
+    if A_diag[k] <= 0.0:
+        return 0.0  # both bodies static: nothing can move
+    a, b = i[k], j[k]
+    jv = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
+          + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
+    delta = (xi[k] - jv) / A_diag[k]  # (b_k - sum_l A_kl lambda_l) / A_kk
+    if bound_row[k] >= 0:  # Coulomb: the cone follows the current normal impulse
+        top = mu[k] * lam[bound_row[k]]
+        low = -top
+    else:
+        low = lo[k]
+        top = hi[k]
+    # clamp the accumulated impulse, not the increment
+    new = min(max(lam[k] + delta, low), top)
+    delta = new - lam[k]
+    lam[k] = new
+    for c in range(3):
+        V[a, c] += JM[k, c] * delta
+        V[b, c] += JM[k, 3 + c] * delta
+    return abs(delta) * A_diag[k]
+
+
+@njit(cache=True)
+def lcp2(k11, k12, k22, b1, b2):
+    """The 2x2 LCP: x >= 0, w = K x + b >= 0, x . w = 0, by trying the four active sets.
+
+    K = [[k11, k12], [k12, k22]] must be symmetric positive definite.
+    """
+    det = k11 * k22 - k12 * k12
+    x1 = -(k22 * b1 - k12 * b2) / det  # both rows push
+    x2 = -(k11 * b2 - k12 * b1) / det
+    if x1 >= 0.0 and x2 >= 0.0:
+        return x1, x2
+    x1 = -b1 / k11  # only row 1 pushes
+    if x1 >= 0.0 and k12 * x1 + b2 >= 0.0:
+        return x1, 0.0
+    x2 = -b2 / k22  # only row 2 pushes
+    if x2 >= 0.0 and k12 * x2 + b1 >= 0.0:
+        return 0.0, x2
+    return 0.0, 0.0  # both separate
+
+
+@njit(cache=True)
+def block_is_well_conditioned(k11, k12, k22):
+    """False when the two rows are nearly parallel: then solve them one by one."""
+    return k11 * k11 < 1000.0 * (k11 * k22 - k12 * k12)
+
+
+@njit(cache=True)
+def solve_normal_block(n1, n2, i, j, J, JM, A_diag, xi, lam, V):
+    """Both normal rows of a two-point manifold at once: the 2x2 LCP solved exactly.
+
+    With a = (lambda_1, lambda_2) and K the 2x2 block of A, find x >= 0 with
+    w = K x + (J V - xi - K a) >= 0 and x . w = 0 (lcp2). Returns the largest |delta lambda| A_kk (m/s),
+    or -1 when K is too ill-conditioned (nearly parallel rows): solve them one by one.
+    """
+    a, b = i[n1], j[n1]
+    k11, k22 = A_diag[n1], A_diag[n2]
+    k12 = 0.0
+    for c in range(6):
+        k12 += J[n1, c] * JM[n2, c]
+    if not block_is_well_conditioned(k11, k12, k22):
+        return -1.0
+    a1, a2 = lam[n1], lam[n2]
+    vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
+           + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
+    vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
+           + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
+    # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
+    x1, x2 = lcp2(k11, k12, k22, vn1 - xi[n1] - (k11 * a1 + k12 * a2), vn2 - xi[n2] - (k12 * a1 + k22 * a2))
+    d1, d2 = x1 - a1, x2 - a2
+    lam[n1] = x1
+    lam[n2] = x2
+    for c in range(3):
+        V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
+        V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
+    return max(abs(d1) * k11, abs(d2) * k22)
+
+
+@njit(cache=True)
 def pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
-    """One Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s)."""
+    """One Gauss-Seidel sweep over the rows in order; returns the largest |delta lambda_k| A_kk."""
     worst = 0.0
     for k in range(lam.shape[0]):
-        if A_diag[k] <= 0.0:
-            continue  # both bodies static: nothing can move
-        a, b = i[k], j[k]
-        jv = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-              + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-        delta = (xi[k] - jv) / A_diag[k]  # (b_k - sum_l A_kl lambda_l) / A_kk
-        if bound_row[k] >= 0:  # Coulomb: the cone follows the current normal impulse
-            top = mu[k] * lam[bound_row[k]]
-            low = -top
+        worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
+    return worst
+
+
+@njit(cache=True)
+def block_sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
+    """A sweep that solves each two-point manifold as a block (Box2D's block solver).
+
+    A manifold's two friction rows come first, then its two normal rows together
+    (solve_normal_block); one-point manifolds and joint rows go row by row.
+    """
+    worst = 0.0
+    c = 0
+    while c < n_contacts:
+        n1 = 2 * c
+        if c + 1 < n_contacts and i[n1 + 2] == i[n1] and j[n1 + 2] == j[n1]:
+            n2 = n1 + 2
+            for k in (n1 + 1, n2 + 1):
+                worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
+            err = solve_normal_block(n1, n2, i, j, J, JM, A_diag, xi, lam, V)
+            if err < 0.0:
+                for k in (n1, n2):
+                    err = max(err, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
+            worst = max(worst, err)
+            c += 2
         else:
-            low = lo[k]
-            top = hi[k]
-        # clamp the accumulated impulse, not the increment
-        new = min(max(lam[k] + delta, low), top)
-        delta = new - lam[k]
-        lam[k] = new
-        for c in range(3):
-            V[a, c] += JM[k, c] * delta
-            V[b, c] += JM[k, 3 + c] * delta
-        err = abs(delta) * A_diag[k]
-        if err > worst:
-            worst = err
+            for k in (n1, n1 + 1):
+                worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
+            c += 1
+    for k in range(2 * n_contacts, lam.shape[0]):
+        worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
     return worst
 
 
 @njit(cache=True)
 def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations, tolerance,
-              residuals):
+              residuals, block, n_contacts):
     """Warm start from ``lam``, then sweep until the residual <= tolerance or out of sweeps.
 
     Returns the number of sweeps made; residuals[s] is the residual after sweep s.
     """
     apply_impulses(i, j, JM, lam, V)
     for s in range(iterations):
-        residuals[s] = pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V)
+        if block:
+            residuals[s] = block_sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V)
+        else:
+            residuals[s] = pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -91,6 +185,10 @@ class PGS(Responder):
     restitution_threshold  approach speed (m/s) above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
     form         'impulse' (sequential impulses over the rows)
+    block        solve the two normal rows of each two-point manifold together, as an
+                 exact 2x2 LCP (Box2D's block solver): a block Gauss-Seidel that does
+                 not rock a resting box from corner to corner. Off by default: the
+                 lecture's PGS visits one row at a time.
     """
 
     name = "pgs"
@@ -99,7 +197,7 @@ class PGS(Responder):
     def __init__(self, iterations: int = 10, warm_start: bool = True, beta: float = 0.2,
                  slop: float = 0.005, tolerance: float | None = None,
                  restitution_threshold: float = 1.0, friction: str = "coulomb",
-                 form: str = "impulse") -> None:
+                 form: str = "impulse", block: bool = False) -> None:
         self.iterations = _check_int(iterations, "iterations", 1)
         if not isinstance(warm_start, (bool, np.bool_)):
             raise TypeError(f"warm_start must be True or False, got {warm_start!r}")
@@ -126,21 +224,27 @@ class PGS(Responder):
         if form not in ("impulse",):
             raise ValueError(f"form must be 'impulse', got {form!r}")
         self.form = form
+        if not isinstance(block, (bool, np.bool_)):
+            raise TypeError(f"block must be True or False, got {block!r}")
+        self.block = bool(block)
+        if self.block:
+            self.name = "pgs-block"
         if not self.warm_start:
-            self.name = "pgs-cold"
+            self.name += "-cold"
 
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
         residuals = np.zeros(self.iterations)
         tol = -1.0 if self.tolerance is None else self.tolerance
         n = pgs_solve(r.i, r.j, r.J, r.JM, r.A_diag, r.xi, r.lo, r.hi, r.bound_row, r.mu, r.lam,
-                      ctx.V, self.iterations, tol, residuals)
+                      ctx.V, self.iterations, tol, residuals, self.block, ctx.n_contacts)
         return SolveResult(n, residuals[:n])
 
     def __repr__(self) -> str:
         tol = "None" if self.tolerance is None else f"{self.tolerance:g}"
         return (f"PGS(iterations={self.iterations}, warm_start={self.warm_start}, beta={self.beta:g}, "
-                f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r})")
+                f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r}, "
+                f"block={self.block})")
 
 
-__all__ = ["PGS", "apply_impulses", "pgs_solve", "pgs_sweep"]
+__all__ = ["PGS", "apply_impulses", "block_sweep", "pgs_solve", "pgs_sweep", "solve_row"]
