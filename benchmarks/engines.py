@@ -278,18 +278,18 @@ class Phys2DAdapter:
     """phys2d: PGS, 10 iterations, warm starting; friction 0.6 per shape.
 
     phys2d mixes friction as sqrt(mu_a * mu_b), so 0.6 per box gives 0.6.
-    With ``record_path`` every step is followed by ``Recorder.log(world)``.
+    With ``record_path`` every step is followed by ``Recorder.log(world)``;
+    ``responder`` replaces the default PGS (to compare phys2d's options).
     """
 
     name = "phys2d"
 
-    def __init__(self, scene: Scene, record_path: str | None = None):
+    def __init__(self, scene: Scene, record_path: str | None = None, responder=None):
         import phys2d
 
-        w = phys2d.World(
-            gravity=GRAVITY,
-            responder=phys2d.PGS(iterations=ITERATIONS, warm_start=True),
-        )
+        if responder is None:
+            responder = phys2d.PGS(iterations=ITERATIONS, warm_start=True)
+        w = phys2d.World(gravity=GRAVITY, responder=responder)
         w.add_box(
             position=GROUND_CENTER,
             half_extents=GROUND_HALF,

@@ -91,6 +91,13 @@ def make_adapter(engine: str, scene, args, tmpdir: str):
     if engine == "phys2d+rec":
         path = os.path.join(tmpdir, f"{scene.name}-{time.perf_counter_ns()}.rrd")
         return engines.Phys2DAdapter(scene, record_path=path)
+    if engine in args.variants:  # phys2d[label] from --variant label=EXPR
+        import phys2d
+
+        responder = eval(
+            args.variants[engine], {"phys2d": phys2d}
+        )  # the user's own CLI text
+        return engines.Phys2DAdapter(scene, responder=responder)
     raise ValueError(engine)
 
 
@@ -501,7 +508,11 @@ def target_rows(timing, stab, first):
         return f"stands, sway {r['dx_end']:.3f} m (max {r['dx_run']:.3f})"
 
     rec = timing.get("pyramid_20", {}).get("phys2d+rec")
-    rec_s = f"{rec['ms']:.2f} ms/tick" if rec else "n/a"
+    rec_s = "n/a"
+    if rec:
+        rec_s = f"{rec['ms']:.2f} ms/tick"
+        if "rec_overhead" in rec:
+            rec_s += f" (recording {rec['rec_overhead']:.2f} ms of it)"
     warm = "n/a"
     if isinstance(first, dict) and first.get("warm"):
         warm = f"{statistics.median(r['first_step'] for r in first['warm']):.2f} s"
@@ -600,7 +611,22 @@ def parse_args(argv=None):
         help="results file (default benchmarks/RESULTS.md, "
         "quick: benchmarks/RESULTS-quick.md)",
     )
+    p.add_argument(
+        "--variant",
+        action="append",
+        default=[],
+        metavar="LABEL=EXPR",
+        help="add a phys2d column 'phys2d[LABEL]' whose responder is the Python "
+        "expression EXPR (phys2d is in scope), e.g. "
+        "--variant 'pgs20=phys2d.PGS(iterations=20, warm_start=True)'; repeatable",
+    )
     args = p.parse_args(argv)
+    args.variants = {}
+    for v in args.variant:
+        label, sep, expr = v.partition("=")
+        if not sep or not label or not expr:
+            p.error(f"--variant wants LABEL=EXPR, got {v!r}")
+        args.variants[f"phys2d[{label}]"] = expr
     q = args.quick
     for name, full, quick in (
         ("repeats", 5, 2),
@@ -619,7 +645,7 @@ def parse_args(argv=None):
 def main(argv=None) -> int:
     args = parse_args(argv)
     command = "python " + shlex.join([os.path.relpath(sys.argv[0])] + sys.argv[1:])
-    names = [e for e in ALL_ENGINES if e in args.engines]
+    names = [e for e in ALL_ENGINES if e in args.engines] + list(args.variants)
     if not engines.phys2d_available():
         print("phys2d not importable (no phys2d.World yet): its columns read n/a")
         names = [e for e in names if not e.startswith("phys2d")]
