@@ -106,48 +106,72 @@ def make_adapter(engine: str, scene, args, tmpdir: str):
 # --------------------------------------------------------------------------
 
 
+def describe(exc: BaseException) -> str:
+    text = f"{type(exc).__name__}: {exc}".splitlines()[0]
+    return text[:120]
+
+
 def time_scene(scene, names, args, tmpdir):
-    """Median ms/step per engine and median (over repeats) ratio to pymunk."""
-    adapters = {e: make_adapter(e, scene, args, tmpdir) for e in names}
-    try:
-        for a in adapters.values():
+    """Median ms/step per engine and median (over repeats) ratio to pymunk.
+
+    An engine that fails to build, or raises while stepping, is reported as
+    ``{"error": ...}`` and the others go on.
+    """
+    adapters, out = {}, {}
+    for e in names:
+        try:
+            a = make_adapter(e, scene, args, tmpdir)
+            adapters[e] = a
             for _ in range(args.warmup):
                 a.step()
-        per_rep = {e: [] for e in names}
+        except Exception as exc:  # noqa: BLE001  (a broken engine must not stop the rest)
+            out[e] = {"error": describe(exc)}
+            broken = adapters.pop(e, None)
+            if broken is not None:
+                broken.close()
+    live = [e for e in names if e in adapters]
+    per_rep = {e: [] for e in live}
+    try:
         for r in range(args.repeats):
-            k = r % len(names)  # rotate who goes first
-            for e in names[k:] + names[:k]:
+            k = r % len(live) if live else 0  # rotate who goes first
+            for e in live[k:] + live[:k]:
+                if e in out:
+                    continue
                 step = adapters[e].step
                 gc.collect()
                 gc.disable()
-                t0 = time.perf_counter_ns()
-                for _ in range(args.steps):
-                    step()
-                t1 = time.perf_counter_ns()
-                gc.enable()
+                try:
+                    t0 = time.perf_counter_ns()
+                    for _ in range(args.steps):
+                        step()
+                    t1 = time.perf_counter_ns()
+                except Exception as exc:  # noqa: BLE001  (as above)
+                    out[e] = {"error": describe(exc)}
+                    continue
+                finally:
+                    gc.enable()
                 per_rep[e].append((t1 - t0) / args.steps / 1e6)
     finally:
         for a in adapters.values():
             a.close()
-    out = {}
-    for e in names:
-        ms = per_rep[e]
+    full = {e: ms for e, ms in per_rep.items() if e not in out}
+    for e, ms in full.items():
         row = {
             "ms": statistics.median(ms),
             "ms_min": min(ms),
             "ms_max": max(ms),
             "per_repeat": ms,
         }
-        if "pymunk" in per_rep:
+        if "pymunk" in full:
             row["ratio"] = statistics.median(
-                m / p for m, p in zip(ms, per_rep["pymunk"], strict=True)
+                m / p for m, p in zip(ms, full["pymunk"], strict=True)
             )
-        if e == "phys2d+rec" and "phys2d" in per_rep:
+        if e == "phys2d+rec" and "phys2d" in full:
             row["rec_overhead"] = statistics.median(
-                m - p for m, p in zip(ms, per_rep["phys2d"], strict=True)
+                m - p for m, p in zip(ms, full["phys2d"], strict=True)
             )
         out[e] = row
-    return out
+    return {e: out[e] for e in names if e in out}
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
@@ -357,7 +381,8 @@ def report(args, names, timing, stab, first, meta) -> str:
         "- versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()),
         (
             "- settings: dt 1/60, gravity (0, -10), 10 solver iterations (Box2D: 10 "
-            "velocity + 3 position), friction 0.6 per pair, restitution 0, sleeping off, "
+            "velocity + 3 position), friction 0.6 per pair, restitution 0, "
+            "sleeping off, "
             f"pymunk collision_slop {slop}"
         ),
         (
@@ -367,13 +392,19 @@ def report(args, names, timing, stab, first, meta) -> str:
         ),
         (
             f"- stability: a fresh scene run for {args.seconds:g} s "
-            f"({round(args.seconds / DT)} steps); contacts counted at t = {settle:g} s; "
+            f"({round(args.seconds / DT)} steps); contacts counted at "
+            f"t = {settle:g} s; "
             f"fell = a box moved more than {FALL_MOVE} m from its start or turned more "
             "than 30 deg"
         ),
     ]
     if args.quick:
         L += ["- **quick smoke run**: too few steps for meaningful figures"]
+
+    def cellfmt(per, e, fmt):
+        if e not in per:
+            return "n/a"
+        return f"error ({per[e]['error']})" if "error" in per[e] else fmt(per[e])
 
     def section(title, columns, rows):
         L.extend(["", f"## {title}", ""])
@@ -382,13 +413,13 @@ def report(args, names, timing, stab, first, meta) -> str:
     def timing_table(title, fmt):
         rows = []
         for s, per in timing.items():
-            rows.append([s] + [fmt(per[e]) if e in per else "n/a" for e in names])
+            rows.append([s] + [cellfmt(per, e, fmt) for e in names])
         section(title, ["scene", *names], rows)
 
     def stab_table(title, fmt):
         rows = []
         for s, per in stab.items():
-            rows.append([s] + [fmt(per[e]) if e in per else "n/a" for e in eng])
+            rows.append([s] + [cellfmt(per, e, fmt) for e in eng])
         section(title, ["scene", *eng], rows)
 
     timing_table(
@@ -419,6 +450,8 @@ def report(args, names, timing, stab, first, meta) -> str:
     rows = []
     for s, per in timing.items():
         p, r = per.get("phys2d"), per.get("phys2d+rec")
+        p = None if p and "error" in p else p
+        r = None if r and "error" in r else r
         rows.append(
             [
                 s,
@@ -497,17 +530,18 @@ def target_rows(timing, stab, first):
 
     def dx(s, e):
         r = stab.get(s, {}).get(e)
-        return f"{r['dx_end']:.3f} m" if r else "n/a"
+        return f"{r['dx_end']:.3f} m" if r and "error" not in r else "n/a"
 
     def fell(s, e):
         r = stab.get(s, {}).get(e)
-        if not r:
+        if not r or "error" in r:
             return "n/a"
         if r["fell"]:
             return f"falls at {r['fell']['t']:.1f} s"
         return f"stands, sway {r['dx_end']:.3f} m (max {r['dx_run']:.3f})"
 
     rec = timing.get("pyramid_20", {}).get("phys2d+rec")
+    rec = None if rec and "error" in rec else rec
     rec_s = "n/a"
     if rec:
         rec_s = f"{rec['ms']:.2f} ms/tick"
@@ -661,7 +695,9 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             timing[sname] = time_scene(scene, names, args, tmpdir)
             line = ", ".join(
-                f"{e} {r['ms']:.3f} ms"
+                f"{e} {r['error']}"
+                if "error" in r
+                else f"{e} {r['ms']:.3f} ms"
                 + (f" ({r['ratio']:.2f}x)" if "ratio" in r else "")
                 for e, r in timing[sname].items()
             )
@@ -670,7 +706,13 @@ def main(argv=None) -> int:
             for e in names:
                 if e == "phys2d+rec":  # same physics as phys2d
                     continue
-                stab[sname][e] = r = stability_run(scene, e, args, tmpdir)
+                try:
+                    r = stability_run(scene, e, args, tmpdir)
+                except Exception as exc:  # noqa: BLE001  (report it, go on)
+                    stab[sname][e] = {"error": describe(exc)}
+                    print(f"  {e}: {describe(exc)}", flush=True)
+                    continue
+                stab[sname][e] = r
                 print(
                     f"  {e}: contacts {r['contacts']}, overlap "
                     f"{1e3 * r['max_overlap']:.1f} mm, dx {r['dx_end']:.4f} m, "
