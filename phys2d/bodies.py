@@ -1,0 +1,297 @@
+"""Body state in the lecture's layout, and the Body handles that view it.
+
+The world keeps every body's state in flat arrays (Box2D v3 style), one row per
+body in creation order:
+
+    x      (N, 2)  centre of mass, m
+    theta  (N,)    angle, rad
+    V      (N, 3)  the lecture's V: [vx, vy, omega] in m/s and rad/s
+    M_inv  (N, 3)  the diagonal of M^-1: [1/m, 1/m, 1/I] (0 for static bodies)
+
+plus each body's shape (kind, radius, a slice of the polygon vertex arrays) and
+material (friction, restitution). A :class:`Body` is a thin handle: an index into
+these arrays, never a copy of them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .shapes import CIRCLE, ShapeSpec, finite_float, vec2
+
+MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
+
+
+def _grown(a: np.ndarray, capacity: int) -> np.ndarray:
+    out = np.zeros((capacity,) + a.shape[1:], dtype=a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+class BodyArrays:
+    """Structure-of-arrays storage for bodies and their shapes, grown by doubling."""
+
+    _PER_BODY = {
+        "x": ((2,), np.float64),
+        "theta": ((), np.float64),
+        "V": ((3,), np.float64),
+        "M_inv": ((3,), np.float64),
+        "mass": ((), np.float64),
+        "inertia": ((), np.float64),
+        "kind": ((), np.int32),
+        "radius": ((), np.float64),
+        "vstart": ((), np.int32),
+        "vcount": ((), np.int32),
+        "friction": ((), np.float64),
+        "restitution": ((), np.float64),
+        "static": ((), np.bool_),
+        "uid": ((), np.int64),
+    }
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.n_verts = 0
+        self.next_uid = 0
+        for name, (shape, dtype) in self._PER_BODY.items():
+            setattr(self, "_" + name, np.zeros((8,) + shape, dtype=dtype))
+        self._local_v = np.zeros((32, 2))
+        self._local_n = np.zeros((32, 2))
+
+    # active views: the first n rows
+    def __getattr__(self, name: str):
+        if name in BodyArrays._PER_BODY:
+            return self.__dict__["_" + name][: self.n]
+        if name in ("local_v", "local_n"):
+            return self.__dict__["_" + name][: self.n_verts]
+        raise AttributeError(name)
+
+    def append(self, spec: ShapeSpec, x, theta, V, mass, inertia, friction, restitution, static) -> int:
+        if self.next_uid > MAX_BODY_UID:
+            raise ValueError(f"a world can create at most {MAX_BODY_UID + 1} bodies in its lifetime")
+        i = self.n
+        if i == self._x.shape[0]:
+            for name in self._PER_BODY:
+                setattr(self, "_" + name, _grown(getattr(self, "_" + name), 2 * i))
+        nv = spec.vertices.shape[0]
+        if self.n_verts + nv > self._local_v.shape[0]:
+            cap = max(2 * self._local_v.shape[0], self.n_verts + nv)
+            self._local_v = _grown(self._local_v, cap)
+            self._local_n = _grown(self._local_n, cap)
+        self._local_v[self.n_verts : self.n_verts + nv] = spec.vertices
+        self._local_n[self.n_verts : self.n_verts + nv] = spec.normals
+        self._x[i] = x
+        self._theta[i] = theta
+        self._V[i] = V
+        self._M_inv[i] = (0.0, 0.0, 0.0) if static else (1.0 / mass, 1.0 / mass, 1.0 / inertia)
+        self._mass[i] = mass
+        self._inertia[i] = inertia
+        self._kind[i] = spec.kind
+        self._radius[i] = spec.radius
+        self._vstart[i] = self.n_verts
+        self._vcount[i] = nv
+        self._friction[i] = friction
+        self._restitution[i] = restitution
+        self._static[i] = static
+        self._uid[i] = self.next_uid
+        self.next_uid += 1
+        self.n_verts += nv
+        self.n += 1
+        return i
+
+    def delete(self, i: int) -> None:
+        """Remove row i, shifting later rows (and their vertex slices) down by one."""
+        s, c = int(self._vstart[i]), int(self._vcount[i])
+        for name in ("_local_v", "_local_n"):
+            a = getattr(self, name)
+            a[s : self.n_verts - c] = a[s + c : self.n_verts].copy()
+        self.n_verts -= c
+        for name in self._PER_BODY:
+            a = getattr(self, "_" + name)
+            a[i : self.n - 1] = a[i + 1 : self.n].copy()
+        self.n -= 1
+        self._vstart[i : self.n] -= c
+
+    def snapshot(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.x.copy(), self.theta.copy(), self.V.copy()
+
+    def restore(self, snap) -> None:
+        self.x[:], self.theta[:], self.V[:] = snap
+
+
+class Body:
+    """A handle onto one body's row of the world's arrays.
+
+    Read and set ``position`` (m, the centre of mass), ``angle`` (rad),
+    ``velocity`` (m/s) and ``angular_velocity`` (rad/s); ``mass`` (kg),
+    ``inertia`` (kg m^2) and ``static`` are read-only. ``index`` is the body's
+    row in the world's arrays and in ``w.bodies``; it shifts down when an
+    earlier body is removed.
+    """
+
+    __slots__ = ("_world", "_index", "_uid", "__weakref__")
+
+    def __init__(self, world, index: int, uid: int) -> None:
+        self._world = world
+        self._index = index
+        self._uid = uid
+
+    # -- plumbing ---------------------------------------------------------
+    def _arrays(self) -> BodyArrays:
+        if self._index < 0:
+            raise ValueError(f"body #{self._uid} was removed from its world")
+        return self._world._bodies
+
+    @property
+    def index(self) -> int:
+        self._arrays()
+        return self._index
+
+    @property
+    def world(self):
+        return self._world
+
+    @property
+    def alive(self) -> bool:
+        """False once the body has been removed from its world."""
+        return self._index >= 0
+
+    # -- state ------------------------------------------------------------
+    @property
+    def position(self) -> np.ndarray:
+        """Centre of mass (m), a copy; assign to move the body."""
+        return self._arrays().x[self._index].copy()
+
+    @position.setter
+    def position(self, value) -> None:
+        v = vec2(value, "position")
+        self._arrays().x[self._index] = v
+
+    @property
+    def angle(self) -> float:
+        """Angle theta (rad), counter-clockwise."""
+        return float(self._arrays().theta[self._index])
+
+    @angle.setter
+    def angle(self, value) -> None:
+        v = finite_float(value, "angle")
+        self._arrays().theta[self._index] = v
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Linear velocity v (m/s), a copy."""
+        return self._arrays().V[self._index, :2].copy()
+
+    @velocity.setter
+    def velocity(self, value) -> None:
+        v = vec2(value, "velocity")
+        self._arrays().V[self._index, :2] = v
+
+    @property
+    def angular_velocity(self) -> float:
+        """Angular velocity omega (rad/s)."""
+        return float(self._arrays().V[self._index, 2])
+
+    @angular_velocity.setter
+    def angular_velocity(self, value) -> None:
+        v = finite_float(value, "angular_velocity")
+        self._arrays().V[self._index, 2] = v
+
+    @property
+    def mass(self) -> float:
+        """Mass m (kg), from density and area (also for static bodies)."""
+        return float(self._arrays().mass[self._index])
+
+    @property
+    def inertia(self) -> float:
+        """Moment of inertia I about the centre of mass (kg m^2)."""
+        return float(self._arrays().inertia[self._index])
+
+    @property
+    def static(self) -> bool:
+        """Static bodies have M^-1 = 0: no impulse or gravity moves them."""
+        return bool(self._arrays().static[self._index])
+
+    @property
+    def friction(self) -> float:
+        """Friction coefficient mu of the body's shape (pairs mix sqrt(mu_a mu_b))."""
+        return float(self._arrays().friction[self._index])
+
+    @friction.setter
+    def friction(self, value) -> None:
+        v = finite_float(value, "friction")
+        if v < 0.0:
+            raise ValueError(f"friction must be >= 0, got {v}")
+        self._arrays().friction[self._index] = v
+
+    @property
+    def restitution(self) -> float:
+        """Restitution e in [0, 1] (pairs take max(e_a, e_b))."""
+        return float(self._arrays().restitution[self._index])
+
+    @restitution.setter
+    def restitution(self, value) -> None:
+        v = finite_float(value, "restitution")
+        if not 0.0 <= v <= 1.0:
+            raise ValueError(f"restitution must be in [0, 1], got {v}")
+        self._arrays().restitution[self._index] = v
+
+    # -- shape ------------------------------------------------------------
+    @property
+    def shape(self) -> str:
+        """'circle' or 'polygon' (boxes are polygons)."""
+        return "circle" if self._arrays().kind[self._index] == CIRCLE else "polygon"
+
+    @property
+    def radius(self) -> float:
+        """Circle radius (m); 0 for polygons."""
+        return float(self._arrays().radius[self._index])
+
+    @property
+    def local_vertices(self) -> np.ndarray:
+        """Polygon vertices in the body frame (m), counter-clockwise; (0, 2) for circles."""
+        a = self._arrays()
+        s, c = a.vstart[self._index], a.vcount[self._index]
+        return a.local_v[s : s + c].copy()
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """Polygon vertices in world coordinates (m); (0, 2) for circles."""
+        a = self._arrays()
+        c, s = math.cos(a.theta[self._index]), math.sin(a.theta[self._index])
+        rot = np.array([[c, -s], [s, c]])
+        return self.local_vertices @ rot.T + a.x[self._index]
+
+    # -- actions ----------------------------------------------------------
+    def apply_impulse(self, impulse, point=None) -> None:
+        """Apply an impulse (N s) at a world point (m), the centre of mass by default.
+
+        v += impulse / m and omega += (r x impulse) / I, with r = point - x.
+        Static bodies are not moved.
+        """
+        a = self._arrays()
+        j = vec2(impulse, "impulse")
+        r = np.zeros(2) if point is None else vec2(point, "point") - a.x[self._index]
+        m_inv = a.M_inv[self._index]
+        dv = np.array([j[0] * m_inv[0], j[1] * m_inv[1], (r[0] * j[1] - r[1] * j[0]) * m_inv[2]])
+        if not np.all(np.isfinite(a.V[self._index] + dv)):
+            raise ValueError("impulse: the resulting velocity would not be finite")
+        a.V[self._index] += dv
+
+    def __repr__(self) -> str:
+        if self._index < 0:
+            return f"<Body #{self._uid} removed>"
+        a = self._world._bodies
+        i = self._index
+        kind = "static " if a.static[i] else ""
+        shape = f"circle r={a.radius[i]:.3g}" if a.kind[i] == CIRCLE else f"polygon {a.vcount[i]} vertices"
+        x, y = a.x[i]
+        return (f"<Body {i}: {kind}{shape}, position=({x:.4g}, {y:.4g}) m, "
+                f"angle={a.theta[i]:.4g} rad, mass={a.mass[i]:.4g} kg>")
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Body) and other._world is self._world and other._uid == self._uid
+
+    def __hash__(self) -> int:
+        return hash((id(self._world), self._uid))

@@ -1,0 +1,1 @@
+"""Collision detection: broadphase candidate pairs, then narrowphase manifolds."""

@@ -1,0 +1,105 @@
+"""Broadphase: candidate pairs by sort-and-sweep on x.
+
+Each body's axis-aligned bounding box is computed from its world geometry; boxes
+are sorted by their left edge and swept left to right, so a body is only tested
+against those whose x-interval overlaps its own: about O(N log N) for a scene
+that is not piled into one column, instead of the O(N^2) of all pairs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..shapes import CIRCLE
+
+
+@njit(cache=True)
+def update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, margin, world_v,
+                    world_n, aabb):
+    """World-frame vertices and edge normals of every polygon, and every body's AABB.
+
+    aabb[b] = (min x, min y, max x, max y) in m, fattened by the contact margin.
+    """
+    for b in range(x.shape[0]):
+        px, py = x[b, 0], x[b, 1]
+        if kind[b] == CIRCLE:
+            r = radius[b] + margin
+            aabb[b, 0] = px - r
+            aabb[b, 1] = py - r
+            aabb[b, 2] = px + r
+            aabb[b, 3] = py + r
+            continue
+        c, s = np.cos(theta[b]), np.sin(theta[b])
+        lo_x, lo_y, hi_x, hi_y = np.inf, np.inf, -np.inf, -np.inf
+        for k in range(vstart[b], vstart[b] + vcount[b]):
+            vx = px + c * local_v[k, 0] - s * local_v[k, 1]
+            vy = py + s * local_v[k, 0] + c * local_v[k, 1]
+            world_v[k, 0] = vx
+            world_v[k, 1] = vy
+            world_n[k, 0] = c * local_n[k, 0] - s * local_n[k, 1]
+            world_n[k, 1] = s * local_n[k, 0] + c * local_n[k, 1]
+            lo_x = min(lo_x, vx)
+            lo_y = min(lo_y, vy)
+            hi_x = max(hi_x, vx)
+            hi_y = max(hi_y, vy)
+        aabb[b, 0] = lo_x - margin
+        aabb[b, 1] = lo_y - margin
+        aabb[b, 2] = hi_x + margin
+        aabb[b, 3] = hi_y + margin
+
+
+@njit(cache=True)
+def _excluded(excluded, a, b):
+    """Binary search of the sorted pair keys a * 2^32 + b (a < b) of joined bodies."""
+    key = (np.int64(a) << 32) | np.int64(b)
+    lo, hi = 0, excluded.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if excluded[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo < excluded.shape[0] and excluded[lo] == key
+
+
+@njit(cache=True)
+def sweep_and_prune(aabb, static, excluded, pairs):
+    """Write the candidate pairs (a < b) into ``pairs``, sorted by (a, b).
+
+    Returns how many there are; if ``pairs`` is too small, returns the number
+    needed as a negative count so the caller can grow the buffer and retry.
+    Static-static pairs and the pairs in ``excluded`` are skipped.
+    """
+    n = aabb.shape[0]
+    order = np.argsort(aabb[:, 0], kind="mergesort")
+    count = 0
+    cap = pairs.shape[0]
+    for ii in range(n):
+        a = order[ii]
+        right = aabb[a, 2]
+        for jj in range(ii + 1, n):
+            b = order[jj]
+            if aabb[b, 0] > right:
+                break  # sorted by left edge: nothing further overlaps a in x
+            if static[a] and static[b]:
+                continue
+            if aabb[a, 1] > aabb[b, 3] or aabb[b, 1] > aabb[a, 3]:
+                continue
+            lo, hi = min(a, b), max(a, b)
+            if excluded.shape[0] > 0 and _excluded(excluded, lo, hi):
+                continue
+            if count < cap:
+                pairs[count, 0] = lo
+                pairs[count, 1] = hi
+            count += 1
+    if count > cap:
+        return -count
+    # sort by (a, b) so contact keys come out ascending and the solve order is stable
+    keys = np.empty(count, np.int64)
+    for k in range(count):
+        keys[k] = (np.int64(pairs[k, 0]) << 32) | np.int64(pairs[k, 1])
+    perm = np.argsort(keys, kind="mergesort")
+    sorted_pairs = pairs[:count][perm].copy()
+    pairs[:count] = sorted_pairs
+    return count

@@ -1,0 +1,238 @@
+"""Narrowphase: contact manifolds of up to two points, each with a feature id.
+
+For every candidate pair (a, b) with a < b the narrowphase finds where the shapes
+touch. A manifold point carries
+
+    point       the contact point p (m), midway between the two surfaces
+    normal      n, unit, from a to b
+    separation  C = (x_b + r_b - x_a - r_a) . n (m), negative when overlapping
+    feature     which edges or vertices made it (below)
+
+Feature ids are what contact caching keys on: they stay the same from tick to
+tick while the same features touch, whatever the bodies' exact positions.
+
+Polygon-polygon (SAT plus clipping of the incident edge, as in Box2D-Lite):
+    bit 15     flip: 1 when the reference face belongs to b
+    bits 8-13  the reference edge
+    bits 1-6   the incident edge (on the other polygon)
+    bit 0      which end of the reference edge the point lies towards: 0 for its
+               first vertex, 1 for its second (the same whether or not clipping
+               moved the point, so a sliding box keeps its ids)
+Circle-polygon: bit 7 is 0 for the polygon's edge region (bits 0-6: edge),
+    1 for a vertex region (bits 0-6: vertex). Circle-circle: 0.
+
+Points whose surfaces are still up to a small margin apart (separation > 0) are
+kept as speculative contacts: their rows let the gap close within the step and
+no further, so a resting box that tilts by a hair keeps both corners supported.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..shapes import CIRCLE
+
+FLIP_BIT = 1 << 15
+VERTEX_BIT = 1 << 7
+
+# Prefer the first polygon's face unless the second's separates clearly more:
+# nearly equal faces then never trade places from one tick to the next.
+REFERENCE_FACE_TOL = 5e-4  # m
+
+
+@njit(cache=True)
+def _max_separation(sa, na, sb, nb, world_v, world_n):
+    """Edge of polygon A whose outward normal separates B the most: (edge, separation)."""
+    best_edge = 0
+    best = -np.inf
+    for e in range(na):
+        nx, ny = world_n[sa + e, 0], world_n[sa + e, 1]
+        vx, vy = world_v[sa + e, 0], world_v[sa + e, 1]
+        deepest = np.inf  # support point of B against this face
+        for k in range(nb):
+            d = nx * (world_v[sb + k, 0] - vx) + ny * (world_v[sb + k, 1] - vy)
+            if d < deepest:
+                deepest = d
+        if deepest > best:
+            best = deepest
+            best_edge = e
+    return best_edge, best
+
+
+@njit(cache=True)
+def _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, nx, ny, sep, feature):
+    out_a[k] = a
+    out_b[k] = b
+    out_p[k, 0] = px
+    out_p[k, 1] = py
+    out_n[k, 0] = nx
+    out_n[k, 1] = ny
+    out_s[k] = sep
+    out_f[k] = feature
+
+
+@njit(cache=True)
+def collide_polygons(a, b, vstart, vcount, world_v, world_n, margin, out_a, out_b, out_p, out_n,
+                     out_s, out_f, k):
+    """Polygon-polygon manifold written at slot k; returns the number of points (0-2)."""
+    sa, na, sb, nb = vstart[a], vcount[a], vstart[b], vcount[b]
+    edge_a, sep_a = _max_separation(sa, na, sb, nb, world_v, world_n)
+    if sep_a > margin:
+        return 0
+    edge_b, sep_b = _max_separation(sb, nb, sa, na, world_v, world_n)
+    if sep_b > margin:
+        return 0
+    # reference face: the one that separates most, with a bias towards a's
+    if sep_b > sep_a + REFERENCE_FACE_TOL:
+        sr, nr, ref_edge, si, ni, flip = sb, nb, edge_b, sa, na, 1
+    else:
+        sr, nr, ref_edge, si, ni, flip = sa, na, edge_a, sb, nb, 0
+    nx, ny = world_n[sr + ref_edge, 0], world_n[sr + ref_edge, 1]
+    # incident edge: the one most anti-parallel to the reference normal
+    inc = 0
+    most = np.inf
+    for e in range(ni):
+        d = world_n[si + e, 0] * nx + world_n[si + e, 1] * ny
+        if d < most:
+            most = d
+            inc = e
+    i1, i2 = inc, (inc + 1) % ni
+    # The incident edge runs against the reference edge r1 -> r2, so its end i2 lies
+    # on r1's side and i1 on r2's. Each clip point is named by its end (0: r1's side,
+    # 1: r2's) whether or not clipping moved it: a hair of sideways motion must not
+    # rename a point, or its cached impulse would be lost.
+    p1x, p1y = world_v[si + i1, 0], world_v[si + i1, 1]  # end 1
+    p2x, p2y = world_v[si + i2, 0], world_v[si + i2, 1]  # end 0
+    r1 = sr + ref_edge
+    r2 = sr + (ref_edge + 1) % nr
+    tx, ty = world_v[r2, 0] - world_v[r1, 0], world_v[r2, 1] - world_v[r1, 1]
+    tl = np.sqrt(tx * tx + ty * ty)
+    tx, ty = tx / tl, ty / tl
+    # clip against the side planes at r1 (keep t . p >= t . r1) and at r2 (t . p <= t . r2)
+    for side in range(2):
+        if side == 0:
+            ox, oy, sx, sy = world_v[r1, 0], world_v[r1, 1], tx, ty
+        else:
+            ox, oy, sx, sy = world_v[r2, 0], world_v[r2, 1], -tx, -ty
+        d1 = sx * (p1x - ox) + sy * (p1y - oy)
+        d2 = sx * (p2x - ox) + sy * (p2y - oy)
+        if d1 < 0.0 and d2 < 0.0:
+            return 0
+        if d1 < 0.0 or d2 < 0.0:
+            u = d1 / (d1 - d2)
+            cx, cy = p1x + u * (p2x - p1x), p1y + u * (p2y - p1y)
+            if d1 < 0.0:
+                p1x, p1y = cx, cy
+            else:
+                p2x, p2y = cx, cy
+    base = (flip << 15) | (ref_edge << 8) | (inc << 1)
+    ox, oy = world_v[r1, 0], world_v[r1, 1]
+    count = 0
+    for end in range(2):  # end 0 first: contact keys come out ascending
+        px, py = (p2x, p2y) if end == 0 else (p1x, p1y)
+        sep = nx * (px - ox) + ny * (py - oy)
+        if sep > margin:
+            continue
+        # midway between the incident point and the reference face
+        cx, cy = px - 0.5 * sep * nx, py - 0.5 * sep * ny
+        if flip:
+            _emit(out_a, out_b, out_p, out_n, out_s, out_f, k + count, a, b, cx, cy, -nx, -ny, sep,
+                  base | end)
+        else:
+            _emit(out_a, out_b, out_p, out_n, out_s, out_f, k + count, a, b, cx, cy, nx, ny, sep,
+                  base | end)
+        count += 1
+    return count
+
+
+@njit(cache=True)
+def collide_circle_polygon(circ, poly, a, b, x, radius, vstart, vcount, world_v, world_n, margin,
+                           out_a, out_b, out_p, out_n, out_s, out_f, k):
+    """Circle-polygon manifold (one point) at slot k; the normal is written from a to b."""
+    s, n = vstart[poly], vcount[poly]
+    cx, cy, r = x[circ, 0], x[circ, 1], radius[circ]
+    best_edge = 0
+    best = -np.inf
+    for e in range(n):
+        d = world_n[s + e, 0] * (cx - world_v[s + e, 0]) + world_n[s + e, 1] * (cy - world_v[s + e, 1])
+        if d > best:
+            best = d
+            best_edge = e
+    if best > r + margin:
+        return 0
+    v1 = s + best_edge
+    v2 = s + (best_edge + 1) % n
+    nx, ny = world_n[v1, 0], world_n[v1, 1]
+    depth_from_face = best  # distance of the centre from the polygon surface
+    feature = best_edge
+    if best > 0.0:  # centre outside: edge region or one of its vertices
+        ex, ey = world_v[v2, 0] - world_v[v1, 0], world_v[v2, 1] - world_v[v1, 1]
+        u1 = (cx - world_v[v1, 0]) * ex + (cy - world_v[v1, 1]) * ey
+        u2 = (cx - world_v[v2, 0]) * -ex + (cy - world_v[v2, 1]) * -ey
+        corner = -1
+        if u1 <= 0.0:
+            corner = v1
+            feature = VERTEX_BIT | best_edge
+        elif u2 <= 0.0:
+            corner = v2
+            feature = VERTEX_BIT | ((best_edge + 1) % n)
+        if corner >= 0:
+            dx, dy = cx - world_v[corner, 0], cy - world_v[corner, 1]
+            dist = np.sqrt(dx * dx + dy * dy)
+            if dist > r + margin:
+                return 0
+            if dist > 1e-12:
+                nx, ny = dx / dist, dy / dist
+            depth_from_face = dist
+    sep = depth_from_face - r
+    # midway between the circle's surface and the polygon's (normal points polygon -> circle)
+    px = cx - nx * (r + 0.5 * sep)
+    py = cy - ny * (r + 0.5 * sep)
+    if poly == a:
+        _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, nx, ny, sep, feature)
+    else:
+        _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, -nx, -ny, sep, feature)
+    return 1
+
+
+@njit(cache=True)
+def collide_circles(a, b, x, radius, margin, out_a, out_b, out_p, out_n, out_s, out_f, k):
+    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
+    dist = np.sqrt(dx * dx + dy * dy)
+    ra, rb = radius[a], radius[b]
+    if dist > ra + rb + margin:
+        return 0
+    nx, ny = 0.0, 1.0  # concentric: any normal will do, pick +y
+    if dist > 1e-12:
+        nx, ny = dx / dist, dy / dist
+    sep = dist - ra - rb
+    px = x[a, 0] + nx * (ra + 0.5 * sep)
+    py = x[a, 1] + ny * (ra + 0.5 * sep)
+    _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, nx, ny, sep, 0)
+    return 1
+
+
+@njit(cache=True)
+def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, margin,
+                  out_a, out_b, out_p, out_n, out_s, out_f):
+    """Manifolds of the first n_pairs candidate pairs; returns the number of points K.
+
+    Points up to ``margin`` apart (m) are kept as speculative contacts. The out
+    arrays need room for 2 * n_pairs points.
+    """
+    k = 0
+    for q in range(n_pairs):
+        a, b = pairs[q, 0], pairs[q, 1]
+        if kind[a] == CIRCLE and kind[b] == CIRCLE:
+            k += collide_circles(a, b, x, radius, margin, out_a, out_b, out_p, out_n, out_s, out_f, k)
+        elif kind[a] == CIRCLE:
+            k += collide_circle_polygon(a, b, a, b, x, radius, vstart, vcount, world_v, world_n,
+                                        margin, out_a, out_b, out_p, out_n, out_s, out_f, k)
+        elif kind[b] == CIRCLE:
+            k += collide_circle_polygon(b, a, a, b, x, radius, vstart, vcount, world_v, world_n,
+                                        margin, out_a, out_b, out_p, out_n, out_s, out_f, k)
+        else:
+            k += collide_polygons(a, b, vstart, vcount, world_v, world_n, margin,
+                                  out_a, out_b, out_p, out_n, out_s, out_f, k)
+    return k

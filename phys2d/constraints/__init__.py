@@ -1,0 +1,1 @@
+"""Constraints as Jacobian rows (FORMULATION.md, "Constraint rows")."""

@@ -1,0 +1,98 @@
+"""The contacts of a step, and the cache that carries their impulses to the next.
+
+A contact point's identity is (shape pair, feature id). Every body has one shape,
+so the pair is the two bodies' uids (stable through removals), and the identity
+packs into one int64 key:
+
+    key = uid_a << 39 | uid_b << 16 | feature          (uid_a < uid_b)
+
+Keys of a step come out of the narrowphase in ascending order, so matching the
+new contacts against last tick's is one ``searchsorted``: contact caching.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def contact_keys(uid: np.ndarray, body_a: np.ndarray, body_b: np.ndarray,
+                 feature: np.ndarray) -> np.ndarray:
+    return (uid[body_a] << 39) | (uid[body_b] << 16) | feature.astype(np.int64)
+
+
+@dataclass(eq=False)
+class Contacts:
+    """The contact points of one step, as arrays of length K.
+
+    body_a, body_b    indices into ``w.bodies`` (body_a < body_b)
+    point             (K, 2) contact point p, m
+    normal            (K, 2) unit normal n, from a to b
+    separation        (K,) C in m, negative when overlapping
+    normal_impulse    (K,) accumulated lambda_n of the step, N s (>= 0 under PGS)
+    tangent_impulse   (K,) accumulated friction lambda_t along t = (-n_y, n_x), N s
+    feature           (K,) feature id (see ``phys2d.collision.narrowphase``)
+    key               (K,) the contact's identity (pair of uids and feature)
+    warm_started      (K,) True where the cache supplied last tick's impulses
+    friction, restitution  (K,) the pair's mixed mu = sqrt(mu_a mu_b) and e = max(e_a, e_b)
+    """
+
+    body_a: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    body_b: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    point: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    separation: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    normal_impulse: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tangent_impulse: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    feature: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    warm_started: np.ndarray = field(default_factory=lambda: np.zeros(0, np.bool_))
+    friction: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    restitution: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __len__(self) -> int:
+        return int(self.body_a.shape[0])
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """(K, 2) friction direction t = (-n_y, n_x)."""
+        return np.stack([-self.normal[:, 1], self.normal[:, 0]], axis=1)
+
+    def __repr__(self) -> str:
+        k = len(self)
+        if k == 0:
+            return "<Contacts: none>"
+        return (f"<Contacts: {k} points, deepest overlap {max(0.0, -self.separation.min()):.4g} m, "
+                f"{int(self.warm_started.sum())} warm started>")
+
+
+class ContactCache:
+    """Accumulated impulses of last tick's contacts, by contact key (warm starting)."""
+
+    def __init__(self) -> None:
+        self.clear()
+
+    def clear(self) -> None:
+        self.keys = np.zeros(0, np.int64)
+        self.lambda_n = np.zeros(0)
+        self.lambda_t = np.zeros(0)
+
+    def __len__(self) -> int:
+        return int(self.keys.shape[0])
+
+    def match(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For sorted ``keys``: (hit mask, cached lambda_n, cached lambda_t; 0 where missed)."""
+        if self.keys.shape[0] == 0 or keys.shape[0] == 0:
+            z = np.zeros(keys.shape[0])
+            return np.zeros(keys.shape[0], np.bool_), z, z.copy()
+        idx = np.searchsorted(self.keys, keys)
+        np.minimum(idx, self.keys.shape[0] - 1, out=idx)
+        hit = self.keys[idx] == keys
+        return hit, np.where(hit, self.lambda_n[idx], 0.0), np.where(hit, self.lambda_t[idx], 0.0)
+
+    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
+        """Remember this tick's impulses; ``keys`` must be sorted ascending."""
+        self.keys = keys.copy()
+        self.lambda_n = lambda_n.copy()
+        self.lambda_t = lambda_t.copy()

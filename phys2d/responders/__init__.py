@@ -1,0 +1,1 @@
+"""Collision responders: swappable strategies that turn constraint rows into impulses."""

@@ -1,0 +1,109 @@
+"""Stock scenes: each returns a ready World, and each takes ``responder=``.
+
+Units are SI: 1 m boxes of density 1 kg/m^2 on a static ground box 200 m wide
+whose top is at y = 0, gravity (0, -10) m/s^2, friction 0.6.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .responders.base import Responder
+from .world import World
+
+GROUND_HALF_WIDTH = 100.0  # m
+GROUND_HALF_HEIGHT = 0.5  # m
+
+
+def _check_count(value, name: str, low: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    if value < low:
+        raise ValueError(f"{name} must be >= {low}, got {value}")
+    return value
+
+
+def ground(w: World, friction: float = 0.6):
+    """The static ground box: 200 m wide, top at y = 0."""
+    return w.add_box(position=(0.0, -GROUND_HALF_HEIGHT),
+                     half_extents=(GROUND_HALF_WIDTH, GROUND_HALF_HEIGHT), static=True,
+                     friction=friction)
+
+
+def pyramid(rows: int = 20, responder: Responder | None = None, size: float = 1.0) -> World:
+    """Row r (0 at the bottom) holds rows - r touching boxes centred on x = 0."""
+    rows = _check_count(rows, "rows")
+    w = World(responder=responder)
+    ground(w)
+    h = 0.5 * size
+    for r in range(rows):
+        count = rows - r
+        for k in range(count):
+            w.add_box(position=((k - 0.5 * (count - 1)) * size, h + r * size), half_extents=(h, h))
+    return w
+
+
+def vertical_stack(n: int = 10, responder: Responder | None = None, size: float = 1.0) -> World:
+    """n touching boxes, one on another, at x = 0."""
+    n = _check_count(n, "n")
+    w = World(responder=responder)
+    ground(w)
+    h = 0.5 * size
+    for k in range(n):
+        w.add_box(position=(0.0, h + k * size), half_extents=(h, h))
+    return w
+
+
+def mass_ratio(ratio: float = 100.0, responder: Responder | None = None) -> World:
+    """A 1 kg, 0.5 m box on the ground under a box of ``ratio`` kg, 1 m wide."""
+    if isinstance(ratio, bool) or not isinstance(ratio, (int, float)) or not ratio > 0 \
+            or not math.isfinite(ratio):
+        raise ValueError(f"ratio must be a finite number > 0, got {ratio!r}")
+    w = World(responder=responder)
+    ground(w)
+    w.add_box(position=(0.0, 0.25), half_extents=(0.25, 0.25), density=1.0 / 0.25)
+    w.add_box(position=(0.0, 1.0), half_extents=(0.5, 0.5), density=float(ratio))
+    return w
+
+
+def dominoes(n: int = 12, responder: Responder | None = None) -> World:
+    """n thin dominoes 0.8 m apart; the first is tipped so it topples the rest."""
+    n = _check_count(n, "n")
+    w = World(responder=responder)
+    ground(w)
+    hx, hy, gap = 0.1, 0.5, 0.8
+    for k in range(n):
+        w.add_box(position=(k * gap, hy), half_extents=(hx, hy),
+                  angular_velocity=-1.5 if k == 0 else 0.0)
+    return w
+
+
+def mixed_shapes(n: int = 12, responder: Responder | None = None) -> World:
+    """Boxes, circles and triangles dropped in a heap onto the ground."""
+    n = _check_count(n, "n")
+    w = World(responder=responder)
+    ground(w)
+    tri = [(-0.5, -0.3), (0.5, -0.3), (0.0, 0.5)]
+    hexagon = [(0.4 * math.cos(a), 0.4 * math.sin(a)) for a in [k * math.pi / 3 for k in range(6)]]
+    for k in range(n):
+        x = ((k * 7) % 5 - 2) * 0.9
+        y = 1.0 + 1.1 * k
+        kind = k % 4
+        if kind == 0:
+            w.add_box(position=(x, y), half_extents=(0.4, 0.3), angle=0.3 * k)
+        elif kind == 1:
+            w.add_circle(position=(x, y), radius=0.35)
+        elif kind == 2:
+            w.add_polygon(position=(x, y), vertices=tri, angle=0.5 * k)
+        else:
+            w.add_polygon(position=(x, y), vertices=hexagon)
+    return w
+
+
+SCENES = {
+    "pyramid": (pyramid, "rows of the pyramid"),
+    "vertical_stack": (vertical_stack, "boxes in the stack"),
+    "mass_ratio": (mass_ratio, "mass of the heavy box, in kg (the light one is 1 kg)"),
+    "dominoes": (dominoes, "dominoes"),
+    "mixed_shapes": (mixed_shapes, "bodies dropped"),
+}

@@ -1,0 +1,154 @@
+"""Shapes: circles and convex polygons, their validation and mass properties.
+
+Every body has exactly one shape. A shape is described in the body frame, whose
+origin is the body's centre of mass ``x_b`` (FORMULATION.md, "State"): a polygon
+given with its centroid elsewhere is re-centred, so the body's position is always
+the centre of mass the lecture integrates.
+
+Units: metres, kilograms, kg/m^2 for density (2D), kg*m^2 for inertia.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+CIRCLE = 0
+POLYGON = 1
+
+MAX_POLYGON_VERTICES = 64
+MIN_EDGE_LENGTH = 1e-4  # m: shorter edges make normals meaningless
+_COLLINEAR_TOL = 1e-7  # sin of the smallest turn accepted between two edges
+
+
+@dataclass(frozen=True)
+class ShapeSpec:
+    """A validated shape in its body frame, ready to be stored in the world's arrays."""
+
+    kind: int  # CIRCLE or POLYGON
+    radius: float  # m (0 for polygons)
+    vertices: np.ndarray  # (n, 2) counter-clockwise, centroid at the origin (empty for circles)
+    normals: np.ndarray  # (n, 2) outward unit normal of edge k = (v_k, v_k+1)
+    centroid: np.ndarray  # (2,) where the given vertices' centroid was, in the given frame
+    area: float  # m^2
+    unit_inertia: float  # m^4: polar second moment of area about the centroid
+
+
+def finite_float(value, name: str) -> float:
+    """``value`` as a finite float, or a ValueError/TypeError that names it."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v}")
+    return v
+
+
+def positive_float(value, name: str) -> float:
+    v = finite_float(value, name)
+    if v <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {v}")
+    return v
+
+
+def vec2(value, name: str) -> np.ndarray:
+    """``value`` as a finite float64 (2,) array, or a ValueError/TypeError that names it."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a pair of numbers (x, y), got {type(value).__name__}")
+    try:
+        a = np.asarray(value)
+    except Exception as exc:  # ragged input and the like
+        raise TypeError(f"{name} must be a pair of numbers (x, y): {exc}") from None
+    if a.dtype == object or a.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be a pair of numbers (x, y), got {value!r}")
+    if a.shape != (2,):
+        raise ValueError(f"{name} must have shape (2,), got shape {a.shape}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got {a.tolist()}")
+    return a
+
+
+def circle(radius) -> ShapeSpec:
+    r = positive_float(radius, "radius")
+    area = math.pi * r * r
+    empty = np.zeros((0, 2))
+    return ShapeSpec(CIRCLE, r, empty, empty, np.zeros(2), area, 0.5 * area * r * r)
+
+
+def box(half_extents) -> ShapeSpec:
+    h = vec2(half_extents, "half_extents")
+    if np.any(h <= 0.0):
+        raise ValueError(f"half_extents must both be > 0, got {h.tolist()}")
+    hx, hy = float(h[0]), float(h[1])
+    return polygon([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)], name="half_extents")
+
+
+def polygon(vertices, name: str = "vertices") -> ShapeSpec:
+    """Validate a convex counter-clockwise polygon and compute its area properties."""
+    if isinstance(vertices, (str, bytes)):
+        raise TypeError(f"{name} must be a sequence of (x, y) points")
+    try:
+        v = np.asarray(vertices)
+    except Exception as exc:
+        raise TypeError(f"{name} must be a sequence of (x, y) points: {exc}") from None
+    if v.dtype == object or v.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be a sequence of (x, y) points of numbers")
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (n, 2), got shape {v.shape}")
+    n = v.shape[0]
+    if n < 3:
+        raise ValueError(f"{name} needs at least 3 points, got {n}")
+    if n > MAX_POLYGON_VERTICES:
+        raise ValueError(f"{name} may have at most {MAX_POLYGON_VERTICES} points, got {n}")
+    v = v.astype(np.float64)
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite")
+    e = np.roll(v, -1, axis=0) - v  # edge k runs from v_k to v_k+1
+    length = np.hypot(e[:, 0], e[:, 1])
+    if np.any(length < MIN_EDGE_LENGTH):
+        k = int(np.argmin(length))
+        raise ValueError(
+            f"{name}: edge {k} is {length[k]:.3g} m long (shorter than {MIN_EDGE_LENGTH} m): "
+            "repeated or too-close points"
+        )
+    e_next = np.roll(e, -1, axis=0)
+    turn = (e[:, 0] * e_next[:, 1] - e[:, 1] * e_next[:, 0]) / (length * np.roll(length, -1))
+    if np.all(turn < -_COLLINEAR_TOL):
+        raise ValueError(f"{name} must be counter-clockwise, got clockwise order")
+    if np.any(np.abs(turn) <= _COLLINEAR_TOL):
+        k = int(np.argmin(np.abs(turn)))
+        raise ValueError(f"{name}: points {k}, {(k + 1) % n}, {(k + 2) % n} are collinear")
+    if np.any(turn < 0.0):
+        raise ValueError(f"{name} must be convex (it turns both ways)")
+    # all turns are left: convex unless it winds more than once (a star such as a pentagram)
+    total_turn = float(np.sum(np.arctan2(turn, np.einsum("ij,ij->i", e, e_next) / (length * np.roll(length, -1)))))
+    if total_turn > 2.0 * math.pi + 1e-6:
+        raise ValueError(f"{name} is self-intersecting (it winds {total_turn / (2 * math.pi):.0f} times)")
+    # area, centroid and polar moment by a fan of triangles from the origin
+    a, b = v, np.roll(v, -1, axis=0)
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    area = 0.5 * float(np.sum(cross))
+    if not area > 0.0 or not math.isfinite(area):
+        raise ValueError(f"{name} encloses no positive finite area (area = {area})")
+    centroid = np.sum((a + b) * cross[:, None], axis=0) / (6.0 * area)
+    a, b = a - centroid, b - centroid
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    second = np.sum(cross * (np.einsum("ij,ij->i", a, a) + np.einsum("ij,ij->i", a, b)
+                             + np.einsum("ij,ij->i", b, b))) / 12.0
+    normals = np.stack([e[:, 1], -e[:, 0]], axis=1) / length[:, None]
+    return ShapeSpec(POLYGON, 0.0, a.copy(), normals, centroid, area, float(second))
+
+
+def mass_properties(spec: ShapeSpec, density: float) -> tuple[float, float]:
+    """Mass (kg) and moment of inertia about the centre of mass (kg m^2)."""
+    mass = density * spec.area
+    inertia = density * spec.unit_inertia
+    if not (math.isfinite(mass) and math.isfinite(inertia)) or mass <= 0.0 or inertia <= 0.0:
+        raise ValueError(
+            f"density and size give a mass of {mass:.3g} kg and inertia {inertia:.3g} kg m^2: "
+            "both must be finite and > 0"
+        )
+    return mass, inertia
