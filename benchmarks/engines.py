@@ -123,9 +123,7 @@ class PymunkAdapter:
 
         ground = pymunk.Body(body_type=pymunk.Body.STATIC)
         ground.position = GROUND_CENTER
-        gshape = pymunk.Poly.create_box(
-            ground, (2 * GROUND_HALF[0], 2 * GROUND_HALF[1])
-        )
+        gshape = pymunk.Poly.create_box(ground, (2 * GROUND_HALF[0], 2 * GROUND_HALF[1]))
         gshape.friction = mu
         gshape.elasticity = RESTITUTION
         space.add(ground, gshape)
@@ -200,14 +198,10 @@ class Box2DAdapter:
         world = Box2D.b2World(gravity=GRAVITY, doSleep=False)
         world.SetAllowSleeping(False)
         ground = world.CreateStaticBody(position=GROUND_CENTER)
-        ground.CreatePolygonFixture(
-            box=GROUND_HALF, density=0.0, friction=FRICTION, restitution=RESTITUTION
-        )
+        ground.CreatePolygonFixture(box=GROUND_HALF, density=0.0, friction=FRICTION, restitution=RESTITUTION)
         self.bodies = []
         for box in scene.boxes:
-            body = world.CreateDynamicBody(
-                position=(box.x, box.y), angle=0.0, allowSleep=False
-            )
+            body = world.CreateDynamicBody(position=(box.x, box.y), angle=0.0, allowSleep=False)
             body.CreatePolygonFixture(
                 box=(box.hw, box.hh),
                 density=box.density,
@@ -251,11 +245,7 @@ class Box2DAdapter:
             plane = ref.GetWorldPoint(m.localPoint)
             for i in range(n_pts):
                 clip = inc.GetWorldPoint(m.points[i].localPoint)
-                seps.append(
-                    (clip.x - plane.x) * normal.x
-                    + (clip.y - plane.y) * normal.y
-                    - radii
-                )
+                seps.append((clip.x - plane.x) * normal.x + (clip.y - plane.y) * normal.y - radii)
         return seps
 
     def contact_count(self) -> int:

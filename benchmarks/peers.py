@@ -94,9 +94,7 @@ def make_adapter(engine: str, scene, args, tmpdir: str):
     if engine in args.variants:  # phys2d[label] from --variant label=EXPR
         import phys2d
 
-        responder = eval(
-            args.variants[engine], {"phys2d": phys2d}
-        )  # the user's own CLI text
+        responder = eval(args.variants[engine], {"phys2d": phys2d})  # the user's own CLI text
         return engines.Phys2DAdapter(scene, responder=responder)
     raise ValueError(engine)
 
@@ -163,13 +161,9 @@ def time_scene(scene, names, args, tmpdir):
             "per_repeat": ms,
         }
         if "pymunk" in full:
-            row["ratio"] = statistics.median(
-                m / p for m, p in zip(ms, full["pymunk"], strict=True)
-            )
+            row["ratio"] = statistics.median(m / p for m, p in zip(ms, full["pymunk"], strict=True))
         if e == "phys2d+rec" and "phys2d" in full:
-            row["rec_overhead"] = statistics.median(
-                m - p for m, p in zip(ms, full["phys2d"], strict=True)
-            )
+            row["rec_overhead"] = statistics.median(m - p for m, p in zip(ms, full["phys2d"], strict=True))
         out[e] = row
     return {e: out[e] for e in names if e in out}
 
@@ -267,9 +261,7 @@ def first_step_times(args):
             check=False,
         )
         if p.returncode != 0:
-            raise RuntimeError(
-                p.stderr.strip().splitlines()[-1] if p.stderr else "failed"
-            )
+            raise RuntimeError(p.stderr.strip().splitlines()[-1] if p.stderr else "failed")
         return json.loads(p.stdout.strip().splitlines()[-1])
 
     cold, warm = [], []
@@ -376,8 +368,7 @@ def report(args, names, timing, stab, first, meta) -> str:
         f"- command: `{meta['command']}`",
         f"- date: {meta['date']}",
         f"- checkout: {meta['git']}",
-        f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable), "
-        + m["os"],
+        f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable), " + m["os"],
         "- versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()),
         (
             "- settings: dt 1/60, gravity (0, -10), 10 solver iterations (Box2D: 10 "
@@ -437,8 +428,7 @@ def report(args, names, timing, stab, first, meta) -> str:
         lambda r: f"{1e3 * r['max_overlap']:.1f} ({1e3 * r['late_overlap']:.1f})",
     )
     stab_table(
-        f"Largest sideways (x) movement of any box at {args.seconds:g} s, m "
-        "(largest during the run in brackets)",
+        f"Largest sideways (x) movement of any box at {args.seconds:g} s, m (largest during the run in brackets)",
         lambda r: f"{r['dx_end']:.4f} ({r['dx_run']:.4f})",
     )
     stab_table(f"Did it fall within {args.seconds:g} s?", fmt_fell)
@@ -606,9 +596,7 @@ def parse_args(argv=None):
         help="engines to run (default: all available)",
     )
     p.add_argument("--repeats", type=int, help="timed repeats (default 5, quick 2)")
-    p.add_argument(
-        "--steps", type=int, help="steps per timed repeat (default 300, quick 20)"
-    )
+    p.add_argument("--steps", type=int, help="steps per timed repeat (default 300, quick 20)")
     p.add_argument("--warmup", type=int, help="warm-up steps (default 60, quick 10)")
     p.add_argument(
         "--seconds",
@@ -642,8 +630,7 @@ def parse_args(argv=None):
         "--out",
         type=Path,
         default=None,
-        help="results file (default benchmarks/RESULTS.md, "
-        "quick: benchmarks/RESULTS-quick.md)",
+        help="results file (default benchmarks/RESULTS.md, quick: benchmarks/RESULTS-quick.md)",
     )
     p.add_argument(
         "--variant",
@@ -697,8 +684,7 @@ def main(argv=None) -> int:
             line = ", ".join(
                 f"{e} {r['error']}"
                 if "error" in r
-                else f"{e} {r['ms']:.3f} ms"
-                + (f" ({r['ratio']:.2f}x)" if "ratio" in r else "")
+                else f"{e} {r['ms']:.3f} ms" + (f" ({r['ratio']:.2f}x)" if "ratio" in r else "")
                 for e, r in timing[sname].items()
             )
             print(f"{sname} ({len(scene.boxes)} boxes) speed: {line}", flush=True)
@@ -733,7 +719,7 @@ def main(argv=None) -> int:
 
     meta = {
         "command": command,
-        "date": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": machine(),
         "versions": versions(),
         "git": git_rev(),
