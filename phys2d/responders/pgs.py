@@ -28,31 +28,6 @@ def apply_impulses(i, j, JM, lam, V):
 
 
 @njit(cache=True)
-def solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
-    """Row k's projected Gauss-Seidel update; returns |delta lambda_k| A_kk (m/s)."""
-    if A_diag[k] <= 0.0:
-        return 0.0  # both bodies static: nothing can move
-    a, b = i[k], j[k]
-    jv = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-          + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-    delta = (xi[k] - jv) / A_diag[k]  # (b_k - sum_l A_kl lambda_l) / A_kk
-    if bound_row[k] >= 0:  # Coulomb: the cone follows the current normal impulse
-        top = mu[k] * lam[bound_row[k]]
-        low = -top
-    else:
-        low = lo[k]
-        top = hi[k]
-    # clamp the accumulated impulse, not the increment
-    new = min(max(lam[k] + delta, low), top)
-    delta = new - lam[k]
-    lam[k] = new
-    for c in range(3):
-        V[a, c] += JM[k, c] * delta
-        V[b, c] += JM[k, 3 + c] * delta
-    return abs(delta) * A_diag[k]
-
-
-@njit(cache=True)
 def lcp2(k11, k12, k22, b1, b2):
     """The 2x2 LCP: x >= 0, w = K x + b >= 0, x . w = 0, by trying the four active sets.
 
@@ -79,72 +54,70 @@ def block_is_well_conditioned(k11, k12, k22):
 
 
 @njit(cache=True)
-def solve_normal_block(n1, n2, i, j, J, JM, A_diag, xi, lam, V):
-    """Both normal rows of a two-point manifold at once: the 2x2 LCP solved exactly.
+def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block):
+    """One projected Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s).
 
-    With a = (lambda_1, lambda_2) and K the 2x2 block of A, find x >= 0 with
-    w = K x + (J V - xi - K a) >= 0 and x . w = 0 (lcp2). Returns the largest |delta lambda| A_kk (m/s),
-    or -1 when K is too ill-conditioned (nearly parallel rows): solve them one by one.
-    """
-    a, b = i[n1], j[n1]
-    k11, k22 = A_diag[n1], A_diag[n2]
-    k12 = 0.0
-    for c in range(6):
-        k12 += J[n1, c] * JM[n2, c]
-    if not block_is_well_conditioned(k11, k12, k22):
-        return -1.0
-    a1, a2 = lam[n1], lam[n2]
-    vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
-           + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
-    vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
-           + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
-    # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
-    x1, x2 = lcp2(k11, k12, k22, vn1 - xi[n1] - (k11 * a1 + k12 * a2), vn2 - xi[n2] - (k12 * a1 + k22 * a2))
-    d1, d2 = x1 - a1, x2 - a2
-    lam[n1] = x1
-    lam[n2] = x2
-    for c in range(3):
-        V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
-        V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
-    return max(abs(d1) * k11, abs(d2) * k22)
-
-
-@njit(cache=True)
-def pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
-    """One Gauss-Seidel sweep over the rows in order; returns the largest |delta lambda_k| A_kk."""
-    worst = 0.0
-    for k in range(lam.shape[0]):
-        worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
-    return worst
-
-
-@njit(cache=True)
-def block_sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
-    """A sweep that solves each two-point manifold as a block (Box2D's block solver).
-
-    A manifold's two friction rows come first, then its two normal rows together
-    (solve_normal_block); one-point manifolds and joint rows go row by row.
+    Row by row in order (the lecture's PGS: a contact's normal row, then its
+    friction row), or with ``block`` each two-point manifold's normal rows
+    together as a 2x2 LCP (Box2D's block solver), then its two friction rows.
     """
     worst = 0.0
-    c = 0
-    while c < n_contacts:
-        n1 = 2 * c
-        if c + 1 < n_contacts and i[n1 + 2] == i[n1] and j[n1 + 2] == j[n1]:
-            n2 = n1 + 2
-            for k in (n1 + 1, n2 + 1):
-                worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
-            err = solve_normal_block(n1, n2, i, j, J, JM, A_diag, xi, lam, V)
-            if err < 0.0:
-                for k in (n1, n2):
-                    err = max(err, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
-            worst = max(worst, err)
-            c += 2
-        else:
-            for k in (n1, n1 + 1):
-                worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
-            c += 1
-    for k in range(2 * n_contacts, lam.shape[0]):
-        worst = max(worst, solve_row(k, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V))
+    n_rows = lam.shape[0]
+    k = 0
+    while k < n_rows:
+        a, b = i[k], j[k]
+        first, second, step = k, k + 1, 2  # a contact's normal and friction rows
+        if k >= 2 * n_contacts:
+            first, second, step = k, -1, 1  # a joint row
+        elif block and k + 2 < 2 * n_contacts and i[k + 2] == a and j[k + 2] == b:
+            n1, n2 = k, k + 2
+            k11, k22 = A_diag[n1], A_diag[n2]
+            k12 = 0.0
+            for c in range(6):
+                k12 += J[n1, c] * JM[n2, c]
+            if block_is_well_conditioned(k11, k12, k22):
+                a1, a2 = lam[n1], lam[n2]
+                vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
+                       + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
+                vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
+                       + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
+                # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
+                x1, x2 = lcp2(k11, k12, k22, vn1 - xi[n1] - (k11 * a1 + k12 * a2),
+                              vn2 - xi[n2] - (k12 * a1 + k22 * a2))
+                d1, d2 = x1 - a1, x2 - a2
+                lam[n1] = x1
+                lam[n2] = x2
+                for c in range(3):
+                    V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
+                    V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
+                worst = max(worst, abs(d1) * k11, abs(d2) * k22)
+                first, second, step = n1 + 1, n2 + 1, 4  # then the two friction rows
+            else:
+                first, second, step = k, k + 1, 2  # nearly parallel rows: one by one
+        for r in range(2):
+            kk = first if r == 0 else second
+            if kk < 0 or A_diag[kk] <= 0.0:
+                continue  # no row, or both bodies static: nothing can move
+            jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
+                  + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
+            delta = (xi[kk] - jv) / A_diag[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
+            if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
+                top = mu[kk] * lam[bound_row[kk]]
+                low = -top
+            else:
+                low = lo[kk]
+                top = hi[kk]
+            # clamp the accumulated impulse, not the increment
+            new = min(max(lam[kk] + delta, low), top)
+            delta = new - lam[kk]
+            lam[kk] = new
+            for c in range(3):
+                V[a, c] += JM[kk, c] * delta
+                V[b, c] += JM[kk, 3 + c] * delta
+            err = abs(delta) * A_diag[kk]
+            if err > worst:
+                worst = err
+        k += step
     return worst
 
 
@@ -157,10 +130,7 @@ def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations
     """
     apply_impulses(i, j, JM, lam, V)
     for s in range(iterations):
-        if block:
-            residuals[s] = block_sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V)
-        else:
-            residuals[s] = pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V)
+        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -247,4 +217,4 @@ class PGS(Responder):
                 f"block={self.block})")
 
 
-__all__ = ["PGS", "apply_impulses", "block_sweep", "pgs_solve", "pgs_sweep", "solve_row"]
+__all__ = ["PGS", "apply_impulses", "lcp2", "pgs_solve", "sweep"]
