@@ -33,6 +33,8 @@ class StepContext:
     normal: np.ndarray  # (K, 2) from a to b
     separation: np.ndarray  # (K,) m, negative when overlapping
     restitution: np.ndarray  # (K,) mixed e of each contact
+    V1: np.ndarray | None = None  # (N, 3) velocities at the start of the step, before F_ext
+    F_ext: np.ndarray | None = None  # (N, 3) external forces and torques [f_x, f_y, tau], N, N m
 
 
 @dataclass(eq=False)
