@@ -13,6 +13,7 @@ from numba import njit
 from ..constraints.rows import FRICTION_COULOMB, FRICTION_LECTURE
 from ..shapes import finite_float
 from .base import Responder, SolveResult, StepContext
+from .pgs_matrix import solve_matrix_form
 
 
 @njit(cache=True)
@@ -90,7 +91,9 @@ class PGS(Responder):
     tolerance    stop early once a sweep's residual (m/s) is at most this; None: never
     restitution_threshold  approach speed (m/s) above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
-    form         'impulse' (sequential impulses over the rows)
+    form         'impulse' (sequential impulses over the rows) or 'matrix' (J, M^-1,
+                 A = J M^-1 J^T and b assembled and swept: ``phys2d.responders.pgs_matrix``;
+                 the assembled system is left on ``w.last_step.system``)
     """
 
     name = "pgs"
@@ -123,16 +126,20 @@ class PGS(Responder):
             raise ValueError(f"friction must be 'coulomb' or 'lecture', got {friction!r}")
         self.friction = friction
         self.friction_model = models[friction]
-        if form not in ("impulse",):
-            raise ValueError(f"form must be 'impulse', got {form!r}")
+        if form not in ("impulse", "matrix"):
+            raise ValueError(f"form must be 'impulse' or 'matrix', got {form!r}")
         self.form = form
+        if form == "matrix":
+            self.name = "pgs-matrix"
         if not self.warm_start:
-            self.name = "pgs-cold"
+            self.name += "-cold"
 
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
         residuals = np.zeros(self.iterations)
         tol = -1.0 if self.tolerance is None else self.tolerance
+        if self.form == "matrix":
+            return solve_matrix_form(ctx, self.iterations, tol)
         n = pgs_solve(r.i, r.j, r.J, r.JM, r.A_diag, r.xi, r.lo, r.hi, r.bound_row, r.mu, r.lam,
                       ctx.V, self.iterations, tol, residuals)
         return SolveResult(n, residuals[:n])
