@@ -261,3 +261,27 @@ def test_bad_joints_raise_and_leave_the_world_unchanged():
         w.add_distance_joint(ground, box, anchor_a=(0, 1), anchor_b=(0, 1))
     with pytest.raises(ValueError, match="lower"):
         w.add_angle_joint(ground, box, lower=0.5, upper=-0.5)
+
+
+def test_one_sided_angle_limit():
+    # only an upper limit: spinning one way is stopped there, the other way is free
+    w = phys2d.World(gravity=(0.0, 0.0))
+    base = w.add_circle(position=(0.0, 0.0), radius=0.1, static=True)
+    wheel = w.add_circle(position=(0.0, 0.0), radius=0.5, angular_velocity=4.0)
+    w.add_pin_joint(base, wheel, anchor=(0.0, 0.0))
+    limit = w.add_angle_joint(base, wheel, upper=1.0)
+    assert limit.row_count == 1
+    pushes = []
+    for _ in range(60):
+        w.step(1 / 60)
+        pushes.append(limit.impulse[0])
+    assert limit.offset() == pytest.approx(1.0, abs=1e-9)  # stopped at the limit, not beyond
+    assert wheel.angular_velocity == pytest.approx(0.0, abs=1e-9)
+    # the one-sided row pushed once, taking all the spin: lambda = I omega (N m s)
+    assert max(pushes) == pytest.approx(wheel.inertia * 4.0, rel=1e-9)
+    assert min(pushes) >= 0.0
+    wheel.angular_velocity = -4.0
+    for _ in range(60):
+        w.step(1 / 60)
+    assert limit.offset() == pytest.approx(1.0 - 4.0, abs=1e-9)  # free below: 1 s at -4 rad/s
+    assert limit.impulse[0] == 0.0

@@ -91,6 +91,10 @@ class PGS(Responder):
     tolerance    stop early once a sweep's residual (m/s) is at most this; None: never
     restitution_threshold  approach speed (m/s) above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
+                 with m_c the pair's reduced mass m_a m_b / (m_a + m_b) (m_a on a static
+                 partner) shared equally by the manifold's points: exactly Coulomb's bound
+                 for one body resting on flat ground, but blind to any load on top, to
+                 slopes and to impacts, since it never looks at lambda_n
     form         'impulse' (sequential impulses over the rows) or 'matrix' (J, M^-1,
                  A = J M^-1 J^T and b assembled and swept: ``phys2d.responders.pgs_matrix``;
                  the assembled system is left on ``w.last_step.system``)
