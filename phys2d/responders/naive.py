@@ -7,6 +7,11 @@ For each contact pair once per tick (FORMULATION.md symbols, n from a to b):
     f_t = clamp(-(J_t V) / A_t, -mu f, +mu f),  V += M^-1 J_t^T f_t
     x_a -= n s w_a / (w_a + w_b),  x_b += n s w_b / (w_a + w_b)   (s: the overlap, w = 1/m)
 
+The last line is the lecture's "push away from interpenetration as long as
+interpenetration exists": it is swept over the pairs again while any overlap
+remains (``push_apart``), since pushing one pair apart can push a body into its
+other neighbour.
+
 J_n V = (v_b + omega_b x r_b - v_a - omega_a x r_a) . n is the lecture's relative
 normal velocity and the denominator is A_nn = J_n M^-1 J_n^T, so f is the lecture's
 formula written with the row of J. The lecture's formula has one collision point
