@@ -205,6 +205,8 @@ class World:
         if isinstance(item, Joint):
             self._remove_joint(item)
             return
+        if not isinstance(item, Body):
+            raise TypeError(f"item must be a phys2d Body or Joint, got {type(item).__name__}")
         i = self._own(item)
         for joint in [q for q in self._joints if i in (q.body_a._index, q.body_b._index)]:
             self._remove_joint(joint)

@@ -221,6 +221,10 @@ def test_removing_bodies_and_joints():
     assert not bc.alive and w.joints == (ab, cd)
     with pytest.raises(ValueError, match="removed"):
         w.remove(bc)
+    with pytest.raises(TypeError, match="item"):
+        w.remove("bc")
+    with pytest.raises(ValueError, match="another world"):
+        phys2d.World().remove(ab)
     w.remove(a)  # takes ab with it; b, c, d become 0, 1, 2
     assert not ab.alive and w.joints == (cd,)
     assert w._excluded.tolist() == [(1 << 32) | 2]
