@@ -98,8 +98,8 @@ class World:
     def _check_joints_supported(self, responder: Responder, adding: bool = False) -> None:
         if (self._joints or adding) and not responder.handles_joints:
             raise ValueError(
-                f"responder {responder.name!r} cannot solve joints: the naive takes handle contact "
-                "pairs only; use phys2d.PGS() in a world with joints")
+                f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
+                "(as the lecture's naive takes do); use phys2d.PGS() in a world with joints")
 
     @property
     def gravity(self) -> np.ndarray:
@@ -323,10 +323,11 @@ class World:
             if responder.warm_start:
                 rows.lam[0 : 2 * len(c) : 2] = lam_n
                 rows.lam[1 : 2 * len(c) : 2] = lam_t
-            ctx = StepContext(dt, x, theta, V, M_inv, rows, len(c), c.body_a, c.body_b, c.normal,
-                              c.separation, c.restitution, V1=V1, F_ext=self._external_forces())
+            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a, c.body_b, c.point,
+                              c.normal, c.separation, c.restitution, F_ext=self._external_forces())
             result = responder.respond(ctx)
-            integrate_positions(x, theta, V, dt)
+            if not result.integrated:
+                integrate_positions(x, theta, V, dt)
             self._check_limits()
         except BaseException:
             b.restore(before)

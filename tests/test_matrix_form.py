@@ -201,6 +201,8 @@ def test_resting_box_carries_its_weight():
 def test_bad_forms_and_huge_dense_matrices_are_refused():
     with pytest.raises(ValueError, match="form"):
         phys2d.PGS(form="dense")
+    with pytest.raises(ValueError, match="block"):
+        phys2d.PGS(form="matrix", block=True)
     huge = SparseMatrix(np.zeros(100_001, np.int64), np.zeros(0, np.int64), np.zeros(0),
                         (100_000, 100_000))
     with pytest.raises(ValueError, match="too large"):
