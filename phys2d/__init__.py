@@ -10,13 +10,17 @@
 
 from . import scenes
 from .bodies import Body
+from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
 from .contacts import Contacts
 from .responders.base import Responder, StepReport
+from .responders.iterative import IterativeImpulse
+from .responders.naive import NaiveImpulse
 from .responders.pgs import PGS
 from .responders.soft_step import SoftStep
 from .world import SimulationError, World
 
 __version__ = "0.1.0"
 
-__all__ = ["Body", "Contacts", "PGS", "Responder", "SimulationError", "SoftStep", "StepReport", "World",
-           "scenes", "__version__"]
+__all__ = ["AngleJoint", "Body", "Contacts", "DistanceJoint", "IterativeImpulse", "Joint",
+           "NaiveImpulse", "PGS", "PinJoint", "Responder", "SimulationError", "SoftStep", "StepReport",
+           "World", "scenes", "__version__"]

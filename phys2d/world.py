@@ -16,6 +16,17 @@ from . import shapes
 from .bodies import Body, BodyArrays
 from .collision.broadphase import sweep_and_prune, update_geometry
 from .collision.narrowphase import collide_pairs
+from .constraints.joints import (
+    AngleJoint,
+    DistanceJoint,
+    Joint,
+    JointArrays,
+    PinJoint,
+    check_limits,
+    joint_rows,
+    local_anchor,
+    optional_limit,
+)
 from .constraints.rows import FRICTION_LECTURE, Rows, contact_rows
 from .contacts import ContactCache, Contacts, contact_keys
 from .integrate import apply_external_forces, integrate_positions
@@ -58,6 +69,8 @@ class World:
         self._handles: list[Body] = []
         self._cache = ContactCache()
         self._excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
+        self._joints: list[Joint] = []
+        self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
         self._pairs = np.zeros((64, 2), np.int32)
         self.contacts = Contacts()
         self.last_step = StepReport()
@@ -78,7 +91,15 @@ class World:
 
     @responder.setter
     def responder(self, value: Responder) -> None:
-        self._responder = self._check_responder(value)
+        value = self._check_responder(value)
+        self._check_joints_supported(value)
+        self._responder = value
+
+    def _check_joints_supported(self, responder: Responder, adding: bool = False) -> None:
+        if (self._joints or adding) and not responder.handles_joints:
+            raise ValueError(
+                f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
+                "(as the lecture's naive takes do); use phys2d.PGS() in a world with joints")
 
     @property
     def gravity(self) -> np.ndarray:
@@ -176,15 +197,111 @@ class World:
             raise ValueError(f"{name} was removed from this world")
         return body._index
 
-    def remove(self, body: Body) -> None:
-        """Remove a body; its handle becomes unusable and later indices shift down by one."""
-        i = self._own(body)
+    def remove(self, item: Body | Joint) -> None:
+        """Remove a body (and every joint on it) or a joint; the handle becomes unusable.
+
+        Removing a body shifts the indices of later bodies down by one.
+        """
+        if isinstance(item, Joint):
+            self._remove_joint(item)
+            return
+        if not isinstance(item, Body):
+            raise TypeError(f"item must be a phys2d Body or Joint, got {type(item).__name__}")
+        i = self._own(item)
+        for joint in [q for q in self._joints if i in (q.body_a._index, q.body_b._index)]:
+            self._remove_joint(joint)
         self._bodies.delete(i)
         self._handles.pop(i)
         for h in self._handles[i:]:
             h._index -= 1
-        body._index = -1
+        item._index = -1
         self.contacts = Contacts()  # its indices no longer match w.bodies
+        self._joints_changed()
+
+    # -- joints --------------------------------------------------------------------
+    @property
+    def joints(self) -> tuple[Joint, ...]:
+        """Handles of the joints, in creation order (their rows follow the contact rows)."""
+        return tuple(self._joints)
+
+    def _joint_bodies(self, a, b) -> tuple[Body, Body]:
+        """The world's handles of a and b, after checking they can be joined."""
+        ia, ib = self._own(a, "a"), self._own(b, "b")
+        if ia == ib:
+            raise ValueError("a and b are the same body: a joint needs two bodies")
+        if self._bodies.static[ia] and self._bodies.static[ib]:
+            raise ValueError("a and b are both static: a joint between them could never act")
+        return self._handles[ia], self._handles[ib]
+
+    def add_distance_joint(self, a: Body, b: Body, anchor_a=None, anchor_b=None, length=None,
+                           collide_connected: bool = False) -> DistanceJoint:
+        """Keep point ``anchor_a`` of a and point ``anchor_b`` of b at distance ``length`` (m).
+
+        Anchors are world points (m) at creation, the body centres when None; they are
+        stored in the bodies' frames. ``length`` defaults to their distance now.
+        """
+        body_a, body_b = self._joint_bodies(a, b)
+        local_a = local_anchor(body_a, anchor_a, "anchor_a")
+        local_b = local_anchor(body_b, anchor_b, "anchor_b")
+        p_a = body_a.position if anchor_a is None else np.asarray(anchor_a, np.float64)
+        p_b = body_b.position if anchor_b is None else np.asarray(anchor_b, np.float64)
+        if length is None:
+            length = float(np.hypot(*(p_b - p_a)))
+            if length < 1e-6:
+                raise ValueError("anchor_a and anchor_b coincide, so length would be 0: "
+                                 "use add_pin_joint to hold two points together")
+        else:
+            length = positive_float(length, "length")
+        collide = _check_bool(collide_connected, "collide_connected")
+        self._check_joints_supported(self._responder, adding=True)
+        return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length,
+                                             collide))
+
+    def add_pin_joint(self, a: Body, b: Body, anchor, collide_connected: bool = False) -> PinJoint:
+        """Pin a and b together at the world point ``anchor`` (m): they may turn about it."""
+        body_a, body_b = self._joint_bodies(a, b)
+        if anchor is None:
+            raise TypeError("anchor must be a pair of numbers (x, y), got None")
+        local_a = local_anchor(body_a, anchor, "anchor")
+        local_b = local_anchor(body_b, anchor, "anchor")
+        collide = _check_bool(collide_connected, "collide_connected")
+        self._check_joints_supported(self._responder, adding=True)
+        return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide))
+
+    def add_angle_joint(self, a: Body, b: Body, lower=None, upper=None,
+                        collide_connected: bool = False) -> AngleJoint:
+        """Keep theta_b - theta_a at its value now (theta_0), or with ``lower`` and/or ``upper``
+        (rad, offsets from theta_0) within [theta_0 + lower, theta_0 + upper]."""
+        body_a, body_b = self._joint_bodies(a, b)
+        lower = optional_limit(lower, "lower")
+        upper = optional_limit(upper, "upper")
+        check_limits(lower, upper)
+        collide = _check_bool(collide_connected, "collide_connected")
+        self._check_joints_supported(self._responder, adding=True)
+        theta_0 = body_b.angle - body_a.angle
+        return self._add_joint(AngleJoint(self, body_a, body_b, theta_0, lower, upper, collide))
+
+    def _add_joint(self, joint: Joint) -> Joint:
+        self._joints.append(joint)
+        self._joints_changed()
+        return joint
+
+    def _remove_joint(self, joint: Joint) -> None:
+        if joint._world is not self:
+            raise ValueError("joint belongs to another world")
+        if not joint.alive:
+            raise ValueError("joint was removed from this world")
+        self._joints.remove(joint)
+        joint.alive = False
+        joint._has_rows = False
+        self._joints_changed()
+
+    def _joints_changed(self) -> None:
+        """Repack the joints and rebuild the sorted keys of pairs that must not collide."""
+        self._joint_arrays = JointArrays(self._joints)
+        keys = [(min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
+                for q in self._joints if not q.collide_connected]
+        self._excluded = np.unique(np.asarray(keys, np.int64))
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:
@@ -193,6 +310,7 @@ class World:
         b = self._bodies
         x, theta, V, M_inv = b.x, b.theta, b.V, b.M_inv
         responder = self._responder
+        self._check_joints_supported(responder)
         before = b.snapshot()
         try:
             V1 = V.copy()
@@ -206,7 +324,7 @@ class World:
                 rows.lam[0 : 2 * len(c) : 2] = lam_n
                 rows.lam[1 : 2 * len(c) : 2] = lam_t
             ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a, c.body_b, c.point,
-                              c.normal, c.separation, c.restitution)
+                              c.normal, c.separation, c.restitution, F_ext=self._external_forces())
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)
@@ -219,6 +337,7 @@ class World:
         c.tangent_impulse = rows.lam[1 : 2 * k : 2].copy()
         c.warm_started = hit
         self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)
+        self._store_joint_impulses(rows, 2 * k)
         self.contacts = c
         self.last_step = StepReport(
             responder=responder.name, dt=dt, iterations=result.iterations,
@@ -263,11 +382,12 @@ class World:
             restitution=np.maximum(b.restitution[body_a], b.restitution[body_b]))
 
     def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> Rows:
-        """Constraint rows for this step's contacts (2 per point)."""
+        """Constraint rows for this step: contacts (2 per point), then the joints' rows."""
         b = self._bodies
         r = self._responder
         k = len(c)
-        rows = Rows(2 * k)
+        ja = self._joint_arrays
+        rows = Rows(2 * k + ja.n_rows)
         if r.friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
@@ -280,7 +400,32 @@ class World:
                      float(math.hypot(*self._gravity)), points_in_manifold,
                      rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
                      rows.bound_row, rows.mu, rows.kind)
+        if ja.n_rows:
+            joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
+                       2 * k, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J, rows.JM,
+                       rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+            if r.warm_start:  # joints keep their identity: start from last step's reactions
+                for q, joint in enumerate(self._joints):
+                    start = 2 * k + ja.row_offset[q]
+                    rows.lam[start : start + joint.row_count] = joint._impulse
         return rows
+
+    def _store_joint_impulses(self, rows: Rows, first: int) -> None:
+        """Hand each joint its rows and reactions of the step just taken."""
+        ja = self._joint_arrays
+        for q, joint in enumerate(self._joints):
+            start = first + int(ja.row_offset[q])
+            joint._row_start = start
+            joint._has_rows = True
+            joint._impulse = rows.lam[start : start + joint.row_count].copy()
+
+    def _external_forces(self) -> np.ndarray:
+        """F_ext (N, 3): [m g_x, m g_y, 0] for dynamic bodies, zero for static ones (N, N m)."""
+        b = self._bodies
+        F = np.zeros((b.n, 3))
+        dyn = ~b.static
+        F[dyn, :2] = b.mass[dyn, None] * self._gravity
+        return F
 
     def _check_limits(self) -> None:
         V = self._bodies.V

@@ -35,6 +35,7 @@ class StepContext:
     normal: np.ndarray  # (K, 2) from a to b
     separation: np.ndarray  # (K,) m, negative when overlapping
     restitution: np.ndarray  # (K,) mixed e of each contact
+    F_ext: np.ndarray | None = None  # (N, 3) external forces and torques [f_x, f_y, tau], N, N m
 
 
 @dataclass(eq=False)

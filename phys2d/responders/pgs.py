@@ -13,6 +13,7 @@ from numba import njit
 from ..constraints.rows import FRICTION_COULOMB, FRICTION_LECTURE
 from ..shapes import finite_float
 from .base import Responder, SolveResult, StepContext
+from .pgs_matrix import solve_matrix_form
 
 
 @njit(cache=True)
@@ -154,7 +155,13 @@ class PGS(Responder):
     tolerance    stop early once a sweep's residual (m/s) is at most this; None: never
     restitution_threshold  approach speed (m/s) above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
-    form         'impulse' (sequential impulses over the rows)
+                 with m_c the pair's reduced mass m_a m_b / (m_a + m_b) (m_a on a static
+                 partner) shared equally by the manifold's points: exactly Coulomb's bound
+                 for one body resting on flat ground, but blind to any load on top, to
+                 slopes and to impacts, since it never looks at lambda_n
+    form         'impulse' (sequential impulses over the rows) or 'matrix' (J, M^-1,
+                 A = J M^-1 J^T and b assembled and swept: ``phys2d.responders.pgs_matrix``;
+                 the assembled system is left on ``w.last_step.system``)
     block        solve the two normal rows of each two-point manifold together, as an
                  exact 2x2 LCP (Box2D's block solver): a block Gauss-Seidel that does
                  not rock a resting box from corner to corner. Off by default: the
@@ -191,12 +198,17 @@ class PGS(Responder):
             raise ValueError(f"friction must be 'coulomb' or 'lecture', got {friction!r}")
         self.friction = friction
         self.friction_model = models[friction]
-        if form not in ("impulse",):
-            raise ValueError(f"form must be 'impulse', got {form!r}")
+        if form not in ("impulse", "matrix"):
+            raise ValueError(f"form must be 'impulse' or 'matrix', got {form!r}")
         self.form = form
+        if form == "matrix":
+            self.name = "pgs-matrix"
         if not isinstance(block, (bool, np.bool_)):
             raise TypeError(f"block must be True or False, got {block!r}")
         self.block = bool(block)
+        if self.block and form == "matrix":
+            raise ValueError("block=True solves manifolds in pairs of rows; form='matrix' is the "
+                             "lecture's row-by-row sweep: use one or the other")
         if self.block:
             self.name = "pgs-block"
         if not self.warm_start:
@@ -206,6 +218,8 @@ class PGS(Responder):
         r = ctx.rows
         residuals = np.zeros(self.iterations)
         tol = -1.0 if self.tolerance is None else self.tolerance
+        if self.form == "matrix":
+            return solve_matrix_form(ctx, self.iterations, tol)
         n = pgs_solve(r.i, r.j, r.J, r.JM, r.A_diag, r.xi, r.lo, r.hi, r.bound_row, r.mu, r.lam,
                       ctx.V, self.iterations, tol, residuals, self.block, ctx.n_contacts)
         return SolveResult(n, residuals[:n])
