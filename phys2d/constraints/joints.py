@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from ..shapes import finite_float, vec2
-from .rows import ROW_JOINT, _fill_row
+from .rows import ROW_JOINT, fill_row
 
 JOINT_DISTANCE = 0
 JOINT_PIN = 1
@@ -282,14 +282,14 @@ def joint_rows(kind, body_i, body_j, local_i, local_j, params, row_offset, first
         n_rows = 1
         if kind[q] == 0:  # distance, normalised by L
             L = params[q, 0]
-            _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_diag)
+            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_diag)
             C = 0.5 * (dx * dx + dy * dy - L * L) / L
             xi[k] = -(beta / dt) * C
             lo[k] = -np.inf
             hi[k] = np.inf
         elif kind[q] == 1:  # pin: x row, then y row
-            _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_diag)
-            _fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_diag)
+            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_diag)
+            fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_diag)
             xi[k] = -(beta / dt) * dx
             xi[k + 1] = -(beta / dt) * dy
             n_rows = 2

@@ -52,7 +52,7 @@ class Rows:
 
 
 @njit(cache=True)
-def _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx, dy, M_inv, J, JM, A_diag):
+def fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx, dy, M_inv, J, JM, A_diag):
     """Row k of J for direction d acting at lever arms r_i, r_j: [-d, -(r_i x d) | d, r_j x d]."""
     J[k, 0] = -dx
     J[k, 1] = -dy
@@ -97,13 +97,14 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
         k = 2 * c
         out_i[k] = i
         out_j[k] = j
-        _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
+        fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
         if separation[c] > 0.0:
             push = -separation[c] / dt  # speculative: close the gap within the step, no more
         else:
             push = -(beta / dt) * min(0.0, separation[c] + slop)  # Baumgarte
         vn = row_velocity(k, i, j, J, V1)
-        if vn < -restitution_threshold:
+        # bounce only a point that approaches fast and will touch within this step
+        if vn < -restitution_threshold and separation[c] + dt * vn <= 0.0:
             push = max(push, -e[c] * vn)
         xi[k] = push
         lo[k] = 0.0
@@ -114,7 +115,7 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
         k += 1
         out_i[k] = i
         out_j[k] = j
-        _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
+        fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
         xi[k] = 0.0
         out_mu[k] = mu[c]
         kind[k] = 1
@@ -126,7 +127,7 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
             # the reduced mass of the pair: a static partner counts as infinitely heavy
             inv = M_inv[i, 0] + M_inv[j, 0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
-            bound = mu[c] * m_c * gravity * dt
+            bound = mu[c] * m_c * gravity * dt if separation[c] <= 0.0 else 0.0  # no touch, no friction
             bound_row[k] = -1
             lo[k] = -bound
             hi[k] = bound
