@@ -127,7 +127,8 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
             # the reduced mass of the pair: a static partner counts as infinitely heavy
             inv = M_inv[i, 0] + M_inv[j, 0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
-            bound = mu[c] * m_c * gravity * dt if separation[c] <= 0.0 else 0.0  # no touch, no friction
+            # fixed: it does not look at lambda_n, so it acts on speculative points too
+            bound = mu[c] * m_c * gravity * dt
             bound_row[k] = -1
             lo[k] = -bound
             hi[k] = bound
