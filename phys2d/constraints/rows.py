@@ -50,6 +50,26 @@ class Rows:
     def __len__(self) -> int:
         return int(self.i.shape[0])
 
+    def head(self, n_rows: int) -> Rows:
+        """The first n_rows rows as views (no copy), with lambda reset to 0."""
+        rows = object.__new__(Rows)
+        for name in ("i", "j", "J", "JM", "A_diag", "xi", "lo", "hi", "bound_row", "mu", "lam", "kind"):
+            setattr(rows, name, getattr(self, name)[:n_rows])
+        rows.lam[:] = 0.0
+        return rows
+
+
+class RowBuffer:
+    """Row storage reused from step to step, so a step allocates no row arrays."""
+
+    def __init__(self) -> None:
+        self._rows = Rows(0)
+
+    def take(self, n_rows: int) -> Rows:
+        if n_rows > len(self._rows):
+            self._rows = Rows(max(n_rows, 2 * len(self._rows)))
+        return self._rows.head(n_rows)
+
 
 @njit(cache=True)
 def fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx, dy, M_inv, J, JM, A_diag):
