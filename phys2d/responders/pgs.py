@@ -55,7 +55,7 @@ def block_is_well_conditioned(k11, k12, k22):
 
 
 @njit(cache=True)
-def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block):
+def sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V, block):
     """One projected Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s).
 
     Row by row in order (the lecture's PGS: a contact's normal row, then its
@@ -101,7 +101,7 @@ def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, bl
                 continue  # no row, or both bodies static: nothing can move
             jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
                   + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
-            delta = (xi[kk] - jv) / A_diag[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
+            delta = (xi[kk] - jv) * inv_A[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
             if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
                 top = mu[kk] * lam[bound_row[kk]]
                 low = -top
@@ -130,8 +130,12 @@ def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations
     Returns the number of sweeps made; residuals[s] is the residual after sweep s.
     """
     apply_impulses(i, j, JM, lam, V)
+    inv_A = np.zeros(A_diag.shape[0])  # 1 / A_kk, once per step: sweeps multiply, never divide
+    for k in range(A_diag.shape[0]):
+        if A_diag[k] > 0.0:
+            inv_A[k] = 1.0 / A_diag[k]
     for s in range(iterations):
-        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block)
+        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V, block)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
