@@ -24,10 +24,10 @@ def contact_keys(uid: np.ndarray, body_a: np.ndarray, body_b: np.ndarray,
 
 
 @njit(cache=True)
-def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lam, hit):
+def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, rank, lam, hit):
     """Contact caching: walk both sorted key lists together (a merge), and for every
-    contact found in last tick's cache set hit[c] and start its rows from the cached
-    impulses, lam[2c] = lambda_n and lam[2c + 1] = lambda_t. Returns the number of hits.
+    contact c found in last tick's cache set hit[c] and start its rows (2 rank[c] and
+    2 rank[c] + 1) from the cached impulses lambda_n and lambda_t. Returns the hits.
     """
     hits = 0
     m = 0
@@ -36,8 +36,8 @@ def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lam,
             m += 1
         if m < cache_keys.shape[0] and cache_keys[m] == keys[c]:
             hit[c] = True
-            lam[2 * c] = cache_lambda_n[m]
-            lam[2 * c + 1] = cache_lambda_t[m]
+            lam[2 * rank[c]] = cache_lambda_n[m]
+            lam[2 * rank[c] + 1] = cache_lambda_t[m]
             hits += 1
         else:
             hit[c] = False
@@ -103,10 +103,11 @@ class ContactCache:
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def warm_start(self, keys: np.ndarray, lam: np.ndarray) -> np.ndarray:
-        """For sorted ``keys``: fill lam[2c], lam[2c + 1] of cached contacts; the hit mask."""
+    def warm_start(self, keys: np.ndarray, rank: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """For sorted ``keys``: start the rows of cached contacts (contact c's rows are
+        2 rank[c] and 2 rank[c] + 1) from their cached impulses; returns the hit mask."""
         hit = np.zeros(keys.shape[0], np.bool_)
-        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, lam, hit)
+        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, rank, lam, hit)
         return hit
 
     def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:

@@ -27,6 +27,7 @@ from .constraints.joints import (
     local_anchor,
     optional_limit,
 )
+from .constraints.order import colour_pairs, solve_order
 from .constraints.rows import FRICTION_LECTURE, RowBuffer, Rows, contact_rows
 from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
@@ -75,6 +76,8 @@ class World:
         self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
         self._pairs = np.zeros((64, 2), np.int32)
         self._n_pairs = 0
+        self._pair_order = np.zeros(0, np.int32)  # pair indices in solve order (graph colouring)
+        self._solve_order = np.zeros(0, np.int32)  # this step's contacts in solve order
         self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with; empty: sweep again
         self._rows = RowBuffer()
         self.contacts = Contacts()
@@ -324,8 +327,9 @@ class World:
             apply_external_forces(V, M_inv, self._gravity, dt)
             c = self._collide()
             rows, hit = self._build_rows(c, V1, dt)
-            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a, c.body_b, c.point,
-                              c.normal, c.separation, c.restitution, gravity=self._gravity)
+            o = rows.order  # the responders see contacts in row order: row 2q is contact o[q]'s
+            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a[o], c.body_b[o], c.point[o],
+                              c.normal[o], c.separation[o], c.restitution[o], gravity=self._gravity)
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)
@@ -334,8 +338,10 @@ class World:
             b.restore(before)
             raise
         k = len(c)
-        c.normal_impulse = rows.lam[0 : 2 * k : 2].copy()
-        c.tangent_impulse = rows.lam[1 : 2 * k : 2].copy()
+        c.normal_impulse = np.empty(k)
+        c.tangent_impulse = np.empty(k)
+        c.normal_impulse[rows.order] = rows.lam[0 : 2 * k : 2]
+        c.tangent_impulse[rows.order] = rows.lam[1 : 2 * k : 2]
         c.warm_started = hit
         self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)
         self._store_joint_impulses(rows, 2 * k)
@@ -345,7 +351,7 @@ class World:
             residuals=result.residuals,
             max_penetration=float(max(0.0, -c.separation.min())) if k else 0.0,
             contact_count=k, cache_hits=int(hit.sum()),
-            joint_impulses=rows.lam[2 * k :].copy(), system=result.system)
+            joint_impulses=rows.lam[2 * k :].copy(), system=result.system, solve_order=rows.order)
         self.tick += 1
         self.time += dt
         return self.last_step
@@ -365,12 +371,15 @@ class World:
                 self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
                 n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
             self._fat, self._n_pairs = fat, n_pairs
+            self._pair_order = colour_pairs(self._pairs, n_pairs, b.static, b.n)
         cap = 2 * self._n_pairs
         out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
                np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
+        pair_start = np.empty(self._n_pairs + 1, np.int64)
         k = collide_pairs(self._pairs, self._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v,
-                          world_n, self.contact_margin, b.uid, b.friction, b.restitution, *out)
+                          world_n, self.contact_margin, b.uid, b.friction, b.restitution, *out, pair_start)
         body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
+        self._solve_order = solve_order(self._pair_order, pair_start)
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
                         feature=feature, key=key, friction=mu, restitution=e)
 
@@ -385,20 +394,23 @@ class World:
         k = len(c)
         ja = self._joint_arrays
         rows = self._rows.take(2 * k + ja.n_rows)
+        rows.order = self._solve_order
         if r.friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = np.ones(k)
-        contact_rows(c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
+        contact_rows(rows.order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
                      c.restitution, b.x, V1, b.M_inv, dt, r.beta, r.slop,
                      r.restitution_threshold, r.friction_model,
                      float(math.hypot(*self._gravity)), points_in_manifold,
                      rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
                      rows.bound_row, rows.mu, rows.kind)
         if r.warm_start:
-            hit = self._cache.warm_start(c.key, rows.lam)
+            rank = np.empty(k, np.int32)
+            rank[rows.order] = np.arange(k, dtype=np.int32)
+            hit = self._cache.warm_start(c.key, rank, rows.lam)
         else:
             hit = np.zeros(k, np.bool_)
         if ja.n_rows:

@@ -72,6 +72,8 @@ class StepReport:
     cache_hits: int = 0
     joint_impulses: np.ndarray = field(default_factory=lambda: np.zeros(0))
     system: object = None
+    solve_order: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    # rows 2q (normal) and 2q + 1 (friction) of the step's system belong to contact solve_order[q]
 
     @property
     def cache_hit_rate(self) -> float:
