@@ -216,6 +216,12 @@ def _joint_geometry(joint) -> tuple[np.ndarray, np.ndarray]:
     return pts, impulse
 
 
+def _send_property(rec: rr.RecordingStream, entity: str, **values: Any) -> None:
+    """Static run metadata at /__properties/<name>; empty values are left out (Rerun drops them)."""
+    kept = {k: v for k, v in values.items() if v is not None and v != ""}
+    rec.send_property(entity, rr.AnyValues(**kept))
+
+
 def _joint_entity(key: int) -> str:
     return f"j{int(key) >> 16}/r{int(key) & _FEATURE_MASK}"
 
@@ -316,8 +322,7 @@ class _Sink:
             self.rec.send_recording_name(name)
         from .. import __version__
 
-        self.rec.send_property("phys2d", rr.AnyValues(engine_version=__version__, scene=scene or "",
-                                                     name=name or ""))
+        _send_property(self.rec, "phys2d", engine_version=__version__, scene=scene, name=name)
 
     # -- per tick ---------------------------------------------------------------
     def run(self, label: str | None) -> _Run:
@@ -411,10 +416,10 @@ class _Sink:
             self._flush_series(r)
 
     def _describe(self, r: _Run, w) -> None:
-        name = "run" if r.label is None else f"run.{r.label}"
-        self.rec.send_property(name, rr.AnyValues(
-            responder=repr(w.responder), responder_name=str(getattr(w.responder, "name", "")),
-            scene=self.scene or "", run=r.label or "", bodies=len(w), first_tick=int(w.tick)))
+        name = "run" if r.label is None else f"runs/{r.label}"
+        _send_property(self.rec, name, responder=repr(w.responder),
+                       responder_name=str(getattr(w.responder, "name", "")), scene=self.scene, run=r.label,
+                       bodies=len(w), first_tick=int(w.tick))
 
     # -- writing --------------------------------------------------------------
     def _flush_scene(self, r: _Run) -> None:
