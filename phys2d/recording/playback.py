@@ -316,7 +316,8 @@ def load(path: str | os.PathLike) -> Recording:
         ep = ch.entity_path
         if ep.startswith("/__properties/"):
             rb = ch.to_record_batch()
-            d = properties.setdefault(ep[len("/__properties/"):], {})
+            # rerun escapes a property name's '/' and '.' (one path part); undo it
+            d = properties.setdefault(ep[len("/__properties/"):].replace("\\", ""), {})
             for name in rb.schema.names:
                 if name.startswith("rerun.") or name in ("tick", "sim_time"):
                     continue

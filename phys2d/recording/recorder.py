@@ -258,15 +258,12 @@ class _Series:
         vals = [np.concatenate([v[q] for v in self.values]) for q in range(n_val)]
         new_last = self.keys[-1]
         first = self.rows[0]
-        gone0 = np.setdiff1d(self.last, self.keys[0])  # ended exactly at the window's first tick
-        if gone0.size:
-            keys = np.concatenate([keys, gone0])
-            row = np.concatenate([row, np.full(gone0.size, first)])
-            vals = [np.concatenate([v, np.full(gone0.size, np.nan)]) for v in vals]
+        gone0 = np.setdiff1d(self.last, self.keys[0])  # series that ended exactly at this window's first tick
         self.rows, self.keys, self.values, self.last = [], [], [], new_last.copy()
-        if keys.size == 0:
+        if keys.size == 0 and gone0.size == 0:
             return
-        uniq, col = np.unique(keys, return_inverse=True)
+        uniq, col = np.unique(np.concatenate([keys, gone0]), return_inverse=True)
+        col, col0 = col[: keys.size], col[keys.size:]
         U = uniq.size
         present = np.zeros((U, T), dtype=np.bool_)
         present[col, row] = True
@@ -275,6 +272,7 @@ class _Series:
             dense[q, col, row] = vals[q]
         ended = np.zeros((U, T), dtype=np.bool_)
         ended[:, first + 1:] = present[:, first:-1] & ~present[:, first + 1:]
+        ended[col0, first] = True
         present |= ended  # the NaN row that ends a series
         offsets_1 = np.zeros((U, T + 1), dtype=np.int32)
         np.cumsum(present, axis=1, out=offsets_1[:, 1:])
