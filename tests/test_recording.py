@@ -350,3 +350,14 @@ def test_contact_table_is_one_row_per_tick_including_empty_ticks(tmp_path):
         ticks = rb.column("tick").to_numpy()
         assert (lens[ticks == 21] == 0).all()
     assert n_rows == 21
+
+
+def test_outline_column_has_rerun_own_arrow_type(mixed):
+    """The outlines are built as raw arrow; the viewer silently skips a column of another type."""
+    import rerun as rr
+
+    want = rr.components.LineStrip2DBatch([[[0.0, 0.0], [1.0, 1.0]]]).as_arrow_array().type
+    store = RrdReader(str(mixed[0])).store()
+    types = {ch.to_record_batch().schema.field("LineStrips2D:strips").type
+             for ch in store.stream().filter(content="/world/sim/bodies", components="LineStrips2D:strips")}
+    assert types and all(t.value_type == want for t in types)

@@ -67,7 +67,8 @@ NORMAL_LENGTH = 0.25  # m, drawn length of a contact normal
 
 _UID_MASK = (1 << 23) - 1
 _FEATURE_MASK = (1 << 16) - 1
-_STRIP_TYPE = pa.list_(pa.field("item", pa.list_(pa.float32(), 2), nullable=False))
+# exactly rerun's LineStrip2D arrow type: the viewer skips a column whose nullability differs
+_STRIP_TYPE = pa.list_(pa.field("item", pa.list_(pa.field("item", pa.float32(), nullable=False), 2), nullable=False))
 _CIRCLE = 0  # phys2d.shapes.CIRCLE (not imported: recording only reads a World)
 
 
@@ -575,7 +576,7 @@ class _Sink:
         graphs = rrb.Vertical(
             plots("max penetration (m)" if many else "penetration per contact (m)",
                   "stats/max_penetration" if many else "contacts/penetration/**", legend=many),
-            plots("lambda_n per contact (N s)", "contacts/lambda_n/**", legend=False),
+            plots("lambda per contact: normal, tangent (N s)", "contacts/lambda/**", legend=False),
             plots("solver residual, log10 (m/s)", "solver/log10_residual", legend=many),
             plots("energy (J)", "stats/energy/**" if not many else "stats/energy", legend=True),
         )
