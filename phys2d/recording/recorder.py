@@ -348,8 +348,10 @@ class _Sink:
                 static=True)
         rec.log(f"{p}world/sim/contacts", rr.Points2D.from_fields(radii=0.05, show_labels=False), static=True)
         rec.log(f"{p}world/sim/normals", rr.Arrows2D.from_fields(radii=0.015, show_labels=False), static=True)
-        rec.log(f"{p}stats/energy", rr.SeriesLines(names=["kinetic", "potential", "total"]), static=True)
-        rec.log(f"{p}stats/momentum", rr.SeriesLines(names=["px", "py"]), static=True)
+        tag = f" ({r.label})" if r.label else ""  # runs overlaid in one plot keep their names apart
+        rec.log(f"{p}stats/energy", rr.SeriesLines(names=[f"kinetic{tag}", f"potential{tag}", f"total{tag}"]),
+                static=True)
+        rec.log(f"{p}stats/momentum", rr.SeriesLines(names=[f"px{tag}", f"py{tag}"]), static=True)
         rec.log(f"{p}solver/log10_residual", rr.SeriesPoints(markers="circle", marker_sizes=2.0), static=True)
         rec.log(f"{p}solver/residual", rr.SeriesPoints(markers="circle", marker_sizes=2.0), static=True)
 
