@@ -361,3 +361,42 @@ def test_outline_column_has_rerun_own_arrow_type(mixed):
     types = {ch.to_record_batch().schema.field("LineStrips2D:strips").type
              for ch in store.stream().filter(content="/world/sim/bodies", components="LineStrips2D:strips")}
     assert types and all(t.value_type == want for t in types)
+
+
+def test_a_hard_kill_leaves_the_windows_already_written(tmp_path):
+    """os._exit skips every finalizer: no footer, but each flushed window of ticks is readable."""
+    import sys
+    import textwrap
+
+    path = tmp_path / "killed.rrd"
+    script = textwrap.dedent(f"""
+        import os, time, phys2d
+        from phys2d.recording import Recorder
+        w = phys2d.scenes.vertical_stack(3)
+        rec = Recorder({str(path)!r}, flush_every=10)
+        for _ in range(95):
+            w.step(1 / 60)
+            rec.log(w)
+        time.sleep(1.0)  # the writer thread catches up with the windows already sent
+        os._exit(1)
+    """)
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": repo},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 1, out.stderr
+    back = playback.load(path)
+    assert list(back.tick) == list(range(1, 91))  # 9 whole windows; the last 5 ticks were still buffered
+    w = phys2d.scenes.vertical_stack(3)
+    for _ in range(90):
+        w.step(1 / 60)
+    assert np.array_equal(back.x[-1], w.x)
+
+
+def test_without_contact_series_the_contact_table_is_still_written(tmp_path):
+    path = tmp_path / "lean.rrd"
+    w = phys2d.scenes.vertical_stack(3)
+    snaps = record(path, w, 20, contact_series=False)
+    assert_verified(path)
+    back = playback.load(path)
+    assert back.series_keys("lambda") == [] and back.series_keys("penetration") == []
+    assert np.array_equal(back.contacts.normal_impulse, np.concatenate([s["normal_impulse"] for s in snaps]))

@@ -16,6 +16,7 @@ Rerun stores in whole nanoseconds.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -301,7 +302,9 @@ def load(path: str | os.PathLike) -> Recording:
     if not os.path.isfile(p):
         raise FileNotFoundError(f"path {p!r}: no such recording file")
     try:
-        reader = RrdReader(p)
+        with warnings.catch_warnings():  # a file without footer warns; it is handled below
+            warnings.simplefilter("ignore")
+            reader = RrdReader(p)
         try:
             store = reader.store()
             chunks = list(store.stream())

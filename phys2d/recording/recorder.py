@@ -482,6 +482,7 @@ class _Sink:
                              columns=rr.Scalars.columns(scalars=np.log10(np.maximum(res, 1e-12))))
         for buf in (r.ticks, r.times, r.layouts, r.x, r.theta, r.V, r.contacts, r.stats, r.residuals, r.joints):
             buf.clear()
+        rec.flush(timeout_sec=0)  # start writing this window now (not waited for): a hard kill loses less
 
     def _send_bodies(self, r: _Run, lay: _Layout, sel: slice, ticks: np.ndarray, times: np.ndarray) -> None:
         rec, p = self.rec, r.prefix
