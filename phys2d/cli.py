@@ -2,8 +2,8 @@
 
     phys2d scenes                                  the stock scenes and what --size means
     phys2d run SCENE [--size N] [--responder naive|iterative|pgs|pgs-cold]
-                     [--iterations K] [--steps N] [--dt S] [--out PATH | --no-record]
-    phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH]
+                     [--iterations K] [--steps N] [--dt S] [--out PATH | --no-record] [--no-series]
+    phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH] [--no-series]
     phys2d inspect PATH                            a summary table of a recording
     phys2d view PATH [--web]                       the Rerun viewer, or the web viewer on 127.0.0.1
 
@@ -186,7 +186,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     w = build_world(args.scene, args.size, responder)
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
     path = None if args.no_record else _out_path(args.out, f"{args.scene}.rrd")
-    rec = Recorder(path, name=f"{args.scene} {size} / {responder.name}", scene=args.scene) if path else None
+    rec = Recorder(path, name=f"{args.scene} {size} / {responder.name}", scene=args.scene,
+                   contact_series=not args.no_series) if path else None
     bar = Progress(args.steps, _progress_enabled(args.progress, args.steps))
     deepest = 0.0
     t0 = time.perf_counter()
@@ -239,7 +240,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     failed: dict[str, str] = {}
     bar = Progress(args.steps, _progress_enabled(args.progress, args.steps * len(worlds)))
     deepest = dict.fromkeys(worlds, 0.0)
-    with Recorder(path, name=f"{args.scene} {size}: {' vs '.join(worlds)}", scene=args.scene) as rec:
+    with Recorder(path, name=f"{args.scene} {size}: {' vs '.join(worlds)}", scene=args.scene,
+                  contact_series=not args.no_series) as rec:
         for label, w in worlds.items():
             rec.log(w, run=label)
         for k in range(args.steps):
@@ -350,6 +352,9 @@ def parser() -> argparse.ArgumentParser:
                        help="PGS sweeps or iterative passes per tick (default 10)")
         q.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                        help="progress bar on stderr (default: when stderr is a terminal and the run is long)")
+        q.add_argument("--no-series", action="store_true",
+                       help="leave out the per-contact lambda/penetration series (about half the file); "
+                            "the per-tick contact table is kept")
 
     r = sub.add_parser("run", help="run a scene and record it")
     common(r, 600)

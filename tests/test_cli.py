@@ -77,6 +77,14 @@ def test_run_options_reach_the_engine(tmp_path):
     assert rec.properties["run"]["responder_name"] == "pgs-cold"
 
 
+def test_run_without_series_keeps_the_contact_table(tmp_path):
+    out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "15", "--no-series", "--out", "s.rrd",
+                     cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    rec = playback.load(tmp_path / "s.rrd")
+    assert rec.series_keys("lambda") == [] and len(rec.contacts.key) > 0
+
+
 def test_run_without_recording_writes_nothing(tmp_path):
     out = phys2d_cmd("run", "dominoes", "--size", "3", "--steps", "10", "--no-record", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
