@@ -27,9 +27,9 @@ the running count of solver sweeps, on which they read as one continuous curve.
                                  point_x, point_y, normal_x, normal_y, warm_started
     <run>world/sim/normals       Arrows2D along the contact normals (0.25 m long)
     <run>world/sim/joints        LineStrips2D anchor to anchor, when the world has joints
-    <run>contacts/lambda_n/b<a>-b<b>/f<feature>     Scalars, one series per contact identity
-    <run>contacts/lambda_t/...   friction impulse lambda_t (N s)
-    <run>contacts/penetration/...  -separation (m): > 0 while the shapes overlap
+    <run>contacts/lambda/b<a>-b<b>/f<feature>   Scalars [lambda_n, lambda_t] (N s), one series per
+                                 contact identity (body uids a < b and the manifold's feature id)
+    <run>contacts/penetration/b<a>-b<b>/f<feature>  -separation (m): > 0 while the shapes overlap
     <run>joints/reaction/j<k>/r<row>  joint row impulses (N s)
     <run>solver/residual         residual after each sweep (m/s); solver/log10_residual for the plot
     <run>stats/...               energy [kinetic, potential, total] (J), momentum [px, py]
