@@ -240,8 +240,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     failed: dict[str, str] = {}
     bar = Progress(args.steps, _progress_enabled(args.progress, args.steps * len(worlds)))
     deepest = dict.fromkeys(worlds, 0.0)
+    # its own application id: the viewer keeps one blueprint per application, and a comparison's
+    # layout (a world per run) differs from a single run's
     with Recorder(path, name=f"{args.scene} {size}: {' vs '.join(worlds)}", scene=args.scene,
-                  contact_series=not args.no_series) as rec:
+                  application_id="phys2d-compare", contact_series=not args.no_series) as rec:
         for label, w in worlds.items():
             rec.log(w, run=label)
         for k in range(args.steps):
