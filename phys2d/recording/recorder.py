@@ -510,8 +510,8 @@ class _Sink:
         pts[..., 1] = X[:, lay.loop_body, 1] + s * lx + c * ly
         inner_off = np.zeros(S * lay.loop_len.size + 1, dtype=np.int32)
         np.cumsum(np.tile(lay.loop_len, S), out=inner_off[1:])
-        strips = pa.ListArray.from_arrays(
-            pa.array(inner_off), pa.FixedSizeListArray.from_arrays(pa.array(pts.reshape(-1)), 2)).cast(_STRIP_TYPE)
+        points = pa.FixedSizeListArray.from_arrays(pa.array(pts.reshape(-1)), type=_STRIP_TYPE.value_type)
+        strips = pa.ListArray.from_arrays(pa.array(inner_off), points, type=_STRIP_TYPE)
         uid = np.broadcast_to(lay.uid, (S, N)).reshape(-1)
         rec.send_columns(f"{p}world/sim/bodies", indexes=index, columns=[
             rr.ComponentColumn(rr.LineStrips2D.descriptor_strips(), _Arrow(strips),
