@@ -186,7 +186,7 @@ class _Run:
     contacts: list[tuple[np.ndarray, ...]] = field(default_factory=list)
     stats: list[tuple[float, ...]] = field(default_factory=list)
     residuals: list[np.ndarray] = field(default_factory=list)
-    joints: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    joints: list[tuple[np.ndarray, list[np.ndarray]]] = field(default_factory=list)  # (J, 2, 2) ends, row impulses
     # per-contact / per-joint-row series, one entry per logged tick
     s_ticks: list[int] = field(default_factory=list)
     s_times: list[float] = field(default_factory=list)
