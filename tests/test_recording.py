@@ -281,49 +281,32 @@ def test_bodies_added_and_removed_mid_run(tmp_path):
         assert np.isnan(back.x[i, missing]).all()
 
 
-class _FakeJoint:
-    """A stand-in with the duck-typed surface the recorder draws: bodies, anchors, impulse."""
-
-    def __init__(self, a, b, impulse) -> None:
-        self.bodies = (a, b)
-        self.impulse = impulse
-
-    @property
-    def anchors(self) -> np.ndarray:
-        return np.array([self.bodies[0].position, self.bodies[1].position])
-
-
-class _JointWorld(phys2d.World):
-    fake_joints: list = []
-
-    @property
-    def joints(self):
-        return tuple(self.fake_joints)
-
-
 def test_joints_are_drawn_and_their_reactions_recorded(tmp_path):
     path = tmp_path / "joints.rrd"
-    w = _JointWorld()
-    phys2d.scenes.ground(w)
-    a = w.add_box(position=(0.0, 0.5))
-    b = w.add_box(position=(2.0, 0.5))
-    w.fake_joints = [_FakeJoint(a, b, [0.0])]
+    w = phys2d.World()
+    anchor = w.add_box(position=(0.0, 5.0), half_extents=(0.2, 0.2), static=True)
+    bob = w.add_box(position=(1.0, 5.0), half_extents=(0.1, 0.1))
+    arm = w.add_box(position=(3.0, 5.0), half_extents=(0.1, 0.1))
+    pin = w.add_pin_joint(anchor, bob, anchor=(0.0, 5.0))  # two rows
+    rod = w.add_distance_joint(bob, arm, anchor_a=(1.0, 5.0), anchor_b=(3.0, 5.0))  # one row
     expect_anchor, expect_imp = [], []
     with Recorder(path) as rec:
-        for k in range(12):
+        for _ in range(12):
             w.step(1 / 60)
-            w.fake_joints[0].impulse = [0.1 * k, -0.05 * k]  # a pin joint: two rows
             rec.log(w)
-            expect_anchor.append(np.array([a.position, b.position]))
-            expect_imp.append([0.1 * k, -0.05 * k])
+            expect_anchor.append(np.array([pin.anchors(), rod.anchors()]))
+            expect_imp.append([pin.impulse, rod.impulse])
     assert_verified(path)
     back = playback.load(path)
     assert len(back.joint_anchors) == 12
     for got, want in zip(back.joint_anchors, expect_anchor, strict=True):
-        np.testing.assert_allclose(got[0], want, atol=1e-5)  # drawn as float32
-    assert back.series_keys("reaction") == ["j0/r0", "j0/r1"]
-    t, v = back.series("reaction", "j0/r1")
-    assert np.array_equal(t, np.arange(1, 13)) and np.array_equal(v, [r[1] for r in expect_imp])
+        np.testing.assert_allclose(got, want, atol=1e-5)  # drawn as float32
+    assert back.series_keys("reaction") == ["j0/r0", "j0/r1", "j1/r0"]
+    for key, (q, row) in {"j0/r0": (0, 0), "j0/r1": (0, 1), "j1/r0": (1, 0)}.items():
+        t, v = back.series("reaction", key)
+        assert np.array_equal(t, np.arange(1, 13))
+        assert np.array_equal(v, [imp[q][row] for imp in expect_imp])
+    assert any(abs(imp[1][0]) > 0 for imp in expect_imp)  # the rod carries a load
 
 
 def test_contact_table_is_one_row_per_tick_including_empty_ticks(tmp_path):

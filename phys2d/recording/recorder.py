@@ -195,26 +195,9 @@ class _Run:
 
 
 def _joint_geometry(joint) -> tuple[np.ndarray, np.ndarray]:
-    """(2, 2) world points to draw a joint between, and its row impulses (N s); duck-typed."""
-    pts = None
-    for name in ("world_anchors", "anchors"):
-        a = getattr(joint, name, None)
-        if a is not None:
-            a = a() if callable(a) else a
-            arr = np.asarray(a, dtype=np.float64)
-            if arr.shape == (2, 2):
-                pts = arr
-                break
-            if arr.shape == (2,):
-                pts = np.stack([arr, arr])
-                break
-    if pts is None and hasattr(joint, "anchor_a") and hasattr(joint, "anchor_b"):
-        pts = np.asarray([joint.anchor_a, joint.anchor_b], dtype=np.float64).reshape(2, 2)
-    if pts is None:
-        bodies = getattr(joint, "bodies", None) or (getattr(joint, "body_a", None), getattr(joint, "body_b", None))
-        pts = np.asarray([np.asarray(bd.position, dtype=np.float64) for bd in bodies]).reshape(2, 2)
-    impulse = np.atleast_1d(np.asarray(getattr(joint, "impulse", ()), dtype=np.float64)).ravel()
-    return pts, impulse
+    """(2, 2) world anchor points to draw a joint between, and its row impulses (N s)."""
+    pts = np.asarray(joint.anchors(), dtype=np.float64).reshape(2, 2)
+    return pts, np.atleast_1d(np.asarray(joint.impulse, dtype=np.float64)).ravel()
 
 
 def _send_property(rec: rr.RecordingStream, entity: str, **values: Any) -> None:
