@@ -289,3 +289,17 @@ def test_momentum_and_energy_helpers_match_hand_sums():
     assert w.potential_energy() == pytest.approx(10.0 * (a.mass * 2.0 + c.mass * 1.0))
     assert np.allclose(w.linear_momentum(), (a.mass, 3.0 * c.mass))
     assert w.angular_momentum() == pytest.approx(a.inertia * 2.0 + (1.0 * 0.0 - 2.0 * a.mass * 1.0))
+
+
+def test_fast_falling_box_stops_at_the_ground_instead_of_sinking_into_it():
+    # 30 m/s is half a metre per tick: only speculative contacts sized by the velocity catch it
+    w = phys2d.World()
+    scenes.ground(w)
+    box = w.add_box(position=(0.0, 3.0), velocity=(0.0, -30.0), angle=0.1)
+    ball = w.add_circle(position=(3.0, 3.0), radius=0.3, velocity=(0.0, -30.0))
+    deepest = 0.0
+    for _ in range(60):
+        w.step(DT)
+        deepest = max(deepest, w.last_step.max_penetration)
+    assert deepest <= w.responder.slop + 0.002
+    assert box.vertices[:, 1].min() > -0.01 and ball.position[1] > 0.29
