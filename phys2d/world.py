@@ -227,6 +227,7 @@ class World:
             h._index -= 1
         item._index = -1
         self.contacts = Contacts()  # its indices no longer match w.bodies
+        self.last_step = StepReport()  # nor does the last step's report
         self._joints_changed()
 
     # -- joints --------------------------------------------------------------------
