@@ -14,7 +14,7 @@ import numpy as np
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import sweep_and_prune, update_geometry
+from .collision.broadphase import fits_inside, sweep_and_prune, update_geometry
 from .collision.narrowphase import collide_pairs
 from .constraints.joints import (
     AngleJoint,
@@ -27,12 +27,15 @@ from .constraints.joints import (
     local_anchor,
     optional_limit,
 )
-from .constraints.rows import FRICTION_LECTURE, Rows, contact_rows
-from .contacts import ContactCache, Contacts, contact_keys
-from .integrate import apply_external_forces, integrate_positions
+from .constraints.order import colour_pairs, solve_order
+from .constraints.rows import FRICTION_LECTURE, RowBuffer, Rows, contact_rows
+from .contacts import ContactCache, Contacts
+from .integrate import apply_external_forces, first_too_fast, integrate_positions
 from .responders.base import Responder, StepContext, StepReport
 from .responders.pgs import PGS
 from .shapes import finite_float, positive_float, vec2
+
+FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
 
 
 class SimulationError(RuntimeError):
@@ -72,6 +75,11 @@ class World:
         self._joints: list[Joint] = []
         self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
         self._pairs = np.zeros((64, 2), np.int32)
+        self._n_pairs = 0
+        self._pair_order = np.zeros(0, np.int32)  # pair indices in solve order (graph colouring)
+        self._solve_order = np.zeros(0, np.int32)  # this step's contacts in solve order
+        self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with; empty: sweep again
+        self._rows = RowBuffer()
         self.contacts = Contacts()
         self.last_step = StepReport()
         self.tick = 0
@@ -185,6 +193,7 @@ class World:
                                     restitution, static)
         handle = Body(self, index, int(self._bodies.uid[index]))
         self._handles.append(handle)
+        self._fat = np.zeros((0, 4))  # a new body: sweep again
         return handle
 
     def _own(self, body, name: str = "body") -> int:
@@ -302,6 +311,7 @@ class World:
         keys = [(min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
                 for q in self._joints if not q.collide_connected]
         self._excluded = np.unique(np.asarray(keys, np.int64))
+        self._fat = np.zeros((0, 4))
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:
@@ -316,15 +326,10 @@ class World:
             V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
             c = self._collide()
-            hit, lam_n, lam_t = self._cache.match(c.key)
-            if not responder.warm_start:
-                hit[:] = False
-            rows = self._build_rows(c, V1, dt)
-            if responder.warm_start:
-                rows.lam[0 : 2 * len(c) : 2] = lam_n
-                rows.lam[1 : 2 * len(c) : 2] = lam_t
-            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a, c.body_b, c.point,
-                              c.normal, c.separation, c.restitution, F_ext=self._external_forces())
+            rows, hit = self._build_rows(c, V1, dt)
+            o = rows.order  # the responders see contacts in row order: row 2q is contact o[q]'s
+            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a[o], c.body_b[o], c.point[o],
+                              c.normal[o], c.separation[o], c.restitution[o], gravity=self._gravity)
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)
@@ -333,8 +338,10 @@ class World:
             b.restore(before)
             raise
         k = len(c)
-        c.normal_impulse = rows.lam[0 : 2 * k : 2].copy()
-        c.tangent_impulse = rows.lam[1 : 2 * k : 2].copy()
+        c.normal_impulse = np.empty(k)
+        c.tangent_impulse = np.empty(k)
+        c.normal_impulse[rows.order] = rows.lam[0 : 2 * k : 2]
+        c.tangent_impulse[rows.order] = rows.lam[1 : 2 * k : 2]
         c.warm_started = hit
         self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)
         self._store_joint_impulses(rows, 2 * k)
@@ -344,7 +351,7 @@ class World:
             residuals=result.residuals,
             max_penetration=float(max(0.0, -c.separation.min())) if k else 0.0,
             contact_count=k, cache_hits=int(hit.sum()),
-            joint_impulses=rows.lam[2 * k :].copy(), system=result.system)
+            joint_impulses=rows.lam[2 * k :].copy(), system=result.system, solve_order=rows.order)
         self.tick += 1
         self.time += dt
         return self.last_step
@@ -352,54 +359,60 @@ class World:
     def _collide(self) -> Contacts:
         """Broadphase and narrowphase at the current positions: this step's contacts."""
         b = self._bodies
-        n = b.n
         world_v = np.empty((b.n_verts, 2))
         world_n = np.empty((b.n_verts, 2))
-        aabb = np.empty((n, 4))
+        aabb = np.empty((b.n, 4))
         update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
                         self.contact_margin, world_v, world_n, aabb)
-        n_pairs = sweep_and_prune(aabb, b.static, self._excluded, self._pairs)
-        if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
-            self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
-            n_pairs = sweep_and_prune(aabb, b.static, self._excluded, self._pairs)
-        cap = 2 * n_pairs
-        body_a = np.empty(cap, np.int32)
-        body_b = np.empty(cap, np.int32)
-        point = np.empty((cap, 2))
-        normal = np.empty((cap, 2))
-        separation = np.empty(cap)
-        feature = np.empty(cap, np.int32)
-        k = collide_pairs(self._pairs, n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount,
-                          world_v, world_n, self.contact_margin, body_a, body_b, point, normal,
-                          separation, feature)
-        body_a, body_b = body_a[:k], body_b[:k]
-        feature = feature[:k]
-        return Contacts(
-            body_a=body_a, body_b=body_b, point=point[:k], normal=normal[:k],
-            separation=separation[:k], feature=feature,
-            key=contact_keys(b.uid, body_a, body_b, feature),
-            friction=np.sqrt(b.friction[body_a] * b.friction[body_b]),
-            restitution=np.maximum(b.restitution[body_a], b.restitution[body_b]))
+        if not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
+            fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
+            n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
+            if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
+                self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
+                n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
+            self._fat, self._n_pairs = fat, n_pairs
+            self._pair_order = colour_pairs(self._pairs, n_pairs, b.static, b.n)
+        cap = 2 * self._n_pairs
+        out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
+               np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
+        pair_start = np.empty(self._n_pairs + 1, np.int64)
+        k = collide_pairs(self._pairs, self._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v,
+                          world_n, self.contact_margin, b.uid, b.friction, b.restitution, *out, pair_start)
+        body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
+        self._solve_order = solve_order(self._pair_order, pair_start)
+        return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
+                        feature=feature, key=key, friction=mu, restitution=e)
 
-    def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> Rows:
-        """Constraint rows for this step: contacts (2 per point), then the joints' rows."""
+    def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> tuple[Rows, np.ndarray]:
+        """Constraint rows for this step: contacts (2 per point), then the joints' rows.
+
+        Returns the rows, lambda started from the contact cache when the responder
+        warm starts, and the mask of contacts found in the cache.
+        """
         b = self._bodies
         r = self._responder
         k = len(c)
         ja = self._joint_arrays
-        rows = Rows(2 * k + ja.n_rows)
+        rows = self._rows.take(2 * k + ja.n_rows)
+        rows.order = self._solve_order
         if r.friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = np.ones(k)
-        contact_rows(c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
+        contact_rows(rows.order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
                      c.restitution, b.x, V1, b.M_inv, dt, r.beta, r.slop,
                      r.restitution_threshold, r.friction_model,
                      float(math.hypot(*self._gravity)), points_in_manifold,
                      rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
                      rows.bound_row, rows.mu, rows.kind)
+        if r.warm_start:
+            rank = np.empty(k, np.int32)
+            rank[rows.order] = np.arange(k, dtype=np.int32)
+            hit = self._cache.warm_start(c.key, rank, rows.lam)
+        else:
+            hit = np.zeros(k, np.bool_)
         if ja.n_rows:
             joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
                        2 * k, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J, rows.JM,
@@ -408,7 +421,7 @@ class World:
                 for q, joint in enumerate(self._joints):
                     start = 2 * k + ja.row_offset[q]
                     rows.lam[start : start + joint.row_count] = joint._impulse
-        return rows
+        return rows, hit
 
     def _store_joint_impulses(self, rows: Rows, first: int) -> None:
         """Hand each joint its rows and reactions of the step just taken."""
@@ -419,20 +432,13 @@ class World:
             joint._has_rows = True
             joint._impulse = rows.lam[start : start + joint.row_count].copy()
 
-    def _external_forces(self) -> np.ndarray:
-        """F_ext (N, 3): [m g_x, m g_y, 0] for dynamic bodies, zero for static ones (N, N m)."""
-        b = self._bodies
-        F = np.zeros((b.n, 3))
-        dyn = ~b.static
-        F[dyn, :2] = b.mass[dyn, None] * self._gravity
-        return F
-
     def _check_limits(self) -> None:
         V = self._bodies.V
-        speed = np.hypot(V[:, 0], V[:, 1])
-        bad = ~(np.isfinite(speed) & (speed <= self._max_speed)
-                & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed))
-        if bad.any():
+        first = first_too_fast(V, self._max_speed)
+        if first >= 0:
+            speed = np.hypot(V[:, 0], V[:, 1])
+            bad = ~(np.isfinite(speed) & (speed <= self._max_speed)
+                    & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed))
             idx = np.flatnonzero(bad)
             shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
             raise SimulationError(

@@ -144,7 +144,10 @@ def test_system_is_the_lecture_equations():
     np.testing.assert_allclose(w.x, x_before + DT * w.V[:, :2], atol=1e-12)
     # the answer respects its bounds, and the step reports it
     assert np.all(d.lam >= d.lo - 1e-12) and np.all(d.lam <= d.hi + 1e-12)
-    np.testing.assert_array_equal(d.lam[0 : R - 1 : 2], w.contacts.normal_impulse)
+    # rows 2q, 2q + 1 belong to contact solve_order[q] (the graph-coloured visiting order)
+    order = w.last_step.solve_order
+    assert sorted(order) == list(range(len(w.contacts)))
+    np.testing.assert_array_equal(d.lam[0 : R - 1 : 2], w.contacts.normal_impulse[order])
     np.testing.assert_array_equal(d.lam[R - 1 :], w.last_step.joint_impulses)
 
 

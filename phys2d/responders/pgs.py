@@ -55,22 +55,26 @@ def block_is_well_conditioned(k11, k12, k22):
 
 
 @njit(cache=True)
-def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block):
+def sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V, block):
     """One projected Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s).
 
-    Row by row in order (the lecture's PGS: a contact's normal row, then its
-    friction row), or with ``block`` each two-point manifold's normal rows
+    Rows in order: each contact's normal row then its friction row (the lecture's
+    PGS, row by row), or with ``block`` each two-point manifold's normal rows
     together as a 2x2 LCP (Box2D's block solver), then its two friction rows.
+    Joint rows come last.
     """
     worst = 0.0
-    n_rows = lam.shape[0]
-    k = 0
-    while k < n_rows:
-        a, b = i[k], j[k]
-        first, second, step = k, k + 1, 2  # a contact's normal and friction rows
-        if k >= 2 * n_contacts:
+    n_steps = n_contacts + lam.shape[0] - 2 * n_contacts
+    q = 0
+    while q < n_steps:
+        if q >= n_contacts:
+            k = 2 * n_contacts + (q - n_contacts)
             first, second, step = k, -1, 1  # a joint row
-        elif block and k + 2 < 2 * n_contacts and i[k + 2] == a and j[k + 2] == b:
+        else:
+            k = 2 * q
+            first, second, step = k, k + 1, 1  # a contact's normal and friction rows
+        a, b = i[k], j[k]
+        if block and q + 1 < n_contacts and i[k + 2] == a and j[k + 2] == b:
             n1, n2 = k, k + 2
             k11, k22 = A_diag[n1], A_diag[n2]
             k12 = 0.0
@@ -92,16 +96,14 @@ def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, bl
                     V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
                     V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
                 worst = max(worst, abs(d1) * k11, abs(d2) * k22)
-                first, second, step = n1 + 1, n2 + 1, 4  # then the two friction rows
-            else:
-                first, second, step = k, k + 1, 2  # nearly parallel rows: one by one
+                first, second, step = n1 + 1, n2 + 1, 2  # then the two friction rows
         for r in range(2):
             kk = first if r == 0 else second
             if kk < 0 or A_diag[kk] <= 0.0:
                 continue  # no row, or both bodies static: nothing can move
             jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
                   + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
-            delta = (xi[kk] - jv) / A_diag[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
+            delta = (xi[kk] - jv) * inv_A[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
             if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
                 top = mu[kk] * lam[bound_row[kk]]
                 low = -top
@@ -118,7 +120,7 @@ def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, bl
             err = abs(delta) * A_diag[kk]
             if err > worst:
                 worst = err
-        k += step
+        q += step
     return worst
 
 
@@ -130,8 +132,12 @@ def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations
     Returns the number of sweeps made; residuals[s] is the residual after sweep s.
     """
     apply_impulses(i, j, JM, lam, V)
+    inv_A = np.zeros(A_diag.shape[0])  # 1 / A_kk, once per step: sweeps multiply, never divide
+    for k in range(A_diag.shape[0]):
+        if A_diag[k] > 0.0:
+            inv_A[k] = 1.0 / A_diag[k]
     for s in range(iterations):
-        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block)
+        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V, block)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
