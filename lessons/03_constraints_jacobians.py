@@ -45,13 +45,14 @@ w = make()
 x0, th0 = w.x.copy(), w.theta.copy()
 w.step(c.DT)
 J = w.last_step.system.dense().J  # rows built at x0, th0: 2 per contact point, then the joints
-p, n, s = w.contacts.point[0], w.contacts.normal[0], w.contacts.separation[0]
+first = w.last_step.solve_order[0]  # rows 0 and 1 are this contact point's (normal, friction)
+p, n, s = w.contacts.point[first], w.contacts.normal[first], w.contacts.separation[first]
 t = np.array([-n[1], n[0]])
 dist, angle = w.joints
 k_dist = 2 * len(w.contacts)  # the joint rows follow the contact rows
-names = {0: "contact (point 0)", 1: "friction (point 0)", k_dist: "distance", k_dist + 1: "angle"}
-print(f"bodies i=0, j=1; contact point p = ({p[0]:.3f}, {p[1]:.3f}) m, n = ({n[0]:.3f}, {n[1]:.3f}), "
-      f"separation C = {s:.4f} m")
+names = {0: "contact", 1: "friction", k_dist: "distance", k_dist + 1: "angle"}
+print(f"bodies i=0, j=1; rows 0, 1: contact point {first}, p = ({p[0]:.3f}, {p[1]:.3f}) m, "
+      f"n = ({n[0]:.3f}, {n[1]:.3f}), separation C = {s:.4f} m")
 c.table(["row", "J_i: x", "y", "omega", "J_j: x", "y", "omega"],
         [[name] + list(J[k]) for k, name in names.items()], "{:+.3f}")
 
@@ -70,8 +71,8 @@ pa = x0[0] + R(th0[0]) @ dist.local_a
 pb = x0[1] + R(th0[1]) @ dist.local_b
 L = dist.length
 C = {
-    "contact (point 0)": lambda x, th: s + (world(x, th, 1, p) - world(x, th, 0, p)) @ (R(th[0] - th0[0]) @ n),
-    "friction (point 0)": lambda x, th: (world(x, th, 1, p) - world(x, th, 0, p)) @ t,
+    "contact": lambda x, th: s + (world(x, th, 1, p) - world(x, th, 0, p)) @ (R(th[0] - th0[0]) @ n),
+    "friction": lambda x, th: (world(x, th, 1, p) - world(x, th, 0, p)) @ t,
     "distance": lambda x, th: 0.5 * (np.sum((world(x, th, 1, pb) - world(x, th, 0, pa)) ** 2) - L**2),
     "angle": lambda x, th: th[1] - th[0] - angle.theta_0,
 }

@@ -50,7 +50,7 @@ w.step(c.DT)
 system = w.last_step.system
 d = system.dense()
 ct = w.contacts
-labels = [f"{kind} {a}-{b}.{k}" for k, (a, b) in enumerate(zip(ct.body_a, ct.body_b)) for kind in "nt"]
+labels = [f"{kind} {ct.body_a[k]}-{ct.body_b[k]}.{k}" for k in w.last_step.solve_order for kind in "nt"]  # row order
 with np.errstate(divide="ignore"):
     print("M     diag:", " ".join(f"{m:.3g}" for m in 1 / system.M_inv), "  (inf: the static ground)")
 print("M^-1  diag:", " ".join(f"{m:.3g}" for m in system.M_inv))
