@@ -76,6 +76,15 @@ class Contacts:
     def __len__(self) -> int:
         return int(self.body_a.shape[0])
 
+    def reordered(self, order: np.ndarray) -> Contacts:
+        """The same contacts listed in ``order`` (contact order[q] becomes the q-th).
+
+        Arrays not filled yet (the impulses, before the responder) stay empty.
+        """
+        k = len(self)
+        return Contacts(**{name: (a[order] if a.shape[0] == k else a)
+                           for name, a in ((n, getattr(self, n)) for n in self.__dataclass_fields__)})
+
     @property
     def tangent(self) -> np.ndarray:
         """(K, 2) friction direction t = (-n_y, n_x)."""

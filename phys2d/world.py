@@ -327,9 +327,10 @@ class World:
             apply_external_forces(V, M_inv, self._gravity, dt)
             c = self._collide()
             rows, hit = self._build_rows(c, V1, dt)
-            o = rows.order  # the responders see contacts in row order: row 2q is contact o[q]'s
-            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a[o], c.body_b[o], c.point[o],
-                              c.normal[o], c.separation[o], c.restitution[o], gravity=self._gravity)
+            # the responders see contacts in row order: rows 2q, 2q + 1 are contact order[q]'s
+            rc = c if not responder.colour_order else c.reordered(rows.order)
+            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), rc.body_a, rc.body_b, rc.point,
+                              rc.normal, rc.separation, rc.restitution, gravity=self._gravity)
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)
@@ -394,7 +395,7 @@ class World:
         k = len(c)
         ja = self._joint_arrays
         rows = self._rows.take(2 * k + ja.n_rows)
-        rows.order = self._solve_order
+        rows.order = self._solve_order if r.colour_order else np.arange(k, dtype=np.int32)
         if r.friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
@@ -408,8 +409,10 @@ class World:
                      rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
                      rows.bound_row, rows.mu, rows.kind)
         if r.warm_start:
-            rank = np.empty(k, np.int32)
-            rank[rows.order] = np.arange(k, dtype=np.int32)
+            rank = rows.order  # pair order: contact c's rows are 2c, 2c + 1
+            if r.colour_order:
+                rank = np.empty(k, np.int32)
+                rank[rows.order] = np.arange(k, dtype=np.int32)
             hit = self._cache.warm_start(c.key, rank, rows.lam)
         else:
             hit = np.zeros(k, np.bool_)

@@ -41,7 +41,7 @@ VERTEX_BIT = 1 << 7
 REFERENCE_FACE_TOL = 5e-4  # m
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _max_separation(world_v, world_n, sa, na, sb, nb, margin):
     """Edge of polygon A whose outward normal separates B the most: (edge, separation m)."""
     best_edge = 0
@@ -62,7 +62,7 @@ def _max_separation(world_v, world_n, sa, na, sb, nb, margin):
     return best_edge, best
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     """Polygon-polygon manifold of polygons A (vertices sa..sa+na) and B.
 
