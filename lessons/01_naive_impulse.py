@@ -71,13 +71,15 @@ print("Part 1: the formula by hand against the engine (one step, zero gravity)")
 rows = []
 for kind in ("equal circles, e=1", "light vs heavy, e=0.5", "tilted box on its corner, e=0.3"):
     w, e = pair(kind)
-    x0, V0 = w.x.copy(), w.V.copy()
+    x0, V0, p0 = w.x.copy(), w.V.copy(), w.linear_momentum()
     w.step(c.DT)  # collide at x0; the pair's impulse; push apart; move
     ct = w.contacts
     f, V_hand = lecture_impulse(x0, V0, w.M_inv, ct.point[0], ct.normal[0], e)
     bounce = normal_speed(x0, w.V, ct.point[0], ct.normal[0]) / normal_speed(x0, V0, ct.point[0], ct.normal[0])
-    rows.append([kind, f, ct.normal_impulse.sum(), np.abs(V_hand - w.V).max(), bounce])
-c.table(["pair", "f by hand (N s)", "f engine (N s)", "max |V+ hand - V+ engine|", "J_n V+ / J_n V-"], rows)
+    dp = "static ground" if w.M_inv[0, 0] == 0 else np.abs(w.linear_momentum() - p0).max()
+    rows.append([kind, f, ct.normal_impulse.sum(), np.abs(V_hand - w.V).max(), bounce, dp])
+c.table(["pair", "f by hand (N s)", "f engine (N s)", "max |V+ hand - V+ engine|", "J_n V+ / J_n V-",
+         "|momentum change| (kg m/s)"], rows)
 print("  (J_n V+ / J_n V- = -e: the pair leaves at e times the speed it came in)")
 seconds = 3.0 if args.quick else 10.0
 last = round(1.0 / c.DT)  # ticks in the last second

@@ -68,9 +68,10 @@ def test_01_naive_impulse(tmp_path):
     out = run("01_naive_impulse", tmp_path)
     for label, e in (("equal circles, e=1", 1.0), ("light vs heavy, e=0.5", 0.5),
                      ("tilted box on its corner, e=0.3", 0.3)):
-        f_hand, f_engine, dv, ratio = line(out, re.escape(label))[-4:]
+        f_hand, f_engine, dv, ratio, *dp = line(out, re.escape(label) + r"\s")
         assert f_hand > 0 and f_hand == pytest.approx(f_engine, rel=1e-6)
         assert dv < 1e-9 and ratio == pytest.approx(-e, abs=1e-6)
+        assert dp == [] if "box" in label else dp[0] < 1e-9  # momentum kept between two free bodies
     assert line(out, r"drops: kinetic energy over the last second: mean")[0] > 1e-6  # never settles
     standing, total = line(out, r"stack: top box height .* boxes standing:")
     assert total == 8 and standing < 8
