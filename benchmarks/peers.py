@@ -641,8 +641,15 @@ def parse_args(argv=None):
         "expression EXPR (phys2d is in scope), e.g. "
         "--variant 'pgs20=phys2d.PGS(iterations=20, warm_start=True)'; repeatable",
     )
+    p.add_argument(
+        "--no-variants",
+        action="store_true",
+        help="run only the default phys2d (the lecture's PGS), not the variants of DEFAULT_VARIANTS",
+    )
     args = p.parse_args(argv)
     args.variants = {}
+    if not args.variant and not args.no_variants:
+        args.variant = [f"{label}={expr}" for label, expr in DEFAULT_VARIANTS.items()]
     for v in args.variant:
         label, sep, expr = v.partition("=")
         if not sep or not label or not expr:
@@ -661,6 +668,14 @@ def parse_args(argv=None):
     if args.out is None:
         args.out = BENCH_DIR / ("RESULTS-quick.md" if q else "RESULTS.md")
     return args
+
+
+# what the field learned after the lecture, each shown beside the lecture's PGS (issue 7)
+DEFAULT_VARIANTS = {
+    "block": "phys2d.PGS(iterations=10, warm_start=True, block=True)",
+    "soft4": "phys2d.SoftStep(substeps=4)",
+    "soft6": "phys2d.SoftStep(substeps=6)",
+}
 
 
 def main(argv=None) -> int:
