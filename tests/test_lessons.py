@@ -55,7 +55,7 @@ def runs_in(path: Path) -> dict[str, int]:
 
 def test_lesson_files_are_indexed_and_documented():
     names = sorted(p.stem for p in LESSONS.glob("[0-9][0-9]_*.py"))
-    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 10)]
+    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 11)]
     index = (LESSONS / "README.md").read_text()
     for n in names:
         text = (LESSONS / f"{n}.py").read_text()
@@ -180,3 +180,26 @@ def test_09_redundant_constraints(tmp_path):
     assert np.ptp(rows[:, 6:9], axis=0).max() < 1e-9  # the same J^T lambda
     assert rows[0, 7] == pytest.approx(line(out, r"the weight m g dt =")[0], rel=1e-6)
     assert set(runs_in(tmp_path / "09_redundant_constraints.rrd")) == {"warm", "cold"}
+
+
+def test_10_beyond_the_lecture(tmp_path):
+    out = run("10_beyond_the_lecture", tmp_path)
+    seconds = line(out, r"^(?=\d+ s at dt = )")[0]
+
+    def row(scene, responder):  # x move, rise, turn, stood, imbalance, overlap max, overlap last s, ms/step
+        return line(out, rf"^  {re.escape(f'{scene}, {responder}')}\s+(?={NUM})")
+
+    pgs, block, soft = (row("20-box stack", r) for r in ("PGS(10)", "PGS(10) block", "SoftStep(4)"))
+    pgs_r, block_r, soft_r = (row("100 kg on 1 kg", r) for r in ("PGS(10)", "PGS(10) block", "SoftStep(4)"))
+    assert seconds == 3.0 and len(pgs) == 8
+    for r in (block, soft):  # a manifold's two normal rows solved together: the 20-box stack stands still
+        assert r[0] < 0.01 and r[3] == seconds and r[4] < 0.05
+    assert pgs[4] > 0.2 and pgs[0] > 0.1  # row by row: one corner carries more, the stack sways
+    assert min(pgs[3], pgs_r[3]) < seconds  # and the lecture's PGS loses at least one of the two scenes
+    assert soft_r[0] < 0.01 and soft_r[2] < 1 and soft_r[3] == seconds  # the soft step holds 100 kg on 1 kg
+    assert block_r[1] > 0.05  # the block solver does not: the pair is thrown up off the ground
+    for scene in ("100 kg on 1 kg", "20-box stack"):  # the soft contacts' overlap is the spring's
+        est, measured = line(out, rf"^SoftStep overlap, {scene}: estimate .*?\) = ")[-2:]
+        assert 0.005 < measured < 0.1 and measured == pytest.approx(est, rel=0.2)
+    runs = runs_in(tmp_path / "10_beyond_the_lecture.rrd")
+    assert runs == {f"{s}-{r}": 180 for s in ("stack", "ratio") for r in ("pgs", "pgs-block", "soft-step")}
