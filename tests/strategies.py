@@ -227,3 +227,48 @@ def point_polygon_distance(p: np.ndarray, verts: np.ndarray) -> float:
         u = min(1.0, max(0.0, float(np.dot(p - a, e) / np.dot(e, e))))
         best = min(best, float(np.linalg.norm(p - (a + u * e))))
     return -best if inside else best
+
+
+@st.composite
+def resting_scenes(draw, max_stacks: int = 3, max_height: int = 3) -> SceneSpec:
+    """Stacks of boxes (and circles on the ground) that start touching and at rest.
+
+    Stacks stand 3 m apart; each box is centred over the one below within a fifth of
+    their widths and weighs at most twice as much, so every stack is statically stable
+    and within what 10 PGS sweeps hold (heavier-on-lighter stacks creep: the mass_ratio
+    scene shows it).
+    """
+    bodies = [GROUND]
+    for s in range(draw(st.integers(1, max_stacks))):
+        x = 3.0 * s
+        if draw(st.booleans()):
+            r = draw(reals(0.2, 0.8))
+            bodies.append(BodySpec("circle", (x, r), r, density=draw(reals(0.5, 4.0)),
+                                   friction=draw(reals(0.2, 1.0))))
+            continue
+        y = 0.0
+        below: tuple[float, float] | None = None  # (half width, mass) of the box below
+        for _ in range(draw(st.integers(1, max_height))):
+            hx, hy = draw(reals(0.25, 0.8)), draw(reals(0.15, 0.6))
+            if below is None:
+                density = draw(reals(0.5, 4.0))
+            else:
+                x += draw(reals(-0.2, 0.2)) * min(hx, below[0])
+                density = draw(reals(0.25, 2.0)) * below[1] / (4.0 * hx * hy)
+            bodies.append(BodySpec("box", (x, y + hy), (hx, hy), density=density,
+                                   friction=draw(reals(0.3, 1.0))))
+            y += 2.0 * hy
+            below = (hx, density * 4.0 * hx * hy)
+    return SceneSpec(tuple(bodies))
+
+
+def run(w: phys2d.World, dt: float, steps: int):
+    """Step ``w`` up to ``steps`` times, yielding after each step; stop quietly at a
+    SimulationError (a Baumgarte push past max_speed is allowed: test_prop_safety
+    checks that such a step is undone)."""
+    for _ in range(steps):
+        try:
+            w.step(dt)
+        except phys2d.SimulationError:
+            return
+        yield w

@@ -18,7 +18,7 @@ from hypothesis import assume, given, note
 from hypothesis import strategies as st
 
 import phys2d
-from tests.strategies import SceneSpec, build, dts, pgs_settings, reals, scenes
+from tests.strategies import SceneSpec, build, dts, pgs_settings, reals, run, scenes
 
 # -- the second method ------------------------------------------------------------
 
@@ -65,7 +65,10 @@ def solve_lcp_by_active_sets(A: np.ndarray, b: np.ndarray, tol: float = 1e-9) ->
 def step_with_system(w: phys2d.World, dt: float):
     """Step w and return what the second method needs, taken before the step."""
     x, V1, M_inv, g = w.x.copy(), w.V.copy(), w.M_inv.copy(), w.gravity
-    w.step(dt)
+    try:
+        w.step(dt)
+    except phys2d.SimulationError:  # a deep overlap's Baumgarte push past max_speed
+        assume(False)
     c = w.contacts
     n = len(w)
     Jn = jacobian(n, x, c, c.normal)
@@ -97,8 +100,7 @@ def frictionless(scene: SceneSpec) -> SceneSpec:
 def test_pgs_lambda_bounds(scene: SceneSpec, responder: phys2d.PGS, dt: float, lecture: bool) -> None:
     """After every PGS step: lambda_n >= 0 and |lambda_t| <= mu lambda_n (Coulomb)."""
     w = build(scene, responder)
-    for _ in range(25):
-        w.step(dt)
+    for _ in run(w, dt, 25):
         c = w.contacts
         assert np.all(c.normal_impulse >= 0.0)
         bound = c.friction * c.normal_impulse
@@ -157,8 +159,8 @@ def test_pgs_report_matches_its_stopping_rule(scene: SceneSpec, responder: phys2
     """iterations = len(residuals); PGS stops at the first sweep whose residual is within
     the tolerance, or after the iteration budget; residuals are finite and >= 0."""
     w = build(scene, responder)
-    for _ in range(10):
-        report = w.step(dt)
+    for _ in run(w, dt, 10):
+        report = w.last_step
         r = report.residuals
         assert report.iterations == len(r) >= 1
         assert np.all(np.isfinite(r)) and np.all(r >= 0.0)
