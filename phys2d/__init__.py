@@ -13,9 +13,10 @@ from .bodies import Body
 from .contacts import Contacts
 from .responders.base import Responder, StepReport
 from .responders.pgs import PGS
+from .responders.soft_step import SoftStep
 from .world import SimulationError, World
 
 __version__ = "0.1.0"
 
-__all__ = ["Body", "Contacts", "PGS", "Responder", "SimulationError", "StepReport", "World",
+__all__ = ["Body", "Contacts", "PGS", "Responder", "SimulationError", "SoftStep", "StepReport", "World",
            "scenes", "__version__"]

@@ -205,10 +205,11 @@ class World:
             if responder.warm_start:
                 rows.lam[0 : 2 * len(c) : 2] = lam_n
                 rows.lam[1 : 2 * len(c) : 2] = lam_t
-            ctx = StepContext(dt, x, theta, V, M_inv, rows, len(c), c.body_a, c.body_b, c.normal,
-                              c.separation, c.restitution)
+            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a, c.body_b, c.point,
+                              c.normal, c.separation, c.restitution)
             result = responder.respond(ctx)
-            integrate_positions(x, theta, V, dt)
+            if not result.integrated:
+                integrate_positions(x, theta, V, dt)
             self._check_limits()
         except BaseException:
             b.restore(before)

@@ -42,8 +42,8 @@ REFERENCE_FACE_TOL = 5e-4  # m
 
 
 @njit(cache=True)
-def _max_separation(sa, na, sb, nb, world_v, world_n):
-    """Edge of polygon A whose outward normal separates B the most: (edge, separation)."""
+def _max_separation(world_v, world_n, sa, na, sb, nb):
+    """Edge of polygon A whose outward normal separates B the most: (edge, separation m)."""
     best_edge = 0
     best = -np.inf
     for e in range(na):
@@ -61,29 +61,20 @@ def _max_separation(sa, na, sb, nb, world_v, world_n):
 
 
 @njit(cache=True)
-def _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, nx, ny, sep, feature):
-    out_a[k] = a
-    out_b[k] = b
-    out_p[k, 0] = px
-    out_p[k, 1] = py
-    out_n[k, 0] = nx
-    out_n[k, 1] = ny
-    out_s[k] = sep
-    out_f[k] = feature
+def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
+    """Polygon-polygon manifold of polygons A (vertices sa..sa+na) and B.
 
-
-@njit(cache=True)
-def collide_polygons(a, b, vstart, vcount, world_v, world_n, margin, out_a, out_b, out_p, out_n,
-                     out_s, out_f, k):
-    """Polygon-polygon manifold written at slot k; returns the number of points (0-2)."""
-    sa, na, sb, nb = vstart[a], vcount[a], vstart[b], vcount[b]
-    edge_a, sep_a = _max_separation(sa, na, sb, nb, world_v, world_n)
+    Returns (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2) with
+    the normal from A to B and count in 0..2 (the first ``count`` points are valid).
+    """
+    none = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0)
+    edge_a, sep_a = _max_separation(world_v, world_n, sa, na, sb, nb)
     if sep_a > margin:
-        return 0
-    edge_b, sep_b = _max_separation(sb, nb, sa, na, world_v, world_n)
+        return none
+    edge_b, sep_b = _max_separation(world_v, world_n, sb, nb, sa, na)
     if sep_b > margin:
-        return 0
-    # reference face: the one that separates most, with a bias towards a's
+        return none
+    # reference face: the one that separates most, with a bias towards A's
     if sep_b > sep_a + REFERENCE_FACE_TOL:
         sr, nr, ref_edge, si, ni, flip = sb, nb, edge_b, sa, na, 1
     else:
@@ -97,13 +88,12 @@ def collide_polygons(a, b, vstart, vcount, world_v, world_n, margin, out_a, out_
         if d < most:
             most = d
             inc = e
-    i1, i2 = inc, (inc + 1) % ni
-    # The incident edge runs against the reference edge r1 -> r2, so its end i2 lies
-    # on r1's side and i1 on r2's. Each clip point is named by its end (0: r1's side,
-    # 1: r2's) whether or not clipping moved it: a hair of sideways motion must not
-    # rename a point, or its cached impulse would be lost.
-    p1x, p1y = world_v[si + i1, 0], world_v[si + i1, 1]  # end 1
-    p2x, p2y = world_v[si + i2, 0], world_v[si + i2, 1]  # end 0
+    # The incident edge runs against the reference edge r1 -> r2, so its second
+    # vertex lies on r1's side and its first on r2's. Each clip point is named by
+    # its end (0: r1's side, 1: r2's) whether or not clipping moved it: a hair of
+    # sideways motion must not rename a point, or its cached impulse would be lost.
+    p1x, p1y = world_v[si + inc, 0], world_v[si + inc, 1]  # end 1
+    p2x, p2y = world_v[si + (inc + 1) % ni, 0], world_v[si + (inc + 1) % ni, 1]  # end 0
     r1 = sr + ref_edge
     r2 = sr + (ref_edge + 1) % nr
     tx, ty = world_v[r2, 0] - world_v[r1, 0], world_v[r2, 1] - world_v[r1, 1]
@@ -118,7 +108,7 @@ def collide_polygons(a, b, vstart, vcount, world_v, world_n, margin, out_a, out_
         d1 = sx * (p1x - ox) + sy * (p1y - oy)
         d2 = sx * (p2x - ox) + sy * (p2y - oy)
         if d1 < 0.0 and d2 < 0.0:
-            return 0
+            return none
         if d1 < 0.0 or d2 < 0.0:
             u = d1 / (d1 - d2)
             cx, cy = p1x + u * (p2x - p1x), p1y + u * (p2y - p1y)
@@ -128,30 +118,28 @@ def collide_polygons(a, b, vstart, vcount, world_v, world_n, margin, out_a, out_
                 p2x, p2y = cx, cy
     base = (flip << 15) | (ref_edge << 8) | (inc << 1)
     ox, oy = world_v[r1, 0], world_v[r1, 1]
-    count = 0
-    for end in range(2):  # end 0 first: contact keys come out ascending
-        px, py = (p2x, p2y) if end == 0 else (p1x, p1y)
-        sep = nx * (px - ox) + ny * (py - oy)
-        if sep > margin:
-            continue
-        # midway between the incident point and the reference face
-        cx, cy = px - 0.5 * sep * nx, py - 0.5 * sep * ny
-        if flip:
-            _emit(out_a, out_b, out_p, out_n, out_s, out_f, k + count, a, b, cx, cy, -nx, -ny, sep,
-                  base | end)
-        else:
-            _emit(out_a, out_b, out_p, out_n, out_s, out_f, k + count, a, b, cx, cy, nx, ny, sep,
-                  base | end)
-        count += 1
-    return count
+    sep0 = nx * (p2x - ox) + ny * (p2y - oy)
+    sep1 = nx * (p1x - ox) + ny * (p1y - oy)
+    sign = -1.0 if flip else 1.0  # the normal is written from A to B
+    # each point midway between the incident point and the reference face; end 0 first
+    q0 = (p2x - 0.5 * sep0 * nx, p2y - 0.5 * sep0 * ny, sep0, base)
+    q1 = (p1x - 0.5 * sep1 * nx, p1y - 0.5 * sep1 * ny, sep1, base | 1)
+    if sep0 <= margin and sep1 <= margin:
+        return (2, sign * nx, sign * ny) + q0 + q1
+    if sep0 <= margin:
+        return (1, sign * nx, sign * ny) + q0 + q1
+    if sep1 <= margin:
+        return (1, sign * nx, sign * ny) + q1 + q0
+    return none
 
 
 @njit(cache=True)
-def collide_circle_polygon(circ, poly, a, b, x, radius, vstart, vcount, world_v, world_n, margin,
-                           out_a, out_b, out_p, out_n, out_s, out_f, k):
-    """Circle-polygon manifold (one point) at slot k; the normal is written from a to b."""
-    s, n = vstart[poly], vcount[poly]
-    cx, cy, r = x[circ, 0], x[circ, 1], radius[circ]
+def collide_circle_polygon(world_v, world_n, s, n, cx, cy, r, margin):
+    """Circle (centre c, radius r) against the polygon with vertices s..s+n.
+
+    Returns (count, nx, ny, px, py, sep, feature) with the normal from the polygon
+    to the circle and count 0 or 1.
+    """
     best_edge = 0
     best = -np.inf
     for e in range(n):
@@ -160,7 +148,7 @@ def collide_circle_polygon(circ, poly, a, b, x, radius, vstart, vcount, world_v,
             best = d
             best_edge = e
     if best > r + margin:
-        return 0
+        return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
     v1 = s + best_edge
     v2 = s + (best_edge + 1) % n
     nx, ny = world_n[v1, 0], world_n[v1, 1]
@@ -181,36 +169,27 @@ def collide_circle_polygon(circ, poly, a, b, x, radius, vstart, vcount, world_v,
             dx, dy = cx - world_v[corner, 0], cy - world_v[corner, 1]
             dist = np.sqrt(dx * dx + dy * dy)
             if dist > r + margin:
-                return 0
+                return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
             if dist > 1e-12:
                 nx, ny = dx / dist, dy / dist
             depth_from_face = dist
     sep = depth_from_face - r
-    # midway between the circle's surface and the polygon's (normal points polygon -> circle)
-    px = cx - nx * (r + 0.5 * sep)
-    py = cy - ny * (r + 0.5 * sep)
-    if poly == a:
-        _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, nx, ny, sep, feature)
-    else:
-        _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, -nx, -ny, sep, feature)
-    return 1
+    # midway between the circle's surface and the polygon's
+    return 1, nx, ny, cx - nx * (r + 0.5 * sep), cy - ny * (r + 0.5 * sep), sep, feature
 
 
 @njit(cache=True)
-def collide_circles(a, b, x, radius, margin, out_a, out_b, out_p, out_n, out_s, out_f, k):
-    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
+def collide_circles(xa, ya, ra, xb, yb, rb, margin):
+    """Circle A against circle B: (count, nx, ny, px, py, sep, feature), normal from A to B."""
+    dx, dy = xb - xa, yb - ya
     dist = np.sqrt(dx * dx + dy * dy)
-    ra, rb = radius[a], radius[b]
     if dist > ra + rb + margin:
-        return 0
+        return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0
     nx, ny = 0.0, 1.0  # concentric: any normal will do, pick +y
     if dist > 1e-12:
         nx, ny = dx / dist, dy / dist
     sep = dist - ra - rb
-    px = x[a, 0] + nx * (ra + 0.5 * sep)
-    py = x[a, 1] + ny * (ra + 0.5 * sep)
-    _emit(out_a, out_b, out_p, out_n, out_s, out_f, k, a, b, px, py, nx, ny, sep, 0)
-    return 1
+    return 1, nx, ny, xa + nx * (ra + 0.5 * sep), ya + ny * (ra + 0.5 * sep), sep, 0
 
 
 @njit(cache=True)
@@ -224,15 +203,33 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
     k = 0
     for q in range(n_pairs):
         a, b = pairs[q, 0], pairs[q, 1]
-        if kind[a] == CIRCLE and kind[b] == CIRCLE:
-            k += collide_circles(a, b, x, radius, margin, out_a, out_b, out_p, out_n, out_s, out_f, k)
-        elif kind[a] == CIRCLE:
-            k += collide_circle_polygon(a, b, a, b, x, radius, vstart, vcount, world_v, world_n,
-                                        margin, out_a, out_b, out_p, out_n, out_s, out_f, k)
-        elif kind[b] == CIRCLE:
-            k += collide_circle_polygon(b, a, a, b, x, radius, vstart, vcount, world_v, world_n,
-                                        margin, out_a, out_b, out_p, out_n, out_s, out_f, k)
+        if kind[a] != CIRCLE and kind[b] != CIRCLE:
+            m = collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
+            count, nx, ny = m[0], m[1], m[2]
+            points = ((m[3], m[4], m[5], m[6]), (m[7], m[8], m[9], m[10]))
         else:
-            k += collide_polygons(a, b, vstart, vcount, world_v, world_n, margin,
-                                  out_a, out_b, out_p, out_n, out_s, out_f, k)
+            if kind[a] == CIRCLE and kind[b] == CIRCLE:
+                c = collide_circles(x[a, 0], x[a, 1], radius[a], x[b, 0], x[b, 1], radius[b], margin)
+                sign = 1.0
+            elif kind[a] == CIRCLE:  # polygon b, normal from b to a: flip it
+                c = collide_circle_polygon(world_v, world_n, vstart[b], vcount[b], x[a, 0], x[a, 1], radius[a],
+                                           margin)
+                sign = -1.0
+            else:
+                c = collide_circle_polygon(world_v, world_n, vstart[a], vcount[a], x[b, 0], x[b, 1], radius[b],
+                                           margin)
+                sign = 1.0
+            count, nx, ny = c[0], sign * c[1], sign * c[2]
+            points = ((c[3], c[4], c[5], c[6]), (c[3], c[4], c[5], c[6]))
+        for m in range(count):
+            px, py, sep, feature = points[m]
+            out_a[k] = a
+            out_b[k] = b
+            out_p[k, 0] = px
+            out_p[k, 1] = py
+            out_n[k, 0] = nx
+            out_n[k, 1] = ny
+            out_s[k] = sep
+            out_f[k] = feature
+            k += 1
     return k

@@ -25,11 +25,13 @@ class StepContext:
     x: np.ndarray  # (N, 2) centres of mass, m
     theta: np.ndarray  # (N,) angles, rad
     V: np.ndarray  # (N, 3) [vx, vy, omega] after external forces
+    V1: np.ndarray  # (N, 3) the velocities the tick began with, before external forces
     M_inv: np.ndarray  # (N, 3) diagonal of M^-1
     rows: Rows  # contact rows first (2c normal, 2c + 1 friction), then joint rows
     n_contacts: int  # K: rows [0, 2K) belong to contacts
     body_a: np.ndarray  # (K,) contact bodies (for responders that work pair by pair)
     body_b: np.ndarray
+    point: np.ndarray  # (K, 2) contact points p, m
     normal: np.ndarray  # (K, 2) from a to b
     separation: np.ndarray  # (K,) m, negative when overlapping
     restitution: np.ndarray  # (K,) mixed e of each contact
@@ -40,6 +42,7 @@ class SolveResult:
     iterations: int
     residuals: np.ndarray  # (iterations,) largest velocity correction of each sweep, m/s
     system: object = None  # the assembled matrix system, for responders that build one
+    integrated: bool = False  # True if the responder already moved the positions (sub-stepping)
 
 
 @dataclass(eq=False)

@@ -28,45 +28,109 @@ def apply_impulses(i, j, JM, lam, V):
 
 
 @njit(cache=True)
-def pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V):
-    """One Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s)."""
+def lcp2(k11, k12, k22, b1, b2):
+    """The 2x2 LCP: x >= 0, w = K x + b >= 0, x . w = 0, by trying the four active sets.
+
+    K = [[k11, k12], [k12, k22]] must be symmetric positive definite.
+    """
+    det = k11 * k22 - k12 * k12
+    x1 = -(k22 * b1 - k12 * b2) / det  # both rows push
+    x2 = -(k11 * b2 - k12 * b1) / det
+    if x1 >= 0.0 and x2 >= 0.0:
+        return x1, x2
+    x1 = -b1 / k11  # only row 1 pushes
+    if x1 >= 0.0 and k12 * x1 + b2 >= 0.0:
+        return x1, 0.0
+    x2 = -b2 / k22  # only row 2 pushes
+    if x2 >= 0.0 and k12 * x2 + b1 >= 0.0:
+        return 0.0, x2
+    return 0.0, 0.0  # both separate
+
+
+@njit(cache=True)
+def block_is_well_conditioned(k11, k12, k22):
+    """False when the two rows are nearly parallel: then solve them one by one."""
+    return k11 * k11 < 1000.0 * (k11 * k22 - k12 * k12)
+
+
+@njit(cache=True)
+def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block):
+    """One projected Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s).
+
+    Row by row in order (the lecture's PGS: a contact's normal row, then its
+    friction row), or with ``block`` each two-point manifold's normal rows
+    together as a 2x2 LCP (Box2D's block solver), then its two friction rows.
+    """
     worst = 0.0
-    for k in range(lam.shape[0]):
-        if A_diag[k] <= 0.0:
-            continue  # both bodies static: nothing can move
+    n_rows = lam.shape[0]
+    k = 0
+    while k < n_rows:
         a, b = i[k], j[k]
-        jv = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-              + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-        delta = (xi[k] - jv) / A_diag[k]  # (b_k - sum_l A_kl lambda_l) / A_kk
-        if bound_row[k] >= 0:  # Coulomb: the cone follows the current normal impulse
-            top = mu[k] * lam[bound_row[k]]
-            low = -top
-        else:
-            low = lo[k]
-            top = hi[k]
-        # clamp the accumulated impulse, not the increment
-        new = min(max(lam[k] + delta, low), top)
-        delta = new - lam[k]
-        lam[k] = new
-        for c in range(3):
-            V[a, c] += JM[k, c] * delta
-            V[b, c] += JM[k, 3 + c] * delta
-        err = abs(delta) * A_diag[k]
-        if err > worst:
-            worst = err
+        first, second, step = k, k + 1, 2  # a contact's normal and friction rows
+        if k >= 2 * n_contacts:
+            first, second, step = k, -1, 1  # a joint row
+        elif block and k + 2 < 2 * n_contacts and i[k + 2] == a and j[k + 2] == b:
+            n1, n2 = k, k + 2
+            k11, k22 = A_diag[n1], A_diag[n2]
+            k12 = 0.0
+            for c in range(6):
+                k12 += J[n1, c] * JM[n2, c]
+            if block_is_well_conditioned(k11, k12, k22):
+                a1, a2 = lam[n1], lam[n2]
+                vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
+                       + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
+                vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
+                       + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
+                # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
+                x1, x2 = lcp2(k11, k12, k22, vn1 - xi[n1] - (k11 * a1 + k12 * a2),
+                              vn2 - xi[n2] - (k12 * a1 + k22 * a2))
+                d1, d2 = x1 - a1, x2 - a2
+                lam[n1] = x1
+                lam[n2] = x2
+                for c in range(3):
+                    V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
+                    V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
+                worst = max(worst, abs(d1) * k11, abs(d2) * k22)
+                first, second, step = n1 + 1, n2 + 1, 4  # then the two friction rows
+            else:
+                first, second, step = k, k + 1, 2  # nearly parallel rows: one by one
+        for r in range(2):
+            kk = first if r == 0 else second
+            if kk < 0 or A_diag[kk] <= 0.0:
+                continue  # no row, or both bodies static: nothing can move
+            jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
+                  + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
+            delta = (xi[kk] - jv) / A_diag[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
+            if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
+                top = mu[kk] * lam[bound_row[kk]]
+                low = -top
+            else:
+                low = lo[kk]
+                top = hi[kk]
+            # clamp the accumulated impulse, not the increment
+            new = min(max(lam[kk] + delta, low), top)
+            delta = new - lam[kk]
+            lam[kk] = new
+            for c in range(3):
+                V[a, c] += JM[kk, c] * delta
+                V[b, c] += JM[kk, 3 + c] * delta
+            err = abs(delta) * A_diag[kk]
+            if err > worst:
+                worst = err
+        k += step
     return worst
 
 
 @njit(cache=True)
 def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations, tolerance,
-              residuals):
+              residuals, block, n_contacts):
     """Warm start from ``lam``, then sweep until the residual <= tolerance or out of sweeps.
 
     Returns the number of sweeps made; residuals[s] is the residual after sweep s.
     """
     apply_impulses(i, j, JM, lam, V)
     for s in range(iterations):
-        residuals[s] = pgs_sweep(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V)
+        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -91,6 +155,10 @@ class PGS(Responder):
     restitution_threshold  approach speed (m/s) above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
     form         'impulse' (sequential impulses over the rows)
+    block        solve the two normal rows of each two-point manifold together, as an
+                 exact 2x2 LCP (Box2D's block solver): a block Gauss-Seidel that does
+                 not rock a resting box from corner to corner. Off by default: the
+                 lecture's PGS visits one row at a time.
     """
 
     name = "pgs"
@@ -99,7 +167,7 @@ class PGS(Responder):
     def __init__(self, iterations: int = 10, warm_start: bool = True, beta: float = 0.2,
                  slop: float = 0.005, tolerance: float | None = None,
                  restitution_threshold: float = 1.0, friction: str = "coulomb",
-                 form: str = "impulse") -> None:
+                 form: str = "impulse", block: bool = False) -> None:
         self.iterations = _check_int(iterations, "iterations", 1)
         if not isinstance(warm_start, (bool, np.bool_)):
             raise TypeError(f"warm_start must be True or False, got {warm_start!r}")
@@ -126,21 +194,27 @@ class PGS(Responder):
         if form not in ("impulse",):
             raise ValueError(f"form must be 'impulse', got {form!r}")
         self.form = form
+        if not isinstance(block, (bool, np.bool_)):
+            raise TypeError(f"block must be True or False, got {block!r}")
+        self.block = bool(block)
+        if self.block:
+            self.name = "pgs-block"
         if not self.warm_start:
-            self.name = "pgs-cold"
+            self.name += "-cold"
 
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
         residuals = np.zeros(self.iterations)
         tol = -1.0 if self.tolerance is None else self.tolerance
         n = pgs_solve(r.i, r.j, r.J, r.JM, r.A_diag, r.xi, r.lo, r.hi, r.bound_row, r.mu, r.lam,
-                      ctx.V, self.iterations, tol, residuals)
+                      ctx.V, self.iterations, tol, residuals, self.block, ctx.n_contacts)
         return SolveResult(n, residuals[:n])
 
     def __repr__(self) -> str:
         tol = "None" if self.tolerance is None else f"{self.tolerance:g}"
         return (f"PGS(iterations={self.iterations}, warm_start={self.warm_start}, beta={self.beta:g}, "
-                f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r})")
+                f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r}, "
+                f"block={self.block})")
 
 
-__all__ = ["PGS", "apply_impulses", "pgs_solve", "pgs_sweep"]
+__all__ = ["PGS", "apply_impulses", "lcp2", "pgs_solve", "sweep"]

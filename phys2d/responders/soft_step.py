@@ -1,0 +1,290 @@
+"""Soft step: sub-stepping with soft contacts and relaxation (Box2D v3's solver).
+
+What the field learned after the lecture, kept beside its PGS, not in place of it.
+The tick of length dt is split into n sub-steps of h = dt/n. Each sub-step:
+
+    V += h M^-1 F_ext                        external forces, a slice at a time
+    V += M^-1 J^T lambda                     warm start with the impulse per sub-step
+    one PGS sweep with a soft push           (below)
+    x += h v, theta += h omega               positions move within the tick
+    one PGS sweep without the push           "relax": remove the push's velocity
+
+then one restitution pass. Between sweeps the separation of each contact point is
+updated from how far its bodies have moved (x - x0 and the rotated lever arms), so
+no new collision detection is needed within the tick.
+
+The soft push replaces Baumgarte's beta with a spring of stiffness ``contact_hertz``
+and damping ratio ``damping_ratio`` (Catto, "Solver2D", 2024): for a row with
+separation C < 0,
+
+    omega = 2 pi hertz,  a1 = 2 zeta + h omega,  a2 = h omega a1,  a3 = 1 / (1 + a2)
+    bias = max(omega / a1 * C, -push_max)
+    delta lambda = -mass_scale * (J V + bias) / A_kk - impulse_scale * lambda
+    with mass_scale = a2 a3 and impulse_scale = a3
+
+so the push is bounded and critically damped instead of proportional to 1/dt. A
+heavy body on a light one, or a tall stack, converges because each sub-step only
+has to correct a sub-step's worth of gravity.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..shapes import finite_float
+from .base import Responder, SolveResult, StepContext
+from .pgs import _check_int, block_is_well_conditioned, lcp2
+
+
+@njit(cache=True)
+def _soft(hertz, zeta, h):
+    """(bias_rate 1/s, mass_scale, impulse_scale) of a soft constraint over a sub-step h."""
+    if hertz == 0.0:
+        return 0.0, 1.0, 0.0
+    omega = 2.0 * np.pi * hertz
+    a1 = 2.0 * zeta + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+@njit(cache=True)
+def _separation(c, a, b, C0, r, normal, x, theta, x0, theta0):
+    """Current separation of point c from its bodies' motion since the tick began (m)."""
+    s = C0[c]
+    for side in range(2):
+        body = a if side == 0 else b
+        sign = -1.0 if side == 0 else 1.0
+        dth = theta[body] - theta0[body]
+        cs, sn = np.cos(dth), np.sin(dth)
+        rx, ry = r[c, 2 * side], r[c, 2 * side + 1]
+        # displacement of the anchor: dx + (R(dth) r - r)
+        dx = x[body, 0] - x0[body, 0] + cs * rx - sn * ry - rx
+        dy = x[body, 1] - x0[body, 1] + sn * rx + cs * ry - ry
+        s += sign * (dx * normal[c, 0] + dy * normal[c, 1])
+    return s
+
+
+@njit(cache=True)
+def _apply(k, a, b, JM, d, V):
+    for q in range(3):
+        V[a, q] += JM[k, q] * d
+        V[b, q] += JM[k, 3 + q] * d
+
+
+@njit(cache=True)
+def _velocity(k, a, b, J, V):
+    return (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
+            + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
+
+
+@njit(cache=True)
+def _push(c, a, b, C0, r, normal, static_pair, x, theta, x0, theta0, h, use_bias, soft_dyn, soft_static,
+          push_max):
+    """(bias m/s, mass_scale, impulse_scale) of contact point c's normal row now."""
+    s = _separation(c, a, b, C0, r, normal, x, theta, x0, theta0)
+    if s > 0.0:
+        return s / h, 1.0, 0.0  # speculative: close the gap, no more
+    if use_bias:
+        soft = soft_static if static_pair[c] else soft_dyn
+        return max(soft[0] * s, -push_max), soft[1], soft[2]
+    return 0.0, 1.0, 0.0
+
+
+@njit(cache=True)
+def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0, theta0, lam, V, h,
+               use_bias, soft_dyn, soft_static, push_max, block):
+    """One sweep over the contacts: normal rows (soft push if use_bias), then friction.
+
+    With ``block`` the two normal rows of a two-point manifold are solved together
+    (lcp2), each row scaled by its own softness:
+        K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
+    Returns the largest |delta lambda| A_kk of the sweep (m/s).
+    """
+    worst = 0.0
+    n_contacts = lam.shape[0] // 2
+    c = 0
+    while c < n_contacts:
+        k = 2 * c
+        a, b = i[k], j[k]
+        if block and c + 1 < n_contacts and i[k + 2] == a and j[k + 2] == b:
+            k2 = k + 2
+            k11, k22 = A_diag[k], A_diag[k2]
+            k12 = 0.0
+            for q in range(6):
+                k12 += J[k, q] * JM[k2, q]
+            if block_is_well_conditioned(k11, k12, k22):
+                bias1, ms1, is1 = _push(c, a, b, C0, r, normal, static_pair, x, theta, x0, theta0, h, use_bias,
+                                        soft_dyn, soft_static, push_max)
+                bias2, ms2, is2 = _push(c + 1, a, b, C0, r, normal, static_pair, x, theta, x0, theta0, h,
+                                        use_bias, soft_dyn, soft_static, push_max)
+                a1, a2 = lam[k], lam[k2]
+                b1 = ms1 * (_velocity(k, a, b, J, V) + bias1) + is1 * k11 * a1 - (k11 * a1 + k12 * a2)
+                b2 = ms2 * (_velocity(k2, a, b, J, V) + bias2) + is2 * k22 * a2 - (k12 * a1 + k22 * a2)
+                x1, x2 = lcp2(k11, k12, k22, b1, b2)
+                lam[k] = x1
+                lam[k2] = x2
+                _apply(k, a, b, JM, x1 - a1, V)
+                _apply(k2, a, b, JM, x2 - a2, V)
+                worst = max(worst, abs(x1 - a1) * k11, abs(x2 - a2) * k22)
+                c += 2
+                continue
+        if A_diag[k] > 0.0:
+            bias, mass_scale, impulse_scale = _push(c, a, b, C0, r, normal, static_pair, x, theta, x0, theta0,
+                                                    h, use_bias, soft_dyn, soft_static, push_max)
+            d = -mass_scale * (_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
+            new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
+            d = new - lam[k]
+            lam[k] = new
+            _apply(k, a, b, JM, d, V)
+            worst = max(worst, abs(d) * A_diag[k])
+        c += 1
+    for c in range(n_contacts):
+        k = 2 * c + 1
+        if A_diag[k] <= 0.0:
+            continue
+        a, b = i[k], j[k]
+        top = mu[k] * lam[k - 1]
+        d = -_velocity(k, a, b, J, V) / A_diag[k]
+        new = min(max(lam[k] + d, -top), top)
+        d = new - lam[k]
+        lam[k] = new
+        _apply(k, a, b, JM, d, V)
+        worst = max(worst, abs(d) * A_diag[k])
+    return worst
+
+
+@njit(cache=True)
+def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, static_pair, x, theta, V,
+                    V1, dt, substeps, relax, contact_hertz, damping_ratio, push_max,
+                    restitution_threshold, block, lam, total, residuals):
+    """The whole tick: sub-steps of forces, warm start, soft sweep, positions, relax.
+
+    ``lam`` holds the impulse per sub-step (warm start in, last sub-step out);
+    ``total`` receives the impulse over the whole tick (N s). Positions are
+    integrated here. Returns the number of sweeps recorded in ``residuals``.
+    """
+    n_rows = lam.shape[0]
+    n_contacts = n_rows // 2
+    h = dt / substeps
+    hertz = min(contact_hertz, 0.25 / h)
+    soft_dyn = _soft(hertz, damping_ratio, h)
+    soft_static = _soft(2.0 * hertz, damping_ratio, h)
+    x0 = x.copy()
+    theta0 = theta.copy()
+    # lever arms at the start of the tick, and the approach speed before forces (for bouncing)
+    r = np.empty((n_contacts, 4))
+    vn0 = np.empty(n_contacts)
+    for c in range(n_contacts):
+        a, b = i[2 * c], j[2 * c]
+        r[c, 0] = point[c, 0] - x[a, 0]
+        r[c, 1] = point[c, 1] - x[a, 1]
+        r[c, 2] = point[c, 0] - x[b, 0]
+        r[c, 3] = point[c, 1] - x[b, 1]
+        vn0[c] = _velocity(2 * c, a, b, J, V1)
+    dv = (V - V1) / substeps  # a sub-step's share of the external forces
+    V[:, :] = V1
+    for k in range(n_rows):
+        total[k] = 0.0
+    n_sweeps = 0
+    for _ in range(substeps):
+        V += dv
+        for k in range(n_rows):  # warm start: last sub-step's impulses
+            if lam[k] != 0.0:
+                _apply(k, i[k], j[k], JM, lam[k], V)
+        soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0, theta0, lam, V, h,
+                   True, soft_dyn, soft_static, push_max, block)
+        for b in range(x.shape[0]):
+            x[b, 0] += h * V[b, 0]
+            x[b, 1] += h * V[b, 1]
+            theta[b] += h * V[b, 2]
+        if relax:
+            residuals[n_sweeps] = soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta,
+                                              x0, theta0, lam, V, h, False, soft_dyn, soft_static, push_max,
+                                              block)
+        else:
+            residuals[n_sweeps] = 0.0
+        n_sweeps += 1
+        for k in range(n_rows):
+            total[k] += lam[k]
+    # restitution: bounce points that approached fast, against their pre-tick speed
+    for c in range(n_contacts):
+        k = 2 * c
+        if restitution[c] == 0.0 or vn0[c] > -restitution_threshold or total[k] == 0.0 or A_diag[k] <= 0.0:
+            continue
+        a, b = i[k], j[k]
+        d = -(_velocity(k, a, b, J, V) + restitution[c] * vn0[c]) / A_diag[k]
+        new = max(total[k] + d, 0.0)
+        d = new - total[k]
+        total[k] = new
+        _apply(k, a, b, JM, d, V)
+    return n_sweeps
+
+
+class SoftStep(Responder):
+    """Sub-stepped soft-contact solver (Box2D v3's "soft step"): stable stacks and mass ratios.
+
+    substeps       sub-steps per tick (each: one sweep with the soft push, one relax sweep)
+    relax          run the relax sweep that removes the push's velocity
+    contact_hertz  stiffness of the contact spring (Hz); capped at a quarter of the sub-step rate
+    damping_ratio  zeta of the contact spring (10: heavily over-damped, no bounce from the push)
+    push_max       largest velocity the push may give an overlapping point (m/s)
+    restitution_threshold  approach speed (m/s) above which e applies
+    warm_start     start each sub-step from last tick's impulse per sub-step
+    block          solve a two-point manifold's normal rows together (see ``soft_sweep``)
+
+    Friction is Coulomb's (|lambda_t| <= mu lambda_n). Joints are not supported.
+    """
+
+    name = "soft-step"
+    handles_joints = False
+
+    def __init__(self, substeps: int = 4, relax: bool = True, contact_hertz: float = 30.0,
+                 damping_ratio: float = 10.0, push_max: float = 3.0, restitution_threshold: float = 1.0,
+                 warm_start: bool = True, block: bool = True) -> None:
+        self.substeps = _check_int(substeps, "substeps", 1)
+        if not isinstance(relax, (bool, np.bool_)):
+            raise TypeError(f"relax must be True or False, got {relax!r}")
+        self.relax = bool(relax)
+        self.contact_hertz = finite_float(contact_hertz, "contact_hertz")
+        self.damping_ratio = finite_float(damping_ratio, "damping_ratio")
+        self.push_max = finite_float(push_max, "push_max")
+        for name in ("contact_hertz", "damping_ratio", "push_max"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        self.restitution_threshold = finite_float(restitution_threshold, "restitution_threshold")
+        if self.restitution_threshold < 0.0:
+            raise ValueError(f"restitution_threshold must be >= 0, got {self.restitution_threshold}")
+        if not isinstance(warm_start, (bool, np.bool_)):
+            raise TypeError(f"warm_start must be True or False, got {warm_start!r}")
+        self.warm_start = bool(warm_start)
+        if not isinstance(block, (bool, np.bool_)):
+            raise TypeError(f"block must be True or False, got {block!r}")
+        self.block = bool(block)
+        self.beta = 0.0  # the rows' Baumgarte terms are not used: the push is soft
+        self.slop = 0.0
+
+    def respond(self, ctx: StepContext) -> SolveResult:
+        rows = ctx.rows
+        k = ctx.n_contacts
+        n_rows = 2 * k
+        lam = rows.lam[:n_rows] / self.substeps  # cached impulse per tick -> per sub-step
+        total = np.zeros(n_rows)
+        residuals = np.zeros(self.substeps)
+        static_pair = (ctx.M_inv[ctx.body_a, 0] == 0.0) | (ctx.M_inv[ctx.body_b, 0] == 0.0)
+        n = soft_step_solve(rows.i[:n_rows], rows.j[:n_rows], rows.J[:n_rows], rows.JM[:n_rows],
+                            rows.A_diag[:n_rows], rows.mu[:n_rows], ctx.restitution, ctx.separation, ctx.point,
+                            ctx.normal, static_pair, ctx.x, ctx.theta, ctx.V, ctx.V1, ctx.dt, self.substeps,
+                            self.relax, self.contact_hertz, self.damping_ratio, self.push_max,
+                            self.restitution_threshold, self.block, lam, total, residuals)
+        rows.lam[:n_rows] = total
+        return SolveResult(n, residuals[:n], integrated=True)
+
+    def __repr__(self) -> str:
+        return (f"SoftStep(substeps={self.substeps}, relax={self.relax}, contact_hertz={self.contact_hertz:g}, "
+                f"damping_ratio={self.damping_ratio:g}, push_max={self.push_max:g}, warm_start={self.warm_start}, "
+                f"block={self.block})")
+
+
+__all__ = ["SoftStep", "soft_step_solve"]
