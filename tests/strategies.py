@@ -173,7 +173,27 @@ def pgs_settings(draw, *, warm_start: bool | None = None) -> phys2d.PGS:
         slop=draw(reals(0.0, 0.02)),
         tolerance=draw(st.none() | reals(0.0, 1e-2)),
         restitution_threshold=draw(reals(0.0, 2.0)),
+        block=draw(st.booleans()),
     )
+
+
+@st.composite
+def soft_step_settings(draw) -> phys2d.SoftStep:
+    return phys2d.SoftStep(
+        substeps=draw(st.integers(1, 6)),
+        relax=draw(st.booleans()),
+        contact_hertz=draw(reals(0.0, 60.0)),
+        damping_ratio=draw(reals(0.0, 10.0)),
+        push_max=draw(reals(0.0, 5.0)),
+        restitution_threshold=draw(reals(0.0, 2.0)),
+        warm_start=draw(st.booleans()),
+        block=draw(st.booleans()),
+    )
+
+
+def responders() -> st.SearchStrategy[phys2d.Responder]:
+    """Every responder of the engine, with valid settings."""
+    return pgs_settings() | soft_step_settings()
 
 
 dts = st.sampled_from([1 / 30, 1 / 60, 1 / 120, 1 / 240]) | reals(1e-4, 0.05)

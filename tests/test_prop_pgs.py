@@ -18,7 +18,7 @@ from hypothesis import assume, given, note
 from hypothesis import strategies as st
 
 import phys2d
-from tests.strategies import SceneSpec, build, dts, pgs_settings, reals, run, scenes
+from tests.strategies import SceneSpec, build, dts, pgs_settings, reals, responders, run, scenes
 
 # -- the second method ------------------------------------------------------------
 
@@ -95,10 +95,16 @@ def frictionless(scene: SceneSpec) -> SceneSpec:
 # -- properties ---------------------------------------------------------------------
 
 
-@given(scene=scenes(max_bodies=6, ground=True, static=None), responder=pgs_settings(), dt=dts,
-       lecture=st.just(False))
-def test_pgs_lambda_bounds(scene: SceneSpec, responder: phys2d.PGS, dt: float, lecture: bool) -> None:
-    """After every PGS step: lambda_n >= 0 and |lambda_t| <= mu lambda_n (Coulomb)."""
+@given(scene=scenes(max_bodies=6, ground=True, static=None), responder=responders(), dt=dts)
+def test_pgs_lambda_bounds(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
+    """After every step of PGS: lambda_n >= 0 and |lambda_t| <= mu lambda_n (Coulomb).
+
+    Also SoftStep, on the tick's total impulses, when nothing bounces (e = 0): its
+    per-sub-step bounds then add up to the same bounds. (Its restitution pass may lower
+    a normal impulse after friction has used it, so with e > 0 the totals can leave the
+    cone, as in Box2D v3.)"""
+    if isinstance(responder, phys2d.SoftStep):
+        scene = replace(scene, bodies=tuple(replace(b, restitution=0.0) for b in scene.bodies))
     w = build(scene, responder)
     for _ in run(w, dt, 25):
         c = w.contacts

@@ -18,8 +18,8 @@ from tests.strategies import (
     build,
     dts,
     fingerprint,
-    pgs_settings,
     reals,
+    responders,
     scenes,
     state,
     vectors,
@@ -27,8 +27,8 @@ from tests.strategies import (
 )
 
 
-@given(scene=violent_scenes(), responder=pgs_settings(), dt=dts)
-def test_violent_scenes_stay_finite(scene: SceneSpec, responder: phys2d.PGS, dt: float) -> None:
+@given(scene=violent_scenes(), responder=responders(), dt=dts)
+def test_violent_scenes_stay_finite(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
     """Every step either leaves all state, contacts and residuals finite, or raises
     SimulationError and leaves the world bit-identical to before that step."""
     w = build(scene, responder)
@@ -106,8 +106,8 @@ def test_free_flight_is_semi_implicit_euler(body, gravity, dt: float, steps: int
     assert b.angular_velocity == om0
 
 
-@given(scene=scenes(max_bodies=5, ground=True, static=None), responder=pgs_settings(), dt=dts)
-def test_static_bodies_never_move(scene: SceneSpec, responder: phys2d.PGS, dt: float) -> None:
+@given(scene=scenes(max_bodies=5, ground=True, static=None), responder=responders(), dt=dts)
+def test_static_bodies_never_move(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
     """M^-1 = 0 for static bodies: neither gravity nor any impulse moves them."""
     w = build(scene, responder)
     static = np.array([b.static for b in scene.bodies])
