@@ -259,7 +259,7 @@ class World:
             body_a=body_a, body_b=body_b, point=point[:k], normal=normal[:k],
             separation=separation[:k], feature=feature,
             key=contact_keys(b.uid, body_a, body_b, feature),
-            friction=np.sqrt(b.friction[body_a] * b.friction[body_b]),
+            friction=np.sqrt(b.friction[body_a]) * np.sqrt(b.friction[body_b]),  # no overflow
             restitution=np.maximum(b.restitution[body_a], b.restitution[body_b]))
 
     def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> Rows:
