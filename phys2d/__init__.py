@@ -6,17 +6,38 @@
     box = w.add_box(position=(0.0, 2.0), half_extents=(0.5, 0.5))
     for _ in range(120):
         w.step(1 / 60)
+
+Recordings: ``phys2d.Recorder`` writes a world's ticks to a Rerun .rrd file and
+``phys2d.playback.load`` reads one back; both are imported on first use, so the
+engine itself never loads rerun.
 """
 
 from . import scenes
 from .bodies import Body
+from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
 from .contacts import Contacts
 from .responders.base import Responder, StepReport
+from .responders.iterative import IterativeImpulse
+from .responders.naive import NaiveImpulse
 from .responders.pgs import PGS
 from .responders.soft_step import SoftStep
 from .world import SimulationError, World
 
 __version__ = "0.1.0"
 
-__all__ = ["Body", "Contacts", "PGS", "Responder", "SimulationError", "SoftStep", "StepReport", "World",
-           "scenes", "__version__"]
+__all__ = ["AngleJoint", "Body", "Contacts", "DistanceJoint", "IterativeImpulse", "Joint",
+           "NaiveImpulse", "PGS", "PinJoint", "Recorder", "Responder", "SimulationError", "SoftStep",
+           "StepReport", "World", "playback", "scenes", "__version__"]
+
+
+def __getattr__(name: str):
+    # recording pulls in rerun (~0.3 s): load it when first asked for
+    if name == "Recorder":
+        from .recording import Recorder
+
+        return Recorder
+    if name == "playback":
+        from .recording import playback
+
+        return playback
+    raise AttributeError(f"module 'phys2d' has no attribute {name!r}")

@@ -58,14 +58,14 @@ class BodyArrays:
             setattr(self, "_" + name, np.zeros((8,) + shape, dtype=dtype))
         self._local_v = np.zeros((32, 2))
         self._local_n = np.zeros((32, 2))
+        self._refresh_views()
 
-    # active views: the first n rows
-    def __getattr__(self, name: str):
-        if name in BodyArrays._PER_BODY:
-            return self.__dict__["_" + name][: self.n]
-        if name in ("local_v", "local_n"):
-            return self.__dict__["_" + name][: self.n_verts]
-        raise AttributeError(name)
+    def _refresh_views(self) -> None:
+        """Public names are views of the first n rows (n_verts for vertices): x, theta, V, ..."""
+        for name in self._PER_BODY:
+            setattr(self, name, getattr(self, "_" + name)[: self.n])
+        self.local_v = self._local_v[: self.n_verts]
+        self.local_n = self._local_n[: self.n_verts]
 
     def append(self, spec: ShapeSpec, x, theta, V, mass, inertia, friction, restitution, static) -> int:
         if self.next_uid > MAX_BODY_UID:
@@ -98,6 +98,7 @@ class BodyArrays:
         self.next_uid += 1
         self.n_verts += nv
         self.n += 1
+        self._refresh_views()
         return i
 
     def delete(self, i: int) -> None:
@@ -112,6 +113,7 @@ class BodyArrays:
             a[i : self.n - 1] = a[i + 1 : self.n].copy()
         self.n -= 1
         self._vstart[i : self.n] -= c
+        self._refresh_views()
 
     def snapshot(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.x.copy(), self.theta.copy(), self.V.copy()

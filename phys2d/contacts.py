@@ -15,11 +15,33 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 
 def contact_keys(uid: np.ndarray, body_a: np.ndarray, body_b: np.ndarray,
                  feature: np.ndarray) -> np.ndarray:
     return (uid[body_a] << 39) | (uid[body_b] << 16) | feature.astype(np.int64)
+
+
+@njit(cache=True)
+def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, rank, lam, hit):
+    """Contact caching: walk both sorted key lists together (a merge), and for every
+    contact c found in last tick's cache set hit[c] and start its rows (2 rank[c] and
+    2 rank[c] + 1) from the cached impulses lambda_n and lambda_t. Returns the hits.
+    """
+    hits = 0
+    m = 0
+    for c in range(keys.shape[0]):
+        while m < cache_keys.shape[0] and cache_keys[m] < keys[c]:
+            m += 1
+        if m < cache_keys.shape[0] and cache_keys[m] == keys[c]:
+            hit[c] = True
+            lam[2 * rank[c]] = cache_lambda_n[m]
+            lam[2 * rank[c] + 1] = cache_lambda_t[m]
+            hits += 1
+        else:
+            hit[c] = False
+    return hits
 
 
 @dataclass(eq=False)
@@ -54,6 +76,15 @@ class Contacts:
     def __len__(self) -> int:
         return int(self.body_a.shape[0])
 
+    def reordered(self, order: np.ndarray) -> Contacts:
+        """The same contacts listed in ``order`` (contact order[q] becomes the q-th).
+
+        Arrays not filled yet (the impulses, before the responder) stay empty.
+        """
+        k = len(self)
+        return Contacts(**{name: (a[order] if a.shape[0] == k else a)
+                           for name, a in ((n, getattr(self, n)) for n in self.__dataclass_fields__)})
+
     @property
     def tangent(self) -> np.ndarray:
         """(K, 2) friction direction t = (-n_y, n_x)."""
@@ -81,18 +112,15 @@ class ContactCache:
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def match(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For sorted ``keys``: (hit mask, cached lambda_n, cached lambda_t; 0 where missed)."""
-        if self.keys.shape[0] == 0 or keys.shape[0] == 0:
-            z = np.zeros(keys.shape[0])
-            return np.zeros(keys.shape[0], np.bool_), z, z.copy()
-        idx = np.searchsorted(self.keys, keys)
-        np.minimum(idx, self.keys.shape[0] - 1, out=idx)
-        hit = self.keys[idx] == keys
-        return hit, np.where(hit, self.lambda_n[idx], 0.0), np.where(hit, self.lambda_t[idx], 0.0)
+    def warm_start(self, keys: np.ndarray, rank: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """For sorted ``keys``: start the rows of cached contacts (contact c's rows are
+        2 rank[c] and 2 rank[c] + 1) from their cached impulses; returns the hit mask."""
+        hit = np.zeros(keys.shape[0], np.bool_)
+        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, rank, lam, hit)
+        return hit
 
     def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
-        """Remember this tick's impulses; ``keys`` must be sorted ascending."""
-        self.keys = keys.copy()
-        self.lambda_n = lambda_n.copy()
-        self.lambda_t = lambda_t.copy()
+        """Remember this tick's impulses; ``keys`` must be sorted ascending (kept, not copied)."""
+        self.keys = keys
+        self.lambda_n = lambda_n
+        self.lambda_t = lambda_t

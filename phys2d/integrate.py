@@ -27,3 +27,14 @@ def integrate_positions(x, theta, V, dt):
         x[b, 0] += dt * V[b, 0]
         x[b, 1] += dt * V[b, 1]
         theta[b] += dt * V[b, 2]
+
+
+@njit(cache=True)
+def first_too_fast(V, max_speed):
+    """Index of the first body faster than max_speed (m/s, or rad/s) or not finite; -1 if none."""
+    limit = max_speed * max_speed
+    for b in range(V.shape[0]):
+        v2 = V[b, 0] * V[b, 0] + V[b, 1] * V[b, 1]
+        if not (v2 <= limit and abs(V[b, 2]) <= max_speed):  # NaN fails every comparison
+            return b
+    return -1

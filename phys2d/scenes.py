@@ -101,10 +101,36 @@ def mixed_shapes(n: int = 12, responder: Responder | None = None) -> World:
     return w
 
 
+def pendulum_chain(links: int = 10, responder: Responder | None = None,
+                   link_length: float = 0.5) -> World:
+    """A chain of ``links`` boxes pinned end to end, hung from a static pivot.
+
+    The chain starts straight out to the right of the pivot (at height
+    links * link_length + 1 m, so it never reaches the ground) and swings down.
+    Links are link_length x link_length / 4 boxes; neighbours do not collide.
+    Needs a responder that solves joints (PGS): the naive takes raise ValueError.
+    """
+    links = _check_count(links, "links")
+    if isinstance(link_length, bool) or not isinstance(link_length, (int, float)) \
+            or not link_length > 0 or not math.isfinite(link_length):
+        raise ValueError(f"link_length must be a finite number > 0, got {link_length!r}")
+    w = World(responder=responder)
+    ground(w)
+    top = links * link_length + 1.0
+    previous = w.add_circle(position=(0.0, top), radius=0.05, static=True)
+    half = (0.5 * link_length, 0.125 * link_length)
+    for k in range(links):
+        link = w.add_box(position=((k + 0.5) * link_length, top), half_extents=half)
+        w.add_pin_joint(previous, link, anchor=(k * link_length, top))
+        previous = link
+    return w
+
+
 SCENES = {
     "pyramid": (pyramid, "rows of the pyramid"),
     "vertical_stack": (vertical_stack, "boxes in the stack"),
     "mass_ratio": (mass_ratio, "mass of the heavy box, in kg (the light one is 1 kg)"),
     "dominoes": (dominoes, "dominoes"),
     "mixed_shapes": (mixed_shapes, "bodies dropped"),
+    "pendulum_chain": (pendulum_chain, "links in the chain"),
 }

@@ -14,14 +14,28 @@ import numpy as np
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import sweep_and_prune, update_geometry
+from .collision.broadphase import fits_inside, sweep_and_prune, update_geometry
 from .collision.narrowphase import collide_pairs
-from .constraints.rows import FRICTION_LECTURE, Rows, contact_rows
-from .contacts import ContactCache, Contacts, contact_keys
-from .integrate import apply_external_forces, integrate_positions
+from .constraints.joints import (
+    AngleJoint,
+    DistanceJoint,
+    Joint,
+    JointArrays,
+    PinJoint,
+    check_limits,
+    joint_rows,
+    local_anchor,
+    optional_limit,
+)
+from .constraints.order import colour_pairs, solve_order
+from .constraints.rows import FRICTION_LECTURE, RowBuffer, Rows, contact_rows
+from .contacts import ContactCache, Contacts
+from .integrate import apply_external_forces, first_too_fast, integrate_positions
 from .responders.base import Responder, StepContext, StepReport
 from .responders.pgs import PGS
 from .shapes import finite_float, positive_float, vec2
+
+FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
 
 
 class SimulationError(RuntimeError):
@@ -58,7 +72,14 @@ class World:
         self._handles: list[Body] = []
         self._cache = ContactCache()
         self._excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
+        self._joints: list[Joint] = []
+        self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
         self._pairs = np.zeros((64, 2), np.int32)
+        self._n_pairs = 0
+        self._pair_order = np.zeros(0, np.int32)  # pair indices in solve order (graph colouring)
+        self._solve_order = np.zeros(0, np.int32)  # this step's contacts in solve order
+        self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with; empty: sweep again
+        self._rows = RowBuffer()
         self.contacts = Contacts()
         self.last_step = StepReport()
         self.tick = 0
@@ -78,7 +99,15 @@ class World:
 
     @responder.setter
     def responder(self, value: Responder) -> None:
-        self._responder = self._check_responder(value)
+        value = self._check_responder(value)
+        self._check_joints_supported(value)
+        self._responder = value
+
+    def _check_joints_supported(self, responder: Responder, adding: bool = False) -> None:
+        if (self._joints or adding) and not responder.handles_joints:
+            raise ValueError(
+                f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
+                "(as the lecture's naive takes do); use phys2d.PGS() in a world with joints")
 
     @property
     def gravity(self) -> np.ndarray:
@@ -164,6 +193,7 @@ class World:
                                     restitution, static)
         handle = Body(self, index, int(self._bodies.uid[index]))
         self._handles.append(handle)
+        self._fat = np.zeros((0, 4))  # a new body: sweep again
         return handle
 
     def _own(self, body, name: str = "body") -> int:
@@ -176,15 +206,112 @@ class World:
             raise ValueError(f"{name} was removed from this world")
         return body._index
 
-    def remove(self, body: Body) -> None:
-        """Remove a body; its handle becomes unusable and later indices shift down by one."""
-        i = self._own(body)
+    def remove(self, item: Body | Joint) -> None:
+        """Remove a body (and every joint on it) or a joint; the handle becomes unusable.
+
+        Removing a body shifts the indices of later bodies down by one.
+        """
+        if isinstance(item, Joint):
+            self._remove_joint(item)
+            return
+        if not isinstance(item, Body):
+            raise TypeError(f"item must be a phys2d Body or Joint, got {type(item).__name__}")
+        i = self._own(item)
+        for joint in [q for q in self._joints if i in (q.body_a._index, q.body_b._index)]:
+            self._remove_joint(joint)
         self._bodies.delete(i)
         self._handles.pop(i)
         for h in self._handles[i:]:
             h._index -= 1
-        body._index = -1
+        item._index = -1
         self.contacts = Contacts()  # its indices no longer match w.bodies
+        self._joints_changed()
+
+    # -- joints --------------------------------------------------------------------
+    @property
+    def joints(self) -> tuple[Joint, ...]:
+        """Handles of the joints, in creation order (their rows follow the contact rows)."""
+        return tuple(self._joints)
+
+    def _joint_bodies(self, a, b) -> tuple[Body, Body]:
+        """The world's handles of a and b, after checking they can be joined."""
+        ia, ib = self._own(a, "a"), self._own(b, "b")
+        if ia == ib:
+            raise ValueError("a and b are the same body: a joint needs two bodies")
+        if self._bodies.static[ia] and self._bodies.static[ib]:
+            raise ValueError("a and b are both static: a joint between them could never act")
+        return self._handles[ia], self._handles[ib]
+
+    def add_distance_joint(self, a: Body, b: Body, anchor_a=None, anchor_b=None, length=None,
+                           collide_connected: bool = False) -> DistanceJoint:
+        """Keep point ``anchor_a`` of a and point ``anchor_b`` of b at distance ``length`` (m).
+
+        Anchors are world points (m) at creation, the body centres when None; they are
+        stored in the bodies' frames. ``length`` defaults to their distance now.
+        """
+        body_a, body_b = self._joint_bodies(a, b)
+        local_a = local_anchor(body_a, anchor_a, "anchor_a")
+        local_b = local_anchor(body_b, anchor_b, "anchor_b")
+        p_a = body_a.position if anchor_a is None else np.asarray(anchor_a, np.float64)
+        p_b = body_b.position if anchor_b is None else np.asarray(anchor_b, np.float64)
+        if length is None:
+            length = float(np.hypot(*(p_b - p_a)))
+            if length < 1e-6:
+                raise ValueError("anchor_a and anchor_b coincide, so length would be 0: "
+                                 "use add_pin_joint to hold two points together")
+        else:
+            length = positive_float(length, "length")
+        collide = _check_bool(collide_connected, "collide_connected")
+        self._check_joints_supported(self._responder, adding=True)
+        return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length,
+                                             collide))
+
+    def add_pin_joint(self, a: Body, b: Body, anchor, collide_connected: bool = False) -> PinJoint:
+        """Pin a and b together at the world point ``anchor`` (m): they may turn about it."""
+        body_a, body_b = self._joint_bodies(a, b)
+        if anchor is None:
+            raise TypeError("anchor must be a pair of numbers (x, y), got None")
+        local_a = local_anchor(body_a, anchor, "anchor")
+        local_b = local_anchor(body_b, anchor, "anchor")
+        collide = _check_bool(collide_connected, "collide_connected")
+        self._check_joints_supported(self._responder, adding=True)
+        return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide))
+
+    def add_angle_joint(self, a: Body, b: Body, lower=None, upper=None,
+                        collide_connected: bool = False) -> AngleJoint:
+        """Keep theta_b - theta_a at its value now (theta_0), or with ``lower`` and/or ``upper``
+        (rad, offsets from theta_0) within [theta_0 + lower, theta_0 + upper]."""
+        body_a, body_b = self._joint_bodies(a, b)
+        lower = optional_limit(lower, "lower")
+        upper = optional_limit(upper, "upper")
+        check_limits(lower, upper)
+        collide = _check_bool(collide_connected, "collide_connected")
+        self._check_joints_supported(self._responder, adding=True)
+        theta_0 = body_b.angle - body_a.angle
+        return self._add_joint(AngleJoint(self, body_a, body_b, theta_0, lower, upper, collide))
+
+    def _add_joint(self, joint: Joint) -> Joint:
+        self._joints.append(joint)
+        self._joints_changed()
+        return joint
+
+    def _remove_joint(self, joint: Joint) -> None:
+        if joint._world is not self:
+            raise ValueError("joint belongs to another world")
+        if not joint.alive:
+            raise ValueError("joint was removed from this world")
+        self._joints.remove(joint)
+        joint.alive = False
+        joint._has_rows = False
+        self._joints_changed()
+
+    def _joints_changed(self) -> None:
+        """Repack the joints and rebuild the sorted keys of pairs that must not collide."""
+        self._joint_arrays = JointArrays(self._joints)
+        keys = [(min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
+                for q in self._joints if not q.collide_connected]
+        self._excluded = np.unique(np.asarray(keys, np.int64))
+        self._fat = np.zeros((0, 4))
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:
@@ -193,20 +320,17 @@ class World:
         b = self._bodies
         x, theta, V, M_inv = b.x, b.theta, b.V, b.M_inv
         responder = self._responder
+        self._check_joints_supported(responder)
         before = b.snapshot()
         try:
             V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
             c = self._collide()
-            hit, lam_n, lam_t = self._cache.match(c.key)
-            if not responder.warm_start:
-                hit[:] = False
-            rows = self._build_rows(c, V1, dt)
-            if responder.warm_start:
-                rows.lam[0 : 2 * len(c) : 2] = lam_n
-                rows.lam[1 : 2 * len(c) : 2] = lam_t
-            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), c.body_a, c.body_b, c.point,
-                              c.normal, c.separation, c.restitution)
+            rows, hit = self._build_rows(c, V1, dt)
+            # the responders see contacts in row order: rows 2q, 2q + 1 are contact order[q]'s
+            rc = c if not responder.colour_order else c.reordered(rows.order)
+            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), rc.body_a, rc.body_b, rc.point,
+                              rc.normal, rc.separation, rc.restitution, gravity=self._gravity)
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)
@@ -215,17 +339,20 @@ class World:
             b.restore(before)
             raise
         k = len(c)
-        c.normal_impulse = rows.lam[0 : 2 * k : 2].copy()
-        c.tangent_impulse = rows.lam[1 : 2 * k : 2].copy()
+        c.normal_impulse = np.empty(k)
+        c.tangent_impulse = np.empty(k)
+        c.normal_impulse[rows.order] = rows.lam[0 : 2 * k : 2]
+        c.tangent_impulse[rows.order] = rows.lam[1 : 2 * k : 2]
         c.warm_started = hit
         self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)
+        self._store_joint_impulses(rows, 2 * k)
         self.contacts = c
         self.last_step = StepReport(
             responder=responder.name, dt=dt, iterations=result.iterations,
             residuals=result.residuals,
             max_penetration=float(max(0.0, -c.separation.min())) if k else 0.0,
             contact_count=k, cache_hits=int(hit.sum()),
-            joint_impulses=rows.lam[2 * k :].copy(), system=result.system)
+            joint_impulses=rows.lam[2 * k :].copy(), system=result.system, solve_order=rows.order)
         self.tick += 1
         self.time += dt
         return self.last_step
@@ -233,64 +360,88 @@ class World:
     def _collide(self) -> Contacts:
         """Broadphase and narrowphase at the current positions: this step's contacts."""
         b = self._bodies
-        n = b.n
         world_v = np.empty((b.n_verts, 2))
         world_n = np.empty((b.n_verts, 2))
-        aabb = np.empty((n, 4))
+        aabb = np.empty((b.n, 4))
         update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
                         self.contact_margin, world_v, world_n, aabb)
-        n_pairs = sweep_and_prune(aabb, b.static, self._excluded, self._pairs)
-        if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
-            self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
-            n_pairs = sweep_and_prune(aabb, b.static, self._excluded, self._pairs)
-        cap = 2 * n_pairs
-        body_a = np.empty(cap, np.int32)
-        body_b = np.empty(cap, np.int32)
-        point = np.empty((cap, 2))
-        normal = np.empty((cap, 2))
-        separation = np.empty(cap)
-        feature = np.empty(cap, np.int32)
-        k = collide_pairs(self._pairs, n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount,
-                          world_v, world_n, self.contact_margin, body_a, body_b, point, normal,
-                          separation, feature)
-        body_a, body_b = body_a[:k], body_b[:k]
-        feature = feature[:k]
-        return Contacts(
-            body_a=body_a, body_b=body_b, point=point[:k], normal=normal[:k],
-            separation=separation[:k], feature=feature,
-            key=contact_keys(b.uid, body_a, body_b, feature),
-            friction=np.sqrt(b.friction[body_a]) * np.sqrt(b.friction[body_b]),  # no overflow
-            restitution=np.maximum(b.restitution[body_a], b.restitution[body_b]))
+        if not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
+            fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
+            n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
+            if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
+                self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
+                n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
+            self._fat, self._n_pairs = fat, n_pairs
+            self._pair_order = colour_pairs(self._pairs, n_pairs, b.static, b.n)
+        cap = 2 * self._n_pairs
+        out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
+               np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
+        pair_start = np.empty(self._n_pairs + 1, np.int64)
+        k = collide_pairs(self._pairs, self._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v,
+                          world_n, self.contact_margin, b.uid, b.friction, b.restitution, *out, pair_start)
+        body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
+        self._solve_order = solve_order(self._pair_order, pair_start)
+        return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
+                        feature=feature, key=key, friction=mu, restitution=e)
 
-    def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> Rows:
-        """Constraint rows for this step's contacts (2 per point)."""
+    def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> tuple[Rows, np.ndarray]:
+        """Constraint rows for this step: contacts (2 per point), then the joints' rows.
+
+        Returns the rows, lambda started from the contact cache when the responder
+        warm starts, and the mask of contacts found in the cache.
+        """
         b = self._bodies
         r = self._responder
         k = len(c)
-        rows = Rows(2 * k)
+        ja = self._joint_arrays
+        rows = self._rows.take(2 * k + ja.n_rows)
+        rows.order = self._solve_order if r.colour_order else np.arange(k, dtype=np.int32)
         if r.friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = np.ones(k)
-        contact_rows(c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
+        contact_rows(rows.order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
                      c.restitution, b.x, V1, b.M_inv, dt, r.beta, r.slop,
                      r.restitution_threshold, r.friction_model,
                      float(math.hypot(*self._gravity)), points_in_manifold,
                      rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
                      rows.bound_row, rows.mu, rows.kind)
-        return rows
+        if r.warm_start:
+            rank = rows.order  # pair order: contact c's rows are 2c, 2c + 1
+            if r.colour_order:
+                rank = np.empty(k, np.int32)
+                rank[rows.order] = np.arange(k, dtype=np.int32)
+            hit = self._cache.warm_start(c.key, rank, rows.lam)
+        else:
+            hit = np.zeros(k, np.bool_)
+        if ja.n_rows:
+            joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
+                       2 * k, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J, rows.JM,
+                       rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+            if r.warm_start:  # joints keep their identity: start from last step's reactions
+                for q, joint in enumerate(self._joints):
+                    start = 2 * k + ja.row_offset[q]
+                    rows.lam[start : start + joint.row_count] = joint._impulse
+        return rows, hit
+
+    def _store_joint_impulses(self, rows: Rows, first: int) -> None:
+        """Hand each joint its rows and reactions of the step just taken."""
+        ja = self._joint_arrays
+        for q, joint in enumerate(self._joints):
+            start = first + int(ja.row_offset[q])
+            joint._row_start = start
+            joint._has_rows = True
+            joint._impulse = rows.lam[start : start + joint.row_count].copy()
 
     def _check_limits(self) -> None:
-        b = self._bodies
-        V = b.V
-        speed = np.hypot(V[:, 0], V[:, 1])
-        # a finite velocity times a huge dt can still overflow x or theta
-        bad = ~(np.isfinite(speed) & (speed <= self._max_speed)
-                & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed)
-                & np.isfinite(b.x).all(axis=1) & np.isfinite(b.theta))
-        if bad.any():
+        V = self._bodies.V
+        first = first_too_fast(V, self._max_speed)
+        if first >= 0:
+            speed = np.hypot(V[:, 0], V[:, 1])
+            bad = ~(np.isfinite(speed) & (speed <= self._max_speed)
+                    & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed))
             idx = np.flatnonzero(bad)
             shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
             raise SimulationError(

@@ -41,8 +41,8 @@ VERTEX_BIT = 1 << 7
 REFERENCE_FACE_TOL = 5e-4  # m
 
 
-@njit(cache=True)
-def _max_separation(world_v, world_n, sa, na, sb, nb):
+@njit(cache=True, inline="always")
+def _max_separation(world_v, world_n, sa, na, sb, nb, margin):
     """Edge of polygon A whose outward normal separates B the most: (edge, separation m)."""
     best_edge = 0
     best = -np.inf
@@ -57,10 +57,12 @@ def _max_separation(world_v, world_n, sa, na, sb, nb):
         if deepest > best:
             best = deepest
             best_edge = e
+            if best > margin:
+                break  # a separating axis: no contact, whatever the other edges say
     return best_edge, best
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     """Polygon-polygon manifold of polygons A (vertices sa..sa+na) and B.
 
@@ -68,10 +70,10 @@ def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     the normal from A to B and count in 0..2 (the first ``count`` points are valid).
     """
     none = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0)
-    edge_a, sep_a = _max_separation(world_v, world_n, sa, na, sb, nb)
+    edge_a, sep_a = _max_separation(world_v, world_n, sa, na, sb, nb, margin)
     if sep_a > margin:
         return none
-    edge_b, sep_b = _max_separation(world_v, world_n, sb, nb, sa, na)
+    edge_b, sep_b = _max_separation(world_v, world_n, sb, nb, sa, na, margin)
     if sep_b > margin:
         return none
     # reference face: the one that separates most, with a bias towards A's
@@ -193,15 +195,18 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
-def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, margin,
-                  out_a, out_b, out_p, out_n, out_s, out_f):
+def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, margin, uid, friction,
+                  restitution, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e, pair_start):
     """Manifolds of the first n_pairs candidate pairs; returns the number of points K.
 
-    Points up to ``margin`` apart (m) are kept as speculative contacts. The out
-    arrays need room for 2 * n_pairs points.
+    Points up to ``margin`` apart (m) are kept as speculative contacts. Each point also
+    gets its contact key (uid_a << 39 | uid_b << 16 | feature), the pair's friction
+    sqrt(mu_a mu_b) and restitution max(e_a, e_b). The out arrays need room for
+    2 * n_pairs points; pair q's points are pair_start[q] up to pair_start[q + 1].
     """
     k = 0
     for q in range(n_pairs):
+        pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
         if kind[a] != CIRCLE and kind[b] != CIRCLE:
             m = collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
@@ -221,8 +226,14 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
                 sign = 1.0
             count, nx, ny = c[0], sign * c[1], sign * c[2]
             points = ((c[3], c[4], c[5], c[6]), (c[3], c[4], c[5], c[6]))
+        pair_key = (uid[a] << 39) | (uid[b] << 16)
+        mu = np.sqrt(friction[a] * friction[b])
+        e = max(restitution[a], restitution[b])
         for m in range(count):
             px, py, sep, feature = points[m]
+            out_key[k] = pair_key | feature
+            out_mu[k] = mu
+            out_e[k] = e
             out_a[k] = a
             out_b[k] = b
             out_p[k, 0] = px
@@ -232,4 +243,5 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
             out_s[k] = sep
             out_f[k] = feature
             k += 1
+    pair_start[n_pairs] = k
     return k

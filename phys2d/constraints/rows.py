@@ -13,8 +13,10 @@ A row k couples bodies i and j. Everything the responders need is stored per row
     mu         (R,)    friction coefficient of a friction row
     lam        (R,)    lambda_k, impulses in N s: the warm start going in, the answer coming out
     kind       (R,)    ROW_NORMAL, ROW_FRICTION, ROW_JOINT
-
-Contact point c owns rows 2c (normal) and 2c + 1 (friction); joint rows follow.
+    order      (K,)    which contact each pair of rows belongs to: rows 2q (normal)
+                       and 2q + 1 (friction) are contact order[q]'s. The rows are
+                       stored in the order the responders visit them (graph colouring,
+                       see ``constraints.order``); joint rows follow the contact rows.
 """
 
 from __future__ import annotations
@@ -46,13 +48,35 @@ class Rows:
         self.mu = np.zeros(n_rows)
         self.lam = np.zeros(n_rows)
         self.kind = np.zeros(n_rows, np.int8)
+        self.order = np.arange(n_rows // 2, dtype=np.int32)  # rows 2q, 2q + 1 are contact order[q]
 
     def __len__(self) -> int:
         return int(self.i.shape[0])
 
+    def head(self, n_rows: int) -> Rows:
+        """The first n_rows rows as views (no copy), with lambda reset to 0."""
+        rows = object.__new__(Rows)
+        for name in ("i", "j", "J", "JM", "A_diag", "xi", "lo", "hi", "bound_row", "mu", "lam", "kind"):
+            setattr(rows, name, getattr(self, name)[:n_rows])
+        rows.lam[:] = 0.0
+        rows.order = np.zeros(0, np.int32)  # the caller sets the contacts' solve order
+        return rows
+
+
+class RowBuffer:
+    """Row storage reused from step to step, so a step allocates no row arrays."""
+
+    def __init__(self) -> None:
+        self._rows = Rows(0)
+
+    def take(self, n_rows: int) -> Rows:
+        if n_rows > len(self._rows):
+            self._rows = Rows(max(n_rows, 2 * len(self._rows)))
+        return self._rows.head(n_rows)
+
 
 @njit(cache=True)
-def _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx, dy, M_inv, J, JM, A_diag):
+def fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx, dy, M_inv, J, JM, A_diag):
     """Row k of J for direction d acting at lever arms r_i, r_j: [-d, -(r_i x d) | d, r_j x d]."""
     J[k, 0] = -dx
     J[k, 1] = -dy
@@ -76,10 +100,10 @@ def row_velocity(k, i, j, J, V):
 
 
 @njit(cache=True)
-def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv, dt, beta,
+def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv, dt, beta,
                  slop, restitution_threshold, friction_model, gravity, points_in_manifold,
                  out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu, kind):
-    """Normal row 2c and friction row 2c + 1 for every contact point c (FORMULATION.md).
+    """Normal row 2q and friction row 2q + 1 for contact point c = order[q] (FORMULATION.md).
 
     Normal:   xi = -(beta/dt) min(0, C + slop) when touching (C <= 0); xi = -C/dt for a
               speculative point still C > 0 apart (it may close the gap, no more); the
@@ -89,21 +113,23 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
     """
-    for c in range(body_a.shape[0]):
+    for q in range(order.shape[0]):
+        c = order[q]
         i, j = body_a[c], body_b[c]
         nx, ny = normal[c, 0], normal[c, 1]
         r_ix, r_iy = point[c, 0] - x[i, 0], point[c, 1] - x[i, 1]
         r_jx, r_jy = point[c, 0] - x[j, 0], point[c, 1] - x[j, 1]
-        k = 2 * c
+        k = 2 * q
         out_i[k] = i
         out_j[k] = j
-        _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
+        fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
         if separation[c] > 0.0:
             push = -separation[c] / dt  # speculative: close the gap within the step, no more
         else:
             push = -(beta / dt) * min(0.0, separation[c] + slop)  # Baumgarte
         vn = row_velocity(k, i, j, J, V1)
-        if vn < -restitution_threshold:
+        # bounce only a point that approaches fast and will touch within this step
+        if vn < -restitution_threshold and separation[c] + dt * vn <= 0.0:
             push = max(push, -e[c] * vn)
         xi[k] = push
         lo[k] = 0.0
@@ -114,7 +140,7 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
         k += 1
         out_i[k] = i
         out_j[k] = j
-        _fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
+        fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
         xi[k] = 0.0
         out_mu[k] = mu[c]
         kind[k] = 1
@@ -126,6 +152,7 @@ def contact_rows(body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv,
             # the reduced mass of the pair: a static partner counts as infinitely heavy
             inv = M_inv[i, 0] + M_inv[j, 0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
+            # fixed: it does not look at lambda_n, so it acts on speculative points too
             bound = mu[c] * m_c * gravity * dt
             bound_row[k] = -1
             lo[k] = -bound

@@ -35,6 +35,16 @@ class StepContext:
     normal: np.ndarray  # (K, 2) from a to b
     separation: np.ndarray  # (K,) m, negative when overlapping
     restitution: np.ndarray  # (K,) mixed e of each contact
+    gravity: np.ndarray | None = None  # (2,) m/s^2, the only external force
+
+    @property
+    def F_ext(self) -> np.ndarray:
+        """(N, 3) external forces and torques [f_x, f_y, tau] (N, N m): m g on dynamic bodies."""
+        F = np.zeros(self.M_inv.shape)
+        if self.gravity is not None:
+            dyn = self.M_inv[:, 0] > 0.0
+            F[dyn, :2] = self.gravity / self.M_inv[dyn, 0:1]
+        return F
 
 
 @dataclass(eq=False)
@@ -62,6 +72,8 @@ class StepReport:
     cache_hits: int = 0
     joint_impulses: np.ndarray = field(default_factory=lambda: np.zeros(0))
     system: object = None
+    solve_order: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    # rows 2q (normal) and 2q + 1 (friction) of the step's system belong to contact solve_order[q]
 
     @property
     def cache_hit_rate(self) -> float:
@@ -83,6 +95,8 @@ class Responder:
     restitution_threshold  approach speed (m/s) above which contacts bounce
     warm_start  whether the world should start lambda from the contact cache
     handles_joints  whether joint rows may be given to this responder
+    colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
+                    instead of in pair order: faster sweeps, a different Gauss-Seidel order
     """
 
     name = "responder"
@@ -91,6 +105,7 @@ class Responder:
     restitution_threshold = 1.0
     warm_start = False
     handles_joints = False
+    colour_order = False
     friction_model = FRICTION_COULOMB
 
     def respond(self, ctx: StepContext) -> SolveResult:  # pragma: no cover - interface

@@ -13,6 +13,7 @@ from numba import njit
 from ..constraints.rows import FRICTION_COULOMB, FRICTION_LECTURE
 from ..shapes import finite_float
 from .base import Responder, SolveResult, StepContext
+from .pgs_matrix import solve_matrix_form
 
 
 @njit(cache=True)
@@ -54,22 +55,26 @@ def block_is_well_conditioned(k11, k12, k22):
 
 
 @njit(cache=True)
-def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block):
+def sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V, block):
     """One projected Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s).
 
-    Row by row in order (the lecture's PGS: a contact's normal row, then its
-    friction row), or with ``block`` each two-point manifold's normal rows
+    Rows in order: each contact's normal row then its friction row (the lecture's
+    PGS, row by row), or with ``block`` each two-point manifold's normal rows
     together as a 2x2 LCP (Box2D's block solver), then its two friction rows.
+    Joint rows come last.
     """
     worst = 0.0
-    n_rows = lam.shape[0]
-    k = 0
-    while k < n_rows:
-        a, b = i[k], j[k]
-        first, second, step = k, k + 1, 2  # a contact's normal and friction rows
-        if k >= 2 * n_contacts:
+    n_steps = n_contacts + lam.shape[0] - 2 * n_contacts
+    q = 0
+    while q < n_steps:
+        if q >= n_contacts:
+            k = 2 * n_contacts + (q - n_contacts)
             first, second, step = k, -1, 1  # a joint row
-        elif block and k + 2 < 2 * n_contacts and i[k + 2] == a and j[k + 2] == b:
+        else:
+            k = 2 * q
+            first, second, step = k, k + 1, 1  # a contact's normal and friction rows
+        a, b = i[k], j[k]
+        if block and q + 1 < n_contacts and i[k + 2] == a and j[k + 2] == b:
             n1, n2 = k, k + 2
             k11, k22 = A_diag[n1], A_diag[n2]
             k12 = 0.0
@@ -91,16 +96,14 @@ def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, bl
                     V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
                     V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
                 worst = max(worst, abs(d1) * k11, abs(d2) * k22)
-                first, second, step = n1 + 1, n2 + 1, 4  # then the two friction rows
-            else:
-                first, second, step = k, k + 1, 2  # nearly parallel rows: one by one
+                first, second, step = n1 + 1, n2 + 1, 2  # then the two friction rows
         for r in range(2):
             kk = first if r == 0 else second
             if kk < 0 or A_diag[kk] <= 0.0:
                 continue  # no row, or both bodies static: nothing can move
             jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
                   + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
-            delta = (xi[kk] - jv) / A_diag[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
+            delta = (xi[kk] - jv) * inv_A[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
             if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
                 top = mu[kk] * lam[bound_row[kk]]
                 low = -top
@@ -117,7 +120,7 @@ def sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, bl
             err = abs(delta) * A_diag[kk]
             if err > worst:
                 worst = err
-        k += step
+        q += step
     return worst
 
 
@@ -129,8 +132,12 @@ def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations
     Returns the number of sweeps made; residuals[s] is the residual after sweep s.
     """
     apply_impulses(i, j, JM, lam, V)
+    inv_A = np.zeros(A_diag.shape[0])  # 1 / A_kk, once per step: sweeps multiply, never divide
+    for k in range(A_diag.shape[0]):
+        if A_diag[k] > 0.0:
+            inv_A[k] = 1.0 / A_diag[k]
     for s in range(iterations):
-        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, block)
+        residuals[s] = sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V, block)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -154,7 +161,13 @@ class PGS(Responder):
     tolerance    stop early once a sweep's residual (m/s) is at most this; None: never
     restitution_threshold  approach speed (m/s) above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
-    form         'impulse' (sequential impulses over the rows)
+                 with m_c the pair's reduced mass m_a m_b / (m_a + m_b) (m_a on a static
+                 partner) shared equally by the manifold's points: exactly Coulomb's bound
+                 for one body resting on flat ground, but blind to any load on top, to
+                 slopes and to impacts, since it never looks at lambda_n
+    form         'impulse' (sequential impulses over the rows) or 'matrix' (J, M^-1,
+                 A = J M^-1 J^T and b assembled and swept: ``phys2d.responders.pgs_matrix``;
+                 the assembled system is left on ``w.last_step.system``)
     block        solve the two normal rows of each two-point manifold together, as an
                  exact 2x2 LCP (Box2D's block solver): a block Gauss-Seidel that does
                  not rock a resting box from corner to corner. Off by default: the
@@ -191,12 +204,17 @@ class PGS(Responder):
             raise ValueError(f"friction must be 'coulomb' or 'lecture', got {friction!r}")
         self.friction = friction
         self.friction_model = models[friction]
-        if not isinstance(form, str) or form not in ("impulse",):
-            raise ValueError(f"form must be 'impulse', got {form!r}")
+        if not isinstance(form, str) or form not in ("impulse", "matrix"):
+            raise ValueError(f"form must be 'impulse' or 'matrix', got {form!r}")
         self.form = form
+        if form == "matrix":
+            self.name = "pgs-matrix"
         if not isinstance(block, (bool, np.bool_)):
             raise TypeError(f"block must be True or False, got {block!r}")
         self.block = bool(block)
+        if self.block and form == "matrix":
+            raise ValueError("block=True solves manifolds in pairs of rows; form='matrix' is the "
+                             "lecture's row-by-row sweep: use one or the other")
         if self.block:
             self.name = "pgs-block"
         if not self.warm_start:
@@ -206,6 +224,8 @@ class PGS(Responder):
         r = ctx.rows
         residuals = np.zeros(self.iterations)
         tol = -1.0 if self.tolerance is None else self.tolerance
+        if self.form == "matrix":
+            return solve_matrix_form(ctx, self.iterations, tol)
         n = pgs_solve(r.i, r.j, r.J, r.JM, r.A_diag, r.xi, r.lo, r.hi, r.bound_row, r.mu, r.lam,
                       ctx.V, self.iterations, tol, residuals, self.block, ctx.n_contacts)
         return SolveResult(n, residuals[:n])

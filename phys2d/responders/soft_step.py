@@ -38,63 +38,63 @@ from .pgs import _check_int, block_is_well_conditioned, lcp2
 
 
 @njit(cache=True)
-def _soft(hertz, zeta, h):
-    """(bias_rate 1/s, mass_scale, impulse_scale) of a soft constraint over a sub-step h."""
+def _soft(hertz, zeta, h, push_max):
+    """(bias_rate 1/s, mass_scale, impulse_scale, push_max m/s) of a soft constraint over a sub-step h."""
     if hertz == 0.0:
-        return 0.0, 1.0, 0.0
+        return 0.0, 1.0, 0.0, push_max
     omega = 2.0 * np.pi * hertz
     a1 = 2.0 * zeta + h * omega
     a2 = h * omega * a1
     a3 = 1.0 / (1.0 + a2)
-    return omega / a1, a2 * a3, a3
+    return omega / a1, a2 * a3, a3, push_max
 
 
 @njit(cache=True)
-def _separation(c, a, b, C0, r, normal, x, theta, x0, theta0):
-    """Current separation of point c from its bodies' motion since the tick began (m)."""
-    s = C0[c]
-    for side in range(2):
-        body = a if side == 0 else b
-        sign = -1.0 if side == 0 else 1.0
-        dth = theta[body] - theta0[body]
-        cs, sn = np.cos(dth), np.sin(dth)
-        rx, ry = r[c, 2 * side], r[c, 2 * side + 1]
-        # displacement of the anchor: dx + (R(dth) r - r)
-        dx = x[body, 0] - x0[body, 0] + cs * rx - sn * ry - rx
-        dy = x[body, 1] - x0[body, 1] + sn * rx + cs * ry - ry
-        s += sign * (dx * normal[c, 0] + dy * normal[c, 1])
-    return s
+def _velocity(k, a, b, J, V):
+    """J_k V (m/s)."""
+    return (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
+            + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
 
 
 @njit(cache=True)
 def _apply(k, a, b, JM, d, V):
+    """V += M^-1 J_k^T d."""
     for q in range(3):
         V[a, q] += JM[k, q] * d
         V[b, q] += JM[k, 3 + q] * d
 
 
 @njit(cache=True)
-def _velocity(k, a, b, J, V):
-    return (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-            + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
+def _separation(c, a, b, C0, r, normal, moved):
+    """Current separation of point c (m) from its bodies' motion since the tick began.
+
+    moved[body] = (dx, dy, cos dtheta, sin dtheta); each anchor has moved by
+    dx + R(dtheta) r - r.
+    """
+    s = C0[c]
+    for side in range(2):
+        body = a if side == 0 else b
+        rx, ry = r[c, 2 * side], r[c, 2 * side + 1]
+        dx = moved[body, 0] + moved[body, 2] * rx - moved[body, 3] * ry - rx
+        dy = moved[body, 1] + moved[body, 3] * rx + moved[body, 2] * ry - ry
+        d = dx * normal[c, 0] + dy * normal[c, 1]
+        s += d if side == 1 else -d
+    return s
 
 
 @njit(cache=True)
-def _push(c, a, b, C0, r, normal, static_pair, x, theta, x0, theta0, h, use_bias, soft_dyn, soft_static,
-          push_max):
-    """(bias m/s, mass_scale, impulse_scale) of contact point c's normal row now."""
-    s = _separation(c, a, b, C0, r, normal, x, theta, x0, theta0)
+def _push(s, h, use_bias, soft):
+    """(bias m/s, mass_scale, impulse_scale) of a normal row whose separation is s (m)."""
     if s > 0.0:
         return s / h, 1.0, 0.0  # speculative: close the gap, no more
     if use_bias:
-        soft = soft_static if static_pair[c] else soft_dyn
-        return max(soft[0] * s, -push_max), soft[1], soft[2]
+        return max(soft[0] * s, -soft[3]), soft[1], soft[2]
     return 0.0, 1.0, 0.0
 
 
 @njit(cache=True)
-def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0, theta0, lam, V, h,
-               use_bias, soft_dyn, soft_static, push_max, block):
+def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V, h, use_bias, soft_dyn,
+               soft_static, block):
     """One sweep over the contacts: normal rows (soft push if use_bias), then friction.
 
     With ``block`` the two normal rows of a two-point manifold are solved together
@@ -108,6 +108,7 @@ def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0
     while c < n_contacts:
         k = 2 * c
         a, b = i[k], j[k]
+        soft = soft_static if static_pair[c] else soft_dyn
         if block and c + 1 < n_contacts and i[k + 2] == a and j[k + 2] == b:
             k2 = k + 2
             k11, k22 = A_diag[k], A_diag[k2]
@@ -115,10 +116,8 @@ def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0
             for q in range(6):
                 k12 += J[k, q] * JM[k2, q]
             if block_is_well_conditioned(k11, k12, k22):
-                bias1, ms1, is1 = _push(c, a, b, C0, r, normal, static_pair, x, theta, x0, theta0, h, use_bias,
-                                        soft_dyn, soft_static, push_max)
-                bias2, ms2, is2 = _push(c + 1, a, b, C0, r, normal, static_pair, x, theta, x0, theta0, h,
-                                        use_bias, soft_dyn, soft_static, push_max)
+                bias1, ms1, is1 = _push(_separation(c, a, b, C0, r, normal, moved), h, use_bias, soft)
+                bias2, ms2, is2 = _push(_separation(c + 1, a, b, C0, r, normal, moved), h, use_bias, soft)
                 a1, a2 = lam[k], lam[k2]
                 b1 = ms1 * (_velocity(k, a, b, J, V) + bias1) + is1 * k11 * a1 - (k11 * a1 + k12 * a2)
                 b2 = ms2 * (_velocity(k2, a, b, J, V) + bias2) + is2 * k22 * a2 - (k12 * a1 + k22 * a2)
@@ -131,8 +130,7 @@ def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0
                 c += 2
                 continue
         if A_diag[k] > 0.0:
-            bias, mass_scale, impulse_scale = _push(c, a, b, C0, r, normal, static_pair, x, theta, x0, theta0,
-                                                    h, use_bias, soft_dyn, soft_static, push_max)
+            bias, mass_scale, impulse_scale = _push(_separation(c, a, b, C0, r, normal, moved), h, use_bias, soft)
             d = -mass_scale * (_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
             new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
             d = new - lam[k]
@@ -169,10 +167,12 @@ def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, sta
     n_contacts = n_rows // 2
     h = dt / substeps
     hertz = min(contact_hertz, 0.25 / h)
-    soft_dyn = _soft(hertz, damping_ratio, h)
-    soft_static = _soft(2.0 * hertz, damping_ratio, h)
+    soft_dyn = _soft(hertz, damping_ratio, h, push_max)
+    soft_static = _soft(2.0 * hertz, damping_ratio, h, push_max)
     x0 = x.copy()
     theta0 = theta.copy()
+    moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
+    moved[:, 2] = 1.0
     # lever arms at the start of the tick, and the approach speed before forces (for bouncing)
     r = np.empty((n_contacts, 4))
     vn0 = np.empty(n_contacts)
@@ -193,16 +193,19 @@ def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, sta
         for k in range(n_rows):  # warm start: last sub-step's impulses
             if lam[k] != 0.0:
                 _apply(k, i[k], j[k], JM, lam[k], V)
-        soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta, x0, theta0, lam, V, h,
-                   True, soft_dyn, soft_static, push_max, block)
+        soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V, h, True, soft_dyn,
+                   soft_static, block)
         for b in range(x.shape[0]):
             x[b, 0] += h * V[b, 0]
             x[b, 1] += h * V[b, 1]
             theta[b] += h * V[b, 2]
+            moved[b, 0] = x[b, 0] - x0[b, 0]
+            moved[b, 1] = x[b, 1] - x0[b, 1]
+            moved[b, 2] = np.cos(theta[b] - theta0[b])
+            moved[b, 3] = np.sin(theta[b] - theta0[b])
         if relax:
-            residuals[n_sweeps] = soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, x, theta,
-                                              x0, theta0, lam, V, h, False, soft_dyn, soft_static, push_max,
-                                              block)
+            residuals[n_sweeps] = soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V,
+                                              h, False, soft_dyn, soft_static, block)
         else:
             residuals[n_sweeps] = 0.0
         n_sweeps += 1
@@ -239,6 +242,7 @@ class SoftStep(Responder):
 
     name = "soft-step"
     handles_joints = False
+    colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
 
     def __init__(self, substeps: int = 4, relax: bool = True, contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, push_max: float = 3.0, restitution_threshold: float = 1.0,

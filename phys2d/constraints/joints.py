@@ -1,0 +1,326 @@
+"""Joints as constraint rows: distance, pin (revolute point) and relative angle.
+
+A joint couples bodies a (the row's i) and b (the row's j); either may be static.
+Anchors are given in world coordinates when the joint is made and stored in each
+body's frame, so they ride with the bodies. Each step the world turns every joint
+into rows (FORMULATION.md, "Constraint rows"), appended after the contact rows,
+with Baumgarte stabilisation xi = -(beta/dt) C:
+
+    distance  1 row   C = (|d|^2 - L^2) / (2 L),   J = [-d, -(r_a x d) | d, r_b x d] / L
+    pin       2 rows  C = p_b - p_a along x and y,  J = [-e, -(r_a x e) | e, r_b x e]
+    angle     1 row   C = theta_b - theta_a - theta_0,  J = [0, 0, -1 | 0, 0, 1], or
+              one one-sided row per limit (lower, upper) with lambda >= 0
+
+with d = p_b - p_a the vector between the anchors, e the unit x or y vector and
+r = p - x each body's lever arm to its anchor.
+
+The distance row is the lecture's C = 1/2 (|d|^2 - L^2) and J = [-d, ... d, ...]
+divided by L. Dividing a row and its C by the same positive number is the same
+constraint (same zero set, same force direction), but it makes the row's
+numbers independent of the joint's size: d / L is nearly a unit vector, so
+C / L ~ |d| - L is in metres, xi in m/s, lambda in N s along d / |d| (negative
+when the joint pulls: tension) and A_kk ~ 1/m_a + 1/m_b + angular terms, as for a
+contact row. Without it, A_kk grows as L^2 and lambda shrinks as 1 / L, so rows of
+short and long joints would differ in scale by orders of magnitude.
+
+Angle limits are offsets from theta_0, the angle difference at creation. Inside
+the limits each limit row is speculative, like a speculative contact: it lets
+the remaining gap close within the step and no further (xi = -gap / dt); past a
+limit it pushes back with xi = -(beta/dt) C. lambda >= 0 on both rows: a limit
+stops rotation, it never holds it back.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..shapes import finite_float, vec2
+from .rows import ROW_JOINT, fill_row
+
+JOINT_DISTANCE = 0
+JOINT_PIN = 1
+JOINT_ANGLE = 2
+
+
+def _rotate_back(p: np.ndarray, x: np.ndarray, theta: float) -> np.ndarray:
+    """World point p (m) in the frame of a body at x, theta."""
+    c, s = math.cos(theta), math.sin(theta)
+    d = p - x
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+
+class Joint:
+    """A joint between two bodies: a handle onto its parameters and last reactions.
+
+    body_a, body_b      the joined bodies (``Body`` handles; either may be static)
+    collide_connected   whether body_a and body_b still collide with each other
+    row_count           how many constraint rows the joint adds to a step
+    row_range           the rows it had in the last step (indices into that step's
+                        rows, i.e. ``w.last_step.system``); empty before the first step
+    impulse             (row_count,) the lambdas of those rows in the last step (N s,
+                        or N m s for angle rows); zeros before the first step
+    alive               False once removed from its world
+    """
+
+    kind = -1
+    name = "joint"
+
+    def __init__(self, world, body_a, body_b, local_a: np.ndarray, local_b: np.ndarray,
+                 collide_connected: bool) -> None:
+        self._world = world
+        self.body_a = body_a
+        self.body_b = body_b
+        self.local_a = local_a  # anchor in body a's frame, m
+        self.local_b = local_b
+        self.collide_connected = collide_connected
+        self._impulse = np.zeros(self.row_count)
+        self._row_start = 0
+        self._has_rows = False
+        self.alive = True
+
+    @property
+    def row_count(self) -> int:
+        return 1
+
+    @property
+    def row_range(self) -> range:
+        if not self._has_rows:
+            return range(0)
+        return range(self._row_start, self._row_start + self.row_count)
+
+    @property
+    def impulse(self) -> np.ndarray:
+        """The reaction impulses of the joint's rows in the last step (a copy)."""
+        return self._impulse.copy()
+
+    def _params(self) -> tuple[float, float, float, float, float]:
+        """(length, theta_0, lower, upper, limit flags) for the packed joint arrays."""
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+
+    def _check_alive(self) -> None:
+        if not self.alive:
+            raise ValueError(f"this {self.name} joint was removed from its world")
+
+    def anchors(self) -> tuple[np.ndarray, np.ndarray]:
+        """The two anchor points p_a, p_b in world coordinates now (m)."""
+        self._check_alive()
+        return (_to_world(self.body_a, self.local_a), _to_world(self.body_b, self.local_b))
+
+    def __repr__(self) -> str:
+        state = "" if self.alive else " (removed)"
+        a = self.body_a._index if self.body_a.alive else "removed"
+        b = self.body_b._index if self.body_b.alive else "removed"
+        return f"<{type(self).__name__} bodies {a} and {b}, {self.row_count} rows{state}>"
+
+
+def _to_world(body, local: np.ndarray) -> np.ndarray:
+    x = body.position
+    c, s = math.cos(body.angle), math.sin(body.angle)
+    return x + np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
+
+
+class DistanceJoint(Joint):
+    """Keeps the anchor points p_a and p_b at distance ``length`` (m): a massless rod."""
+
+    kind = JOINT_DISTANCE
+    name = "distance"
+
+    def __init__(self, world, body_a, body_b, local_a, local_b, length: float,
+                 collide_connected: bool) -> None:
+        self.length = length
+        super().__init__(world, body_a, body_b, local_a, local_b, collide_connected)
+
+    def _params(self):
+        return self.length, 0.0, 0.0, 0.0, 0.0
+
+    def gap(self) -> float:
+        """| |p_b - p_a| - L |: how far the rod is from its length now (m)."""
+        p_a, p_b = self.anchors()
+        return abs(float(np.hypot(*(p_b - p_a))) - self.length)
+
+
+class PinJoint(Joint):
+    """Keeps one point of a and one point of b together: a revolute joint (2 rows, x and y)."""
+
+    kind = JOINT_PIN
+    name = "pin"
+
+    @property
+    def row_count(self) -> int:
+        return 2
+
+    def gap(self) -> float:
+        """|p_b - p_a|: how far apart the two pinned points are now (m)."""
+        p_a, p_b = self.anchors()
+        return float(np.hypot(*(p_b - p_a)))
+
+
+LIMIT_LOWER = 1.0
+LIMIT_UPPER = 2.0
+
+
+class AngleJoint(Joint):
+    """Keeps theta_b - theta_a at theta_0 (its value at creation), or within
+    [theta_0 + lower, theta_0 + upper] when limits are given (rad)."""
+
+    kind = JOINT_ANGLE
+    name = "angle"
+
+    def __init__(self, world, body_a, body_b, theta_0: float, lower: float | None,
+                 upper: float | None, collide_connected: bool) -> None:
+        self.theta_0 = theta_0
+        self.lower = lower
+        self.upper = upper
+        z = np.zeros(2)
+        super().__init__(world, body_a, body_b, z, z.copy(), collide_connected)
+
+    @property
+    def limited(self) -> bool:
+        return self.lower is not None or self.upper is not None
+
+    @property
+    def row_count(self) -> int:
+        if not self.limited:
+            return 1
+        return int(self.lower is not None) + int(self.upper is not None)
+
+    def _params(self):
+        flags = (LIMIT_LOWER if self.lower is not None else 0.0) + \
+            (LIMIT_UPPER if self.upper is not None else 0.0)
+        return (0.0, self.theta_0, 0.0 if self.lower is None else self.lower,
+                0.0 if self.upper is None else self.upper, flags)
+
+    def offset(self) -> float:
+        """theta_b - theta_a - theta_0 now (rad)."""
+        self._check_alive()
+        return self.body_b.angle - self.body_a.angle - self.theta_0
+
+
+# -- building joints (validation; the world owns the lists) ---------------------------------
+def optional_limit(value, name: str) -> float | None:
+    return None if value is None else finite_float(value, name)
+
+
+def check_limits(lower: float | None, upper: float | None) -> None:
+    if lower is not None and upper is not None and lower > upper:
+        raise ValueError(f"lower must be <= upper, got lower={lower}, upper={upper}")
+
+
+def local_anchor(body, point, name: str) -> np.ndarray:
+    """A world anchor point (m) in the body's frame; the body centre when ``point`` is None."""
+    x = body.position
+    p = x if point is None else vec2(point, name)
+    return _rotate_back(p, x, body.angle)
+
+
+# -- the rows ------------------------------------------------------------------------------
+class JointArrays:
+    """The world's joints packed into flat arrays for the row kernel."""
+
+    def __init__(self, joints) -> None:
+        n = len(joints)
+        self.kind = np.zeros(n, np.int32)
+        self.i = np.zeros(n, np.int32)
+        self.j = np.zeros(n, np.int32)
+        self.local_i = np.zeros((n, 2))
+        self.local_j = np.zeros((n, 2))
+        self.params = np.zeros((n, 5))  # length, theta_0, lower, upper, limit flags
+        self.row_offset = np.zeros(n, np.int32)
+        offset = 0
+        for q, joint in enumerate(joints):
+            self.kind[q] = joint.kind
+            self.i[q] = joint.body_a._index
+            self.j[q] = joint.body_b._index
+            self.local_i[q] = joint.local_a
+            self.local_j[q] = joint.local_b
+            self.params[q] = joint._params()
+            self.row_offset[q] = offset
+            offset += joint.row_count
+        self.n_rows = offset
+
+
+@njit(cache=True)
+def _fill_angular_row(k, i, j, sign, M_inv, J, JM, A_diag):
+    """Row k = sign * [0, 0, -1 | 0, 0, 1]: the rate of theta_j - theta_i."""
+    for c in range(6):
+        J[k, c] = 0.0
+        JM[k, c] = 0.0
+    J[k, 2] = -sign
+    J[k, 5] = sign
+    JM[k, 2] = -sign * M_inv[i, 2]
+    JM[k, 5] = sign * M_inv[j, 2]
+    A_diag[k] = M_inv[i, 2] + M_inv[j, 2]
+
+
+@njit(cache=True)
+def _limit_xi(gap, beta, dt):
+    """Velocity target of a one-sided angle row whose gap to its limit is ``gap`` (rad)."""
+    if gap > 0.0:
+        return -gap / dt  # inside: may close the gap within the step, no more
+    return -(beta / dt) * gap  # past the limit: Baumgarte push back
+
+
+@njit(cache=True)
+def joint_rows(kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta,
+               M_inv, dt, beta, out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu,
+               out_kind):
+    """Rows first_row + row_offset[q] ... of joint q (see the module docstring)."""
+    for q in range(kind.shape[0]):
+        i, j = body_i[q], body_j[q]
+        ci, si = np.cos(theta[i]), np.sin(theta[i])
+        cj, sj = np.cos(theta[j]), np.sin(theta[j])
+        r_ix = ci * local_i[q, 0] - si * local_i[q, 1]
+        r_iy = si * local_i[q, 0] + ci * local_i[q, 1]
+        r_jx = cj * local_j[q, 0] - sj * local_j[q, 1]
+        r_jy = sj * local_j[q, 0] + cj * local_j[q, 1]
+        dx = x[j, 0] + r_jx - x[i, 0] - r_ix  # d = p_j - p_i
+        dy = x[j, 1] + r_jy - x[i, 1] - r_iy
+        k = first_row + row_offset[q]
+        n_rows = 1
+        if kind[q] == 0:  # distance, normalised by L
+            L = params[q, 0]
+            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_diag)
+            C = 0.5 * (dx * dx + dy * dy - L * L) / L
+            xi[k] = -(beta / dt) * C
+            lo[k] = -np.inf
+            hi[k] = np.inf
+        elif kind[q] == 1:  # pin: x row, then y row
+            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_diag)
+            fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_diag)
+            xi[k] = -(beta / dt) * dx
+            xi[k + 1] = -(beta / dt) * dy
+            n_rows = 2
+            for m in range(2):
+                lo[k + m] = -np.inf
+                hi[k + m] = np.inf
+        else:  # relative angle
+            C = theta[j] - theta[i] - params[q, 1]
+            flags = int(params[q, 4])
+            if flags == 0:
+                _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_diag)
+                xi[k] = -(beta / dt) * C
+                lo[k] = -np.inf
+                hi[k] = np.inf
+            else:
+                n_rows = 0
+                if flags & 1:  # lower: C - lower >= 0, row +[0, 0, -1 | 0, 0, 1]
+                    _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_diag)
+                    xi[k] = _limit_xi(C - params[q, 2], beta, dt)
+                    n_rows = 1
+                if flags & 2:  # upper: upper - C >= 0, row -[0, 0, -1 | 0, 0, 1]
+                    u = k + n_rows
+                    _fill_angular_row(u, i, j, -1.0, M_inv, J, JM, A_diag)
+                    xi[u] = _limit_xi(params[q, 3] - C, beta, dt)
+                    n_rows += 1
+                for m in range(n_rows):
+                    lo[k + m] = 0.0
+                    hi[k + m] = np.inf
+        for m in range(n_rows):
+            out_i[k + m] = i
+            out_j[k + m] = j
+            bound_row[k + m] = -1
+            out_mu[k + m] = 0.0
+            out_kind[k + m] = ROW_JOINT

@@ -1,0 +1,248 @@
+"""The lecture's first take: one impulse per colliding pair, then push apart.
+
+For each contact pair once per tick (FORMULATION.md symbols, n from a to b):
+
+    f   = -(1 + e) (J_n V) / (1/m_a + 1/m_b + (r_a x n)^2 / I_a + (r_b x n)^2 / I_b)
+    V  += M^-1 J_n^T f                       only if the bodies approach (J_n V < 0)
+    f_t = clamp(-(J_t V) / A_t, -mu f, +mu f),  V += M^-1 J_t^T f_t
+    x_a -= n s w_a / (w_a + w_b),  x_b += n s w_b / (w_a + w_b)   (s: the overlap, w = 1/m)
+
+The last line is the lecture's "push away from interpenetration as long as
+interpenetration exists": it is swept over the pairs again while any overlap
+remains (``push_apart``), since pushing one pair apart can push a body into its
+other neighbour.
+
+J_n V = (v_b + omega_b x r_b - v_a - omega_a x r_a) . n is the lecture's relative
+normal velocity and the denominator is A_nn = J_n M^-1 J_n^T, so f is the lecture's
+formula written with the row of J. The lecture's formula has one collision point
+P_0 per pair; a manifold here has up to two, so P_0 is the mean of the pair's
+colliding points (its row is the mean of their rows: J is linear in r). A point
+is colliding when it overlaps (separation <= 0) or is a speculative point that
+approaches fast enough to close its gap within the step (separation + dt J_n V <= 0).
+
+Nothing is remembered between ticks and nothing accumulates: there is no
+warm start, no bound on the total impulse, no Baumgarte term, restitution e is
+applied at every approach however slow (the lecture's formula has no threshold),
+and the push-apart moves positions without touching velocities. Each pair is
+solved as if it were alone, so in a stack the impulse that stops one box drives
+the box below into its own support: the lecture's "jitters a lot, and does not
+support stacking". Joints are not pairs of colliding points: a world with joints
+refuses these responders.
+
+The impulses of a pair are reported on its colliding points, shared equally
+(``w.contacts.normal_impulse`` sums to the pair's f); other points report 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .base import Responder, SolveResult, StepContext
+
+PUSH_PASSES = 50  # sweeps of the push-apart at most
+PUSH_TOLERANCE = 1e-6  # m: overlap the push-apart leaves alone
+
+
+def manifold_starts(body_a: np.ndarray, body_b: np.ndarray) -> np.ndarray:
+    """(P + 1,) where each pair's points begin in the contact arrays (pairs are contiguous)."""
+    k = body_a.shape[0]
+    if k == 0:
+        return np.zeros(1, np.int64)
+    change = np.flatnonzero((body_a[1:] != body_a[:-1]) | (body_b[1:] != body_b[:-1])) + 1
+    return np.concatenate(([0], change, [k])).astype(np.int64)
+
+
+@njit(cache=True)
+def colliding_points(separation, i, j, J, V, dt, out):
+    """out[c] = True where point c is a collision: overlapping, or closing its gap this step."""
+    for c in range(separation.shape[0]):
+        k = 2 * c
+        a, b = i[k], j[k]
+        vn = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
+              + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
+        out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= 0.0
+
+
+@njit(cache=True)
+def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
+    """The mean of rows 2c + offset over the pair's colliding points c; returns its A_kk."""
+    count = 0
+    for c in range(6):
+        out_J[p, c] = 0.0
+    for c in range(start, end):
+        if use[c]:
+            count += 1
+            for m in range(6):
+                out_J[p, m] += J[2 * c + offset, m]
+    A = 0.0
+    for m in range(3):
+        out_J[p, m] /= count
+        out_J[p, 3 + m] /= count
+        out_JM[p, m] = M_inv[a, m] * out_J[p, m]
+        out_JM[p, 3 + m] = M_inv[b, m] * out_J[p, 3 + m]
+        A += out_J[p, m] * out_JM[p, m] + out_J[p, 3 + m] * out_JM[p, 3 + m]
+    return A
+
+
+@njit(cache=True)
+def pair_rows(starts, use, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
+    """Each pair's normal and friction row at P_0, the mean of its colliding points.
+
+    A pair without a colliding point gets A_n = 0 and is skipped by the passes.
+    """
+    for p in range(starts.shape[0] - 1):
+        start, end = starts[p], starts[p + 1]
+        a, b = i[2 * start], j[2 * start]
+        pa[p] = a
+        pb[p] = b
+        any_used = False
+        for c in range(start, end):
+            any_used = any_used or use[c]
+        if not any_used:
+            An[p] = 0.0
+            At[p] = 0.0
+            continue
+        An[p] = _mean_row(start, end, 0, use, J, M_inv, a, b, Jn, JMn, p)
+        At[p] = _mean_row(start, end, 1, use, J, M_inv, a, b, Jt, JMt, p)
+
+
+@njit(cache=True)
+def _row_v(Jr, p, V, a, b):
+    return (Jr[p, 0] * V[a, 0] + Jr[p, 1] * V[a, 1] + Jr[p, 2] * V[a, 2]
+            + Jr[p, 3] * V[b, 0] + Jr[p, 4] * V[b, 1] + Jr[p, 5] * V[b, 2])
+
+
+@njit(cache=True)
+def _apply(JMr, p, f, V, a, b):
+    for m in range(3):
+        V[a, m] += JMr[p, m] * f
+        V[b, m] += JMr[p, 3 + m] * f
+
+
+@njit(cache=True)
+def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
+    """One pass over the pairs: the lecture's impulse where they approach, then friction.
+
+    Each increment stands on its own: f >= 0 and |f_t| <= mu f of this same pass.
+    f_n, f_t add up what was applied (N s). Returns the largest |f| A (m/s) of the pass.
+    """
+    worst = 0.0
+    for p in range(pa.shape[0]):
+        if An[p] <= 0.0:
+            continue
+        a, b = pa[p], pb[p]
+        vn = _row_v(Jn, p, V, a, b)  # relative normal velocity, m/s
+        if vn >= 0.0:
+            continue  # not approaching: no collision response
+        f = -(1.0 + e[p]) * vn / An[p]
+        _apply(JMn, p, f, V, a, b)
+        f_n[p] += f
+        worst = max(worst, f * An[p])
+        if At[p] > 0.0:
+            ft = min(max(-_row_v(Jt, p, V, a, b) / At[p], -mu[p] * f), mu[p] * f)
+            _apply(JMt, p, ft, V, a, b)
+            f_t[p] += ft
+            worst = max(worst, abs(ft) * At[p])
+    return worst
+
+
+@njit(cache=True)
+def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, tolerance):
+    """Move overlapping pairs apart along n, split by 1/m, as long as overlap remains.
+
+    A pair's overlap is its deepest point's, -separation, updated for how far the
+    pushes have moved its bodies so far: separation + (dx_b - dx_a) . n (rotation
+    is left alone). Pushing one pair apart can push a body into its other
+    neighbour, so the pairs are swept again until no overlap exceeds
+    ``tolerance`` (m) or after ``max_passes`` sweeps. Returns the sweeps made.
+    """
+    dx = np.zeros((x.shape[0], 2))
+    sweeps = 0
+    while sweeps < max_passes:
+        sweeps += 1
+        worst = 0.0
+        for p in range(starts.shape[0] - 1):
+            a, b = pa[p], pb[p]
+            w = M_inv[a, 0] + M_inv[b, 0]
+            if w <= 0.0:
+                continue
+            nx, ny = normal[starts[p], 0], normal[starts[p], 1]
+            moved = (dx[b, 0] - dx[a, 0]) * nx + (dx[b, 1] - dx[a, 1]) * ny
+            depth = 0.0
+            for c in range(starts[p], starts[p + 1]):
+                depth = max(depth, -(separation[c] + moved))
+            if depth <= tolerance:
+                continue
+            worst = max(worst, depth)
+            sa = depth * M_inv[a, 0] / w
+            sb = depth * M_inv[b, 0] / w
+            dx[a, 0] -= nx * sa
+            dx[a, 1] -= ny * sa
+            dx[b, 0] += nx * sb
+            dx[b, 1] += ny * sb
+        if worst <= tolerance:
+            break
+    for b in range(x.shape[0]):
+        x[b, 0] += dx[b, 0]
+        x[b, 1] += dx[b, 1]
+    return sweeps
+
+
+@njit(cache=True)
+def report_on_points(starts, use, f_n, f_t, lam):
+    """Share each pair's impulses equally among its colliding points (rows 2c, 2c + 1)."""
+    for p in range(starts.shape[0] - 1):
+        count = 0
+        for c in range(starts[p], starts[p + 1]):
+            count += use[c]
+        for c in range(starts[p], starts[p + 1]):
+            lam[2 * c] = f_n[p] / count if use[c] else 0.0
+            lam[2 * c + 1] = f_t[p] / count if use[c] else 0.0
+
+
+def pairwise_response(ctx: StepContext, passes: int) -> SolveResult:
+    """``passes`` impulse passes over the contact pairs, then the push-apart (both naive takes)."""
+    r = ctx.rows
+    k = ctx.n_contacts
+    starts = manifold_starts(ctx.body_a, ctx.body_b)
+    n_pairs = starts.shape[0] - 1
+    use = np.zeros(k, np.bool_)
+    colliding_points(ctx.separation, r.i, r.j, r.J, ctx.V, ctx.dt, use)
+    Jn, JMn, Jt, JMt = (np.zeros((n_pairs, 6)) for _ in range(4))
+    An, At = np.zeros(n_pairs), np.zeros(n_pairs)
+    pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
+    pair_rows(starts, use, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb)
+    first = starts[:-1]
+    e = ctx.restitution[first] if k else np.zeros(0)
+    mu = r.mu[2 * first + 1] if k else np.zeros(0)
+    f_n, f_t = np.zeros(n_pairs), np.zeros(n_pairs)
+    residuals = np.zeros(passes)
+    for s in range(passes):
+        residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, ctx.V, f_n, f_t)
+    push_apart(starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES,
+               PUSH_TOLERANCE)
+    report_on_points(starts, use, f_n, f_t, r.lam)
+    return SolveResult(passes, residuals)
+
+
+class NaiveImpulse(Responder):
+    """The lecture's naive take: each colliding pair once per tick, then push apart.
+
+    See the module docstring for the formula. No parameters: no caching, no
+    accumulation, no joints. ``w.last_step.residuals`` holds the one pass's
+    largest velocity change |f| A (m/s).
+    """
+
+    name = "naive"
+    warm_start = False
+    handles_joints = False
+
+    def respond(self, ctx: StepContext) -> SolveResult:
+        return pairwise_response(ctx, 1)
+
+    def __repr__(self) -> str:
+        return "NaiveImpulse()"
+
+
+__all__ = ["NaiveImpulse", "pairwise_response"]

@@ -1,0 +1,340 @@
+"""Projected Gauss-Seidel, matrix form: the lecture's A x = b, assembled and swept.
+
+Each step this builds, exactly as FORMULATION.md writes them,
+
+    J      (R, 3N)  sparse: row k has its 6 non-zeros in the columns of bodies i and j
+    M^-1   (3N,)    the diagonal [1/m_1, 1/m_1, 1/I_1, ...] (0 for static bodies)
+    A      (R, R)   J M^-1 J^T, sparse: A_kl != 0 only where rows k and l share a
+                    dynamic body (static bodies have M^-1 = 0 and couple nothing)
+    b      (R,)     xi - J V1 - dt J M^-1 F_ext
+    lo, hi (R,)     bounds on lambda; a Coulomb friction row's are +-mu lambda_n of its
+                    normal row, so they move as the sweeps go
+
+and runs the lecture's pseudocode on them, skipping the zero entries of A:
+
+    repeat until converged (or out of iterations):
+        for each row k:
+            delta  = (b_k - sum_l A_kl x_l) / A_kk
+            x_k    = clamp(x_k + delta, lo_k, hi_k)
+
+then V2 = V1 + M^-1 (dt F_ext + J^T x). Row order, warm start (x starts at the
+cached lambdas), bounds and the residual (the largest |delta_k| A_kk of a sweep,
+m/s) are those of the impulse form, so the two forms make the same iterates: the
+test that the lecture's equations and the fast solver are one method.
+
+The sparse matrices are plain CSR arrays (``SparseMatrix``): no scipy. Everything
+assembled stays on ``w.last_step.system`` (a ``MatrixSystem``) for lessons;
+``system.dense()`` expands a small one into ordinary numpy matrices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+from numba import njit
+
+from ..constraints.rows import Rows
+from .base import SolveResult, StepContext
+
+DENSE_MAX_ENTRIES = 4_000_000  # dense() refuses matrices larger than this (8 bytes each)
+
+
+class SparseMatrix:
+    """A sparse matrix in CSR form: row k's entries are data[indptr[k]:indptr[k+1]]
+    in the columns indices[indptr[k]:indptr[k+1]] (ascending)."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
+                 shape: tuple[int, int]) -> None:
+        self.indptr = indptr
+        self.indices = indices
+        self.data = data
+        self.shape = shape
+
+    @property
+    def nnz(self) -> int:
+        """How many entries are stored."""
+        return int(self.indptr[-1])
+
+    def dot(self, v: np.ndarray) -> np.ndarray:
+        """The product with a vector of length shape[1]."""
+        v = np.asarray(v, np.float64)
+        if v.shape != (self.shape[1],):
+            raise ValueError(f"v must have shape ({self.shape[1]},), got {v.shape}")
+        out = np.zeros(self.shape[0])
+        _csr_dot(self.indptr, self.indices, self.data, v, out)
+        return out
+
+    def dot_transposed(self, v: np.ndarray) -> np.ndarray:
+        """The product of the transpose with a vector of length shape[0]."""
+        v = np.asarray(v, np.float64)
+        if v.shape != (self.shape[0],):
+            raise ValueError(f"v must have shape ({self.shape[0]},), got {v.shape}")
+        out = np.zeros(self.shape[1])
+        _csr_dot_transposed(self.indptr, self.indices, self.data, v, out)
+        return out
+
+    def dense(self) -> np.ndarray:
+        """The full matrix as a numpy array (for small matrices only)."""
+        if self.shape[0] * self.shape[1] > DENSE_MAX_ENTRIES:
+            raise ValueError(f"a {self.shape[0]} x {self.shape[1]} matrix is too large to make "
+                             f"dense (more than {DENSE_MAX_ENTRIES} entries)")
+        out = np.zeros(self.shape)
+        for k in range(self.shape[0]):
+            s, e = self.indptr[k], self.indptr[k + 1]
+            out[k, self.indices[s:e]] += self.data[s:e]
+        return out
+
+    def __repr__(self) -> str:
+        return f"<SparseMatrix {self.shape[0]} x {self.shape[1]}, {self.nnz} stored entries>"
+
+
+@njit(cache=True)
+def _csr_dot(indptr, indices, data, v, out):
+    for k in range(indptr.shape[0] - 1):
+        s = 0.0
+        for e in range(indptr[k], indptr[k + 1]):
+            s += data[e] * v[indices[e]]
+        out[k] = s
+
+
+@njit(cache=True)
+def _csr_dot_transposed(indptr, indices, data, v, out):
+    for k in range(indptr.shape[0] - 1):
+        for e in range(indptr[k], indptr[k + 1]):
+            out[indices[e]] += data[e] * v[k]
+
+
+@dataclass(eq=False)
+class MatrixSystem:
+    """The system one step solved: A lam = b with lo <= lam <= hi (FORMULATION.md).
+
+    J (R x 3N) and A (R x R) are ``SparseMatrix``; M_inv, V1, F_ext are flat (3N,)
+    vectors in the lecture's order [.., vx_b, vy_b, omega_b, ..]. lo, hi are the
+    bounds at the end of the solve (a Coulomb row's are +-mu lam of its normal row,
+    ``bound_row``). lam holds the impulses found (N s; N m s for angle rows).
+    """
+
+    dt: float  # s
+    J: SparseMatrix
+    M_inv: np.ndarray  # (3N,) the diagonal of M^-1
+    V1: np.ndarray  # (3N,) m/s, rad/s: velocities before the step
+    F_ext: np.ndarray  # (3N,) N, N m
+    xi: np.ndarray  # (R,) velocity targets, m/s
+    A: SparseMatrix
+    b: np.ndarray  # (R,) m/s
+    lo: np.ndarray
+    hi: np.ndarray
+    bound_row: np.ndarray  # (R,) normal row bounding a Coulomb friction row, else -1
+    mu: np.ndarray  # (R,)
+    lam: np.ndarray  # (R,) N s
+
+    def velocities(self) -> np.ndarray:
+        """V2 = V1 + M^-1 (dt F_ext + J^T lam), (3N,)."""
+        return self.V1 + self.M_inv * (self.dt * self.F_ext + self.J.dot_transposed(self.lam))
+
+    def dense(self) -> SimpleNamespace:
+        """J, M_inv (3N x 3N), A as dense numpy matrices, with b, lo, hi, lam: for lessons
+        on small scenes. ``np.allclose(d.A, d.J @ d.M_inv @ d.J.T)`` holds."""
+        n = self.M_inv.shape[0]
+        if n * n > DENSE_MAX_ENTRIES:
+            raise ValueError(f"M_inv is {n} x {n}: too large to make dense")
+        return SimpleNamespace(J=self.J.dense(), M_inv=np.diag(self.M_inv), A=self.A.dense(),
+                               b=self.b.copy(), lo=self.lo.copy(), hi=self.hi.copy(),
+                               lam=self.lam.copy(), V1=self.V1.copy(), F_ext=self.F_ext.copy())
+
+    def __repr__(self) -> str:
+        return (f"<MatrixSystem: {self.A.shape[0]} rows, {self.J.shape[1] // 3} bodies, "
+                f"A has {self.A.nnz} stored entries>")
+
+
+# -- assembly ------------------------------------------------------------------------------
+def jacobian(rows: Rows, n_bodies: int) -> SparseMatrix:
+    """J as CSR: row k = [.. J_i in columns 3i..3i+2 .. J_j in columns 3j..3j+2 ..]."""
+    R = len(rows)
+    indices = np.zeros(6 * R, np.int64)
+    data = np.zeros(6 * R)
+    _jacobian_entries(rows.i, rows.j, rows.J, indices, data)
+    return SparseMatrix(np.arange(0, 6 * R + 1, 6, dtype=np.int64), indices, data,
+                        (R, 3 * n_bodies))
+
+
+@njit(cache=True)
+def _jacobian_entries(i, j, J, indices, data):
+    """Each row's 6 entries, the lower-numbered body's block first (columns ascending)."""
+    for k in range(i.shape[0]):
+        first, second = (0, 3) if i[k] < j[k] else (3, 0)
+        lo_body, hi_body = min(i[k], j[k]), max(i[k], j[k])
+        for c in range(3):
+            indices[6 * k + c] = 3 * lo_body + c
+            data[6 * k + c] = J[k, first + c]
+            indices[6 * k + 3 + c] = 3 * hi_body + c
+            data[6 * k + 3 + c] = J[k, second + c]
+
+
+@njit(cache=True)
+def rows_of_bodies(i, j, M_inv):
+    """For each dynamic body b, the rows that touch it (ascending): CSR (start, rows)."""
+    n = M_inv.shape[0]
+    count = np.zeros(n + 1, np.int64)
+    for k in range(i.shape[0]):
+        for b in (i[k], j[k]):
+            if M_inv[b, 0] > 0.0 or M_inv[b, 2] > 0.0:
+                count[b + 1] += 1
+    start = np.cumsum(count)
+    fill = start[:-1].copy()
+    out = np.zeros(start[-1], np.int64)
+    for k in range(i.shape[0]):
+        for b in (i[k], j[k]):
+            if M_inv[b, 0] > 0.0 or M_inv[b, 2] > 0.0:
+                out[fill[b]] = k
+                fill[b] += 1
+    return start, out
+
+
+@njit(cache=True)
+def coupling(k, l, i, j, J, M_inv):
+    """A_kl = J_k M^-1 J_l^T: the sum over the bodies rows k and l share (1/s per kg...)."""
+    a = 0.0
+    for s in range(2):
+        bk = i[k] if s == 0 else j[k]
+        for t in range(2):
+            bl = i[l] if t == 0 else j[l]
+            if bk == bl:
+                for c in range(3):
+                    a += J[k, 3 * s + c] * M_inv[bk, c] * J[l, 3 * t + c]
+    return a
+
+
+@njit(cache=True)
+def _neighbours(k, i, j, start, body_rows, out):
+    """Rows sharing a dynamic body with row k, ascending and without repeats; returns the count."""
+    a, b = i[k], j[k]
+    p, p_end = start[a], start[a + 1]
+    q, q_end = start[b], start[b + 1]
+    n = 0
+    while p < p_end or q < q_end:
+        if q >= q_end or (p < p_end and body_rows[p] < body_rows[q]):
+            row = body_rows[p]
+            p += 1
+        elif p >= p_end or body_rows[q] < body_rows[p]:
+            row = body_rows[q]
+            q += 1
+        else:  # rows on the same pair of bodies appear in both lists
+            row = body_rows[p]
+            p += 1
+            q += 1
+        out[n] = row
+        n += 1
+    return n
+
+
+@njit(cache=True)
+def assemble_A(i, j, J, M_inv):
+    """A = J M^-1 J^T in CSR, one entry per pair of rows sharing a dynamic body."""
+    R = i.shape[0]
+    start, body_rows = rows_of_bodies(i, j, M_inv)
+    buf = np.zeros(max(1, body_rows.shape[0]), np.int64)
+    indptr = np.zeros(R + 1, np.int64)
+    for k in range(R):
+        indptr[k + 1] = indptr[k] + _neighbours(k, i, j, start, body_rows, buf)
+    indices = np.zeros(indptr[R], np.int64)
+    data = np.zeros(indptr[R])
+    for k in range(R):
+        n = _neighbours(k, i, j, start, body_rows, buf)
+        for e in range(n):
+            l = buf[e]
+            indices[indptr[k] + e] = l
+            data[indptr[k] + e] = coupling(k, l, i, j, J, M_inv)
+    return indptr, indices, data
+
+
+@njit(cache=True)
+def diagonal(indptr, indices, data, R):
+    """A_kk of a CSR matrix (0 where a row has no entry on the diagonal)."""
+    out = np.zeros(R)
+    for k in range(R):
+        for e in range(indptr[k], indptr[k + 1]):
+            if indices[e] == k:
+                out[k] = data[e]
+    return out
+
+
+def assemble(ctx: StepContext) -> MatrixSystem:
+    """J, M^-1, A, b and the bounds of this step (lam: the warm start, ctx.rows.lam)."""
+    r = ctx.rows
+    n = ctx.V.shape[0]
+    J = jacobian(r, n)
+    M_inv = ctx.M_inv.reshape(-1).copy()
+    if ctx.V1 is None:  # no split given: all of V counts as V1, no external force
+        V1, F_ext = ctx.V.reshape(-1).copy(), np.zeros(3 * n)
+    else:
+        V1, F_ext = ctx.V1.reshape(-1).copy(), ctx.F_ext.reshape(-1).copy()
+    indptr, indices, data = assemble_A(r.i, r.j, r.J, ctx.M_inv)
+    A = SparseMatrix(indptr, indices, data, (len(r), len(r)))
+    b = r.xi - J.dot(V1) - ctx.dt * J.dot(M_inv * F_ext)
+    return MatrixSystem(ctx.dt, J, M_inv, V1, F_ext, r.xi.copy(), A, b, r.lo.copy(), r.hi.copy(),
+                        r.bound_row.copy(), r.mu.copy(), r.lam.copy())
+
+
+# -- the lecture's PGS on A x = b -----------------------------------------------------------
+@njit(cache=True)
+def pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x):
+    """One sweep of the lecture's pseudocode; returns the largest |delta_k| A_kk (m/s)."""
+    worst = 0.0
+    for k in range(x.shape[0]):
+        if A_kk[k] <= 0.0:
+            continue  # both bodies static: the row has no entries
+        s = 0.0
+        for e in range(indptr[k], indptr[k + 1]):  # only the non-zero A_kl
+            s += data[e] * x[indices[e]]
+        delta = (b[k] - s) / A_kk[k]
+        if bound_row[k] >= 0:  # Coulomb: +-mu times the normal row's current x
+            top = mu[k] * x[bound_row[k]]
+            low = -top
+        else:
+            low = lo[k]
+            top = hi[k]
+        new = min(max(x[k] + delta, low), top)
+        worst = max(worst, abs(new - x[k]) * A_kk[k])
+        x[k] = new
+    return worst
+
+
+@njit(cache=True)
+def pgs_matrix_solve(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x, iterations,
+                     tolerance, residuals):
+    """Sweep until the residual <= tolerance or out of sweeps; returns the sweeps made."""
+    for s in range(iterations):
+        residuals[s] = pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x)
+        if residuals[s] <= tolerance:
+            return s + 1
+    return iterations
+
+
+@njit(cache=True)
+def final_bounds(bound_row, mu, x, lo, hi):
+    """Write the Coulomb rows' bounds +-mu x_n as they stand at the end of the solve."""
+    for k in range(x.shape[0]):
+        if bound_row[k] >= 0:
+            hi[k] = mu[k] * x[bound_row[k]]
+            lo[k] = -hi[k]
+
+
+def solve_matrix_form(ctx: StepContext, iterations: int, tolerance: float) -> SolveResult:
+    """Assemble, sweep, and set V2 = V1 + M^-1 (dt F_ext + J^T lam) into ctx.V."""
+    system = assemble(ctx)
+    A = system.A
+    A_kk = diagonal(A.indptr, A.indices, A.data, A.shape[0])
+    residuals = np.zeros(iterations)
+    n = pgs_matrix_solve(A.indptr, A.indices, A.data, A_kk, system.b, system.lo, system.hi,
+                         system.bound_row, system.mu, system.lam, iterations, tolerance,
+                         residuals)
+    final_bounds(system.bound_row, system.mu, system.lam, system.lo, system.hi)
+    ctx.rows.lam[:] = system.lam
+    ctx.V[:] = system.velocities().reshape(ctx.V.shape)
+    return SolveResult(n, residuals[:n], system)
+
+
+__all__ = ["MatrixSystem", "SparseMatrix", "assemble", "solve_matrix_form"]

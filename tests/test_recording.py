@@ -1,0 +1,385 @@
+"""Recorder and playback: what the engine computed is what a recording gives back."""
+
+from __future__ import annotations
+
+import gc
+import os
+import subprocess
+
+import numpy as np
+import pyarrow.compute as pc
+import pytest
+from rerun.chunk import RrdReader
+
+import phys2d
+from phys2d.recording import Recorder, contact_entity, playback
+from phys2d.world import SimulationError
+
+
+def rerun_exe() -> str:
+    import rerun_cli
+
+    return os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
+
+
+def assert_verified(path) -> None:
+    """`rerun rrd verify` accepts the file (footer present, every column well-formed)."""
+    out = subprocess.run([rerun_exe(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+
+
+def snapshot(w: phys2d.World) -> dict:
+    """The engine's own arrays after a step, copied."""
+    c, s = w.contacts, w.last_step
+    return dict(
+        tick=w.tick, time=w.time, x=w.x.copy(), theta=w.theta.copy(), V=w.V.copy(), uid=w._bodies.uid.copy(),
+        key=c.key.copy(), point=c.point.copy(), normal=c.normal.copy(), separation=c.separation.copy(),
+        normal_impulse=c.normal_impulse.copy(), tangent_impulse=c.tangent_impulse.copy(),
+        warm_started=c.warm_started.copy(), residuals=s.residuals.copy(), max_penetration=s.max_penetration,
+        contact_count=s.contact_count, cache_hit_rate=s.cache_hit_rate, iterations=s.iterations,
+        ke=w.kinetic_energy(), pe=w.potential_energy(), p=w.linear_momentum().copy(), L=w.angular_momentum())
+
+
+def record(path, w: phys2d.World, steps: int, **kw) -> list[dict]:
+    snaps = []
+    with Recorder(path, **kw) as rec:
+        rec.log(w)
+        snaps.append(snapshot(w))
+        for _ in range(steps):
+            w.step(1 / 60)
+            rec.log(w)
+            snaps.append(snapshot(w))
+    return snaps
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory):
+    """Boxes, circles and polygons falling in a heap: contacts come, go and come back.
+
+    Small flush windows so that several scene and series batches (and their seams) are read.
+    """
+    path = tmp_path_factory.mktemp("rec") / "mixed.rrd"
+    w = phys2d.scenes.mixed_shapes(10)
+    snaps = record(path, w, 150, name="mixed", scene="mixed_shapes", flush_every=7, series_every=23)
+    return path, snaps, playback.load(path), w
+
+
+def test_every_file_written_passes_rerun_verify(mixed):
+    assert_verified(mixed[0])
+
+
+def test_poses_round_trip_exactly(mixed):
+    _, snaps, rec, _ = mixed
+    assert list(rec.tick) == [s["tick"] for s in snaps] == list(range(151))
+    np.testing.assert_allclose(rec.time, [s["time"] for s in snaps], rtol=0, atol=1e-9)
+    assert np.array_equal(rec.body_uid, snaps[0]["uid"])
+    assert np.array_equal(rec.x, np.stack([s["x"] for s in snaps]))
+    assert np.array_equal(rec.theta, np.stack([s["theta"] for s in snaps]))
+    assert np.array_equal(rec.V, np.stack([s["V"] for s in snaps]))
+
+
+def test_contacts_and_impulses_round_trip_exactly(mixed):
+    _, snaps, rec, _ = mixed
+    assert len(rec.contacts) == len(snaps)
+    assert sum(len(s["key"]) for s in snaps) > 100  # the scene really has contacts
+    for i, s in enumerate(snaps):
+        got = rec.contacts.at(i)
+        for name in ("key", "point", "normal", "separation", "normal_impulse", "tangent_impulse", "warm_started"):
+            assert np.array_equal(got[name], s[name]), (i, name)
+    assert rec.contacts.warm_started.any() and not rec.contacts.warm_started.all()
+
+
+def test_solver_and_aggregates_round_trip_exactly(mixed):
+    _, snaps, rec, _ = mixed
+    for s in snaps:
+        assert np.array_equal(rec.residuals_at(s["tick"]), s["residuals"])
+    assert np.array_equal(rec.kinetic_energy, [s["ke"] for s in snaps])
+    assert np.array_equal(rec.potential_energy, [s["pe"] for s in snaps])
+    assert np.array_equal(rec.linear_momentum, np.stack([s["p"] for s in snaps]))
+    assert np.array_equal(rec.angular_momentum, [s["L"] for s in snaps])
+    assert np.array_equal(rec.max_penetration, [s["max_penetration"] for s in snaps])
+    assert np.array_equal(rec.contact_count, [s["contact_count"] for s in snaps])
+    assert np.array_equal(rec.cache_hit_rate, [s["cache_hit_rate"] for s in snaps])
+    assert np.array_equal(rec.iterations, [s["iterations"] for s in snaps])
+
+
+def test_properties_name_the_responder_scene_and_version(mixed):
+    _, _, rec, w = mixed
+    assert rec.properties["phys2d"]["engine_version"] == phys2d.__version__
+    run = rec.runs[""]
+    assert run.properties["responder"] == repr(w.responder)
+    assert run.properties["scene"] == "mixed_shapes"
+
+
+def test_per_contact_series_follow_each_contact_and_break_where_it_ends(mixed):
+    _, snaps, rec, _ = mixed
+    # what the engine said, per contact identity: {key: {tick: (lambda_n, lambda_t, penetration)}}
+    truth: dict[int, dict[int, tuple]] = {}
+    for s in snaps:
+        for k, ln, lt, sep in zip(s["key"], s["normal_impulse"], s["tangent_impulse"], s["separation"], strict=True):
+            truth.setdefault(int(k), {})[s["tick"]] = (ln, lt, -sep)
+    assert sorted(rec.series_keys("lambda")) == sorted(contact_entity(k) for k in truth)
+    ticks = [s["tick"] for s in snaps]
+    gaps = 0
+    for k, per_tick in truth.items():
+        t_l, lam = rec.series("lambda", k)
+        t_p, pen = rec.series("penetration", k)
+        assert np.array_equal(t_l, t_p)
+        expect_t, expect_l, expect_p = [], [], []
+        for i, t in enumerate(ticks):
+            if t in per_tick:
+                expect_t.append(t)
+                expect_l.append(per_tick[t][:2])
+                expect_p.append(per_tick[t][2])
+            elif i > 0 and ticks[i - 1] in per_tick:  # the contact ended: one NaN breaks the line
+                expect_t.append(t)
+                expect_l.append((np.nan, np.nan))
+                expect_p.append(np.nan)
+                gaps += 1
+        assert np.array_equal(t_l, expect_t), k
+        np.testing.assert_array_equal(lam, np.array(expect_l).reshape(-1, 2))
+        np.testing.assert_array_equal(pen, np.array(expect_p))
+    assert gaps > 0  # the scene made contacts vanish, so the NaN marker was exercised
+
+
+def test_outlines_drawn_are_the_bodies_vertices(mixed):
+    """The LineStrips2D of the last tick are the bodies' world vertices, closed (y-up, rotated)."""
+    path, _, _, w = mixed
+    store = RrdReader(str(path)).store()
+    rows = []
+    for ch in store.stream().filter(content="/world/sim/bodies", is_static=False,
+                                    components="LineStrips2D:strips"):
+        rb = ch.to_record_batch()
+        rows += [(t, s) for t, s in zip(rb.column("tick").to_pylist(), rb.column("LineStrips2D:strips").to_pylist(),
+                                        strict=True) if s is not None]
+    last = max(rows, key=lambda r: r[0])[1]
+    polys = [b for b in w.bodies if b.shape == "polygon"]
+    assert len(last) == len(polys)
+    for b, strip in zip(polys, last, strict=True):
+        v = b.vertices
+        np.testing.assert_allclose(np.array(strip), np.vstack([v, v[:1]]), atol=1e-4)
+
+
+def test_a_blueprint_is_stored_in_the_file(mixed):
+    assert len(RrdReader(str(mixed[0])).blueprints()) >= 1
+
+
+def test_exception_in_the_with_block_leaves_every_tick_before_it(tmp_path):
+    path = tmp_path / "boom.rrd"
+    w = phys2d.scenes.vertical_stack(3)
+    with pytest.raises(RuntimeError, match="boom"), Recorder(path, flush_every=60) as rec:
+        for _ in range(45):
+            w.step(1 / 60)
+            rec.log(w)
+            if w.tick == 33:
+                x33 = w.x.copy()
+                raise RuntimeError("boom")
+    assert_verified(path)
+    rec = playback.load(path)
+    assert list(rec.tick) == list(range(1, 34))
+    assert np.array_equal(rec.x[-1], x33)
+
+
+def test_simulation_error_part_way_leaves_a_readable_recording(tmp_path):
+    path = tmp_path / "fail.rrd"
+    w = phys2d.World(max_speed=4.0)
+    phys2d.scenes.ground(w)
+    w.add_box(position=(0.0, 5.0))
+    rec = Recorder(path)
+    with pytest.raises(SimulationError):
+        for _ in range(200):
+            w.step(1 / 60)
+            rec.log(w)
+    failed_at = w.tick  # the failing step was undone: w is as at the last logged tick
+    assert 0 < failed_at < 200
+    del rec
+    gc.collect()  # no close(): the finalizer writes the buffered ticks and the footer
+    assert_verified(path)
+    back = playback.load(path)
+    assert back.tick[-1] == failed_at and len(back.tick) == failed_at
+    assert np.array_equal(back.x[-1], w.x) and np.array_equal(back.V[-1], w.V)
+
+
+@pytest.mark.parametrize("bad", ["file_as_dir", "directory", "suffix"])
+def test_unwritable_paths_fail_at_once(tmp_path, bad):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    path = {"file_as_dir": blocker / "sub" / "r.rrd", "directory": tmp_path, "suffix": tmp_path / "r.txt"}[bad]
+    with pytest.raises(ValueError, match="path"):
+        Recorder(path)
+
+
+def test_bad_arguments_are_named(tmp_path):
+    with pytest.raises(TypeError, match="path"):
+        Recorder(3)
+    with pytest.raises(ValueError, match="flush_every"):
+        Recorder(tmp_path / "a.rrd", flush_every=0)
+    with pytest.raises(TypeError, match="contact_series"):
+        Recorder(tmp_path / "b.rrd", contact_series="yes")
+    rec = Recorder(tmp_path / "c.rrd")
+    with pytest.raises(TypeError, match="world"):
+        rec.log("not a world")
+    with pytest.raises(ValueError, match="run"):
+        rec.log(phys2d.scenes.vertical_stack(1), run="has space")
+    rec.close()
+    with pytest.raises(ValueError, match="closed"):
+        rec.log(phys2d.scenes.vertical_stack(1))
+    with pytest.raises(FileNotFoundError, match="no-such.rrd"):
+        playback.load(tmp_path / "no-such.rrd")
+    (tmp_path / "junk.rrd").write_bytes(b"not a recording")
+    with pytest.raises(ValueError, match="junk.rrd"):
+        playback.load(tmp_path / "junk.rrd")
+
+
+def test_comparison_runs_share_one_recording_and_timelines(tmp_path):
+    path = tmp_path / "cmp.rrd"
+    worlds = {"pgs": phys2d.scenes.vertical_stack(4, responder=phys2d.PGS(warm_start=True)),
+              "pgs-cold": phys2d.scenes.vertical_stack(4, responder=phys2d.PGS(warm_start=False))}
+    truth: dict[str, list] = {k: [] for k in worlds}
+    with Recorder(path, name="stack: warm vs cold") as rec:
+        for _ in range(40):
+            for label, w in worlds.items():
+                w.step(1 / 60)
+                rec.log(w, run=label)
+                truth[label].append(snapshot(w))
+    assert_verified(path)
+    back = playback.load(path)
+    assert sorted(back.runs) == ["pgs", "pgs-cold"]
+    for label, snaps in truth.items():
+        r = back.runs[label]
+        assert list(r.tick) == list(range(1, 41))
+        assert np.array_equal(r.x, np.stack([s["x"] for s in snaps]))
+        assert np.array_equal(r.contacts.normal_impulse, np.concatenate([s["normal_impulse"] for s in snaps]))
+        assert r.properties["responder"] == repr(worlds[label].responder)
+    # warm starting really differs from cold, so the runs are not one run read twice
+    assert not np.array_equal(back.runs["pgs"].residual, back.runs["pgs-cold"].residual)
+    with pytest.raises(AttributeError, match="runs"):
+        back.x  # noqa: B018 - two runs: no single x
+
+
+def test_bodies_added_and_removed_mid_run(tmp_path):
+    path = tmp_path / "churn.rrd"
+    w = phys2d.scenes.vertical_stack(3)
+    snaps = []
+    with Recorder(path, flush_every=5) as rec:
+        for k in range(30):
+            if k == 10:
+                w.remove(w.bodies[2])
+            if k == 17:
+                w.add_circle(position=(3.0, 1.0), radius=0.3)
+            w.step(1 / 60)
+            rec.log(w)
+            snaps.append(snapshot(w))
+    assert_verified(path)
+    back = playback.load(path)
+    uids = list(back.body_uid)
+    assert uids == [0, 1, 2, 3, 4]
+    for i, s in enumerate(snaps):
+        cols = [uids.index(u) for u in s["uid"]]
+        assert np.array_equal(back.x[i, cols], s["x"])
+        missing = sorted(set(range(5)) - set(cols))
+        assert np.isnan(back.x[i, missing]).all()
+
+
+def test_joints_are_drawn_and_their_reactions_recorded(tmp_path):
+    path = tmp_path / "joints.rrd"
+    w = phys2d.World()
+    anchor = w.add_box(position=(0.0, 5.0), half_extents=(0.2, 0.2), static=True)
+    bob = w.add_box(position=(1.0, 5.0), half_extents=(0.1, 0.1))
+    arm = w.add_box(position=(3.0, 5.0), half_extents=(0.1, 0.1))
+    pin = w.add_pin_joint(anchor, bob, anchor=(0.0, 5.0))  # two rows
+    rod = w.add_distance_joint(bob, arm, anchor_a=(1.0, 5.0), anchor_b=(3.0, 5.0))  # one row
+    expect_anchor, expect_imp = [], []
+    with Recorder(path) as rec:
+        for _ in range(12):
+            w.step(1 / 60)
+            rec.log(w)
+            expect_anchor.append(np.array([pin.anchors(), rod.anchors()]))
+            expect_imp.append([pin.impulse, rod.impulse])
+    assert_verified(path)
+    back = playback.load(path)
+    assert len(back.joint_anchors) == 12
+    for got, want in zip(back.joint_anchors, expect_anchor, strict=True):
+        np.testing.assert_allclose(got, want, atol=1e-5)  # drawn as float32
+    assert back.series_keys("reaction") == ["j0/r0", "j0/r1", "j1/r0"]
+    for key, (q, row) in {"j0/r0": (0, 0), "j0/r1": (0, 1), "j1/r0": (1, 0)}.items():
+        t, v = back.series("reaction", key)
+        assert np.array_equal(t, np.arange(1, 13))
+        assert np.array_equal(v, [imp[q][row] for imp in expect_imp])
+    assert any(abs(imp[1][0]) > 0 for imp in expect_imp)  # the rod carries a load
+
+
+def test_contact_table_is_one_row_per_tick_including_empty_ticks(tmp_path):
+    """A tick without contacts writes an empty row, so old contacts do not linger in the view."""
+    path = tmp_path / "air.rrd"
+    w = phys2d.World()
+    phys2d.scenes.ground(w)
+    w.add_box(position=(0.0, 0.5))
+    w.add_box(position=(5.0, 3.0))
+    with Recorder(path) as rec:
+        for _ in range(20):
+            w.step(1 / 60)
+            rec.log(w)
+        w.remove(w.bodies[1])  # the resting box goes: its contacts end
+        w.step(1 / 60)
+        rec.log(w)
+    store = RrdReader(str(path)).store()
+    n_rows = 0
+    for ch in store.stream().filter(content="/world/sim/contacts", is_static=False,
+                                    components="Points2D:positions"):
+        rb = ch.to_record_batch()
+        lens = pc.list_value_length(rb.column("Points2D:positions")).to_numpy(zero_copy_only=False)
+        n_rows += len(lens)
+        ticks = rb.column("tick").to_numpy()
+        assert (lens[ticks == 21] == 0).all()
+    assert n_rows == 21
+
+
+def test_outline_column_has_rerun_own_arrow_type(mixed):
+    """The outlines are built as raw arrow; the viewer silently skips a column of another type."""
+    import rerun as rr
+
+    want = rr.components.LineStrip2DBatch([[[0.0, 0.0], [1.0, 1.0]]]).as_arrow_array().type
+    store = RrdReader(str(mixed[0])).store()
+    types = {ch.to_record_batch().schema.field("LineStrips2D:strips").type
+             for ch in store.stream().filter(content="/world/sim/bodies", components="LineStrips2D:strips")}
+    assert types and all(t.value_type == want for t in types)
+
+
+def test_a_hard_kill_leaves_the_windows_already_written(tmp_path):
+    """os._exit skips every finalizer: no footer, but each flushed window of ticks is readable."""
+    import sys
+    import textwrap
+
+    path = tmp_path / "killed.rrd"
+    script = textwrap.dedent(f"""
+        import os, time, phys2d
+        from phys2d.recording import Recorder
+        w = phys2d.scenes.vertical_stack(3)
+        rec = Recorder({str(path)!r}, flush_every=10)
+        for _ in range(95):
+            w.step(1 / 60)
+            rec.log(w)
+        time.sleep(1.0)  # the writer thread catches up with the windows already sent
+        os._exit(1)
+    """)
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": repo},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 1, out.stderr
+    back = playback.load(path)
+    assert list(back.tick) == list(range(1, 91))  # 9 whole windows; the last 5 ticks were still buffered
+    w = phys2d.scenes.vertical_stack(3)
+    for _ in range(90):
+        w.step(1 / 60)
+    assert np.array_equal(back.x[-1], w.x)
+
+
+def test_without_contact_series_the_contact_table_is_still_written(tmp_path):
+    path = tmp_path / "lean.rrd"
+    w = phys2d.scenes.vertical_stack(3)
+    snaps = record(path, w, 20, contact_series=False)
+    assert_verified(path)
+    back = playback.load(path)
+    assert back.series_keys("lambda") == [] and back.series_keys("penetration") == []
+    assert np.array_equal(back.contacts.normal_impulse, np.concatenate([s["normal_impulse"] for s in snaps]))
