@@ -164,8 +164,13 @@ def free_scene(scene: SceneSpec) -> SceneSpec:
 
 
 @st.composite
-def pgs_settings(draw, *, warm_start: bool | None = None) -> phys2d.PGS:
-    """Valid PGS settings (Coulomb friction)."""
+def pgs_settings(draw, *, warm_start: bool | None = None, friction: str | None = "coulomb",
+                 form: str | None = None) -> phys2d.PGS:
+    """Valid PGS settings: impulse form (row by row or block) or matrix form; Coulomb
+    friction unless ``friction`` says otherwise (None: either model)."""
+    block = draw(st.booleans()) if form in (None, "impulse") else False
+    if form is None:
+        form = "impulse" if block else draw(st.sampled_from(["impulse", "matrix"]))
     return phys2d.PGS(
         iterations=draw(st.integers(1, 30)),
         warm_start=draw(st.booleans()) if warm_start is None else warm_start,
@@ -173,7 +178,9 @@ def pgs_settings(draw, *, warm_start: bool | None = None) -> phys2d.PGS:
         slop=draw(reals(0.0, 0.02)),
         tolerance=draw(st.none() | reals(0.0, 1e-2)),
         restitution_threshold=draw(reals(0.0, 2.0)),
-        block=draw(st.booleans()),
+        friction=draw(st.sampled_from(["coulomb", "lecture"])) if friction is None else friction,
+        form=form,
+        block=block,
     )
 
 
@@ -191,9 +198,11 @@ def soft_step_settings(draw) -> phys2d.SoftStep:
     )
 
 
-def responders() -> st.SearchStrategy[phys2d.Responder]:
-    """Every responder of the engine, with valid settings."""
-    return pgs_settings() | soft_step_settings()
+def responders(*, friction: str | None = None) -> st.SearchStrategy[phys2d.Responder]:
+    """Every responder of the engine, with valid settings (PGS with either friction model
+    unless ``friction`` is given)."""
+    return (pgs_settings(friction=friction) | soft_step_settings() | st.just(phys2d.NaiveImpulse())
+            | st.integers(1, 20).map(lambda n: phys2d.IterativeImpulse(passes=n)))
 
 
 dts = st.sampled_from([1 / 30, 1 / 60, 1 / 120, 1 / 240]) | reals(1e-4, 0.05)

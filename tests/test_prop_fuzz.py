@@ -189,7 +189,7 @@ def test_removed_and_foreign_bodies_are_refused(w: phys2d.World, other: phys2d.W
     rejects(w, "body", lambda: w.remove(gone))
     rejects(w, "body", lambda: w.remove(other.bodies[0]))
     rejects(other, "body", lambda: other.remove(gone))
-    rejects(w, "body", lambda: w.remove(data.draw(st.sampled_from([None, 0, "body", w]))))
+    rejects(w, "item", lambda: w.remove(data.draw(st.sampled_from([None, 0, "body", w]))))
     rejects(w, "removed", lambda: gone.position)
     rejects(w, "removed", lambda: setattr(gone, "velocity", (1.0, 0.0)))
     rejects(w, "removed", lambda: gone.apply_impulse((1.0, 0.0)))
@@ -318,5 +318,5 @@ def test_valid_extremes_never_go_non_finite(scene: SceneSpec, responder: phys2d.
         assert all_finite(w)
         c = w.contacts
         assert np.all(np.isfinite(c.friction))
-        assert np.all(np.abs(c.tangent_impulse) <= c.friction * c.normal_impulse * (1 + 1e-12) + 1e-300) \
-            or not isinstance(responder, phys2d.PGS)
+        if isinstance(responder, phys2d.PGS) and responder.friction == "coulomb":
+            assert np.all(np.abs(c.tangent_impulse) <= c.friction * c.normal_impulse * (1 + 1e-12) + 1e-300)

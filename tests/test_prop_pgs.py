@@ -95,21 +95,37 @@ def frictionless(scene: SceneSpec) -> SceneSpec:
 # -- properties ---------------------------------------------------------------------
 
 
-@given(scene=scenes(max_bodies=6, ground=True, static=None), responder=responders(), dt=dts)
-def test_pgs_lambda_bounds(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
-    """After every step of PGS: lambda_n >= 0 and |lambda_t| <= mu lambda_n (Coulomb).
+def friction_bound(w: phys2d.World, responder: phys2d.Responder, dt: float) -> np.ndarray:
+    """The bound on |lambda_t| of each contact: Coulomb mu lambda_n, or with the lecture's
+    model mu m_c g dt, m_c the pair's reduced mass shared among its manifold's points."""
+    c = w.contacts
+    if not (isinstance(responder, phys2d.PGS) and responder.friction == "lecture"):
+        return c.friction * c.normal_impulse
+    inv = w.M_inv[c.body_a, 0] + w.M_inv[c.body_b, 0]  # a static partner is infinitely heavy
+    pair = c.body_a.astype(np.int64) * len(w) + c.body_b
+    _, where, count = np.unique(pair, return_inverse=True, return_counts=True)
+    return c.friction / inv / count[where] * float(np.hypot(*w.gravity)) * dt
 
-    Also SoftStep, on the tick's total impulses, when nothing bounces (e = 0): its
-    per-sub-step bounds then add up to the same bounds. (Its restitution pass may lower
-    a normal impulse after friction has used it, so with e > 0 the totals can leave the
-    cone, as in Box2D v3.)"""
+
+@given(scene=scenes(max_bodies=6, ground=True, static=None), responder=responders(), dt=dts)
+def test_lambda_bounds(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
+    """After every step: lambda_n >= 0 and |lambda_t| within its bound: mu lambda_n
+    (Coulomb) or mu m_c g dt (PGS with the lecture's friction).
+
+    PGS checks the bounds at the end of its sweeps (matrix and impulse form alike).
+    The naive takes clamp each pair's impulse (f >= 0, |f_t| <= mu f) and share it
+    among the pair's points, so their totals obey Coulomb too. SoftStep's per-sub-step
+    bounds add up to the same bounds on the tick's totals when nothing bounces (e = 0);
+    its restitution pass may lower a normal impulse after friction has used it, so with
+    e > 0 its totals can leave the cone (as in Box2D v3).
+    """
     if isinstance(responder, phys2d.SoftStep):
         scene = replace(scene, bodies=tuple(replace(b, restitution=0.0) for b in scene.bodies))
     w = build(scene, responder)
     for _ in run(w, dt, 25):
         c = w.contacts
         assert np.all(c.normal_impulse >= 0.0)
-        bound = c.friction * c.normal_impulse
+        bound = friction_bound(w, responder, dt)
         assert np.all(np.abs(c.tangent_impulse) <= bound * (1.0 + 1e-12) + 1e-300)
 
 
