@@ -225,6 +225,9 @@ def fingerprint(w: phys2d.World) -> tuple:
         tuple(a.tobytes() for a in arrays), tuple(a.tobytes() for a in contact_arrays),
         cache.keys.tobytes(), cache.lambda_n.tobytes(), cache.lambda_t.tobytes(),
         w.last_step.iterations, w.last_step.residuals.tobytes(),
+        tuple((type(j).__name__, j.body_a._uid, j.body_b._uid, j.alive, j.impulse.tobytes())
+              for j in getattr(w, "joints", ())),
+        getattr(w, "_excluded", np.zeros(0)).tobytes(),
     )
 
 

@@ -222,6 +222,48 @@ def test_world_settings_refuse_bad_values(data, w: phys2d.World) -> None:
         rejects(w, "about", lambda: w.angular_momentum(value))
 
 
+@given(data=st.data(), w=scenes(min_bodies=3, max_bodies=4, ground=None, static=False).map(stepped),
+       other=worlds)
+def test_joints_refuse_bad_input(data, w: phys2d.World, other: phys2d.World) -> None:
+    """Joint constructors and joint removal refuse: bodies of another world (joints
+    across worlds), removed bodies, a body joined to itself, non-bodies, bad anchors,
+    lengths and limits, lower > upper, non-bool collide_connected, a joint removed twice
+    or through the wrong world, and responders that cannot solve joints."""
+    a, b, c = w.bodies[:3]
+    w.add_distance_joint(a, b)  # some joint state to keep intact
+    kind = data.draw(st.sampled_from(["distance", "pin", "angle"]))
+    add = getattr(w, f"add_{kind}_joint")
+    extra = {"pin": {"anchor": (0.0, 0.0)}}.get(kind, {})
+    rejects(w, "b", lambda: add(a, other.bodies[0], **extra))
+    rejects(w, "a", lambda: add(other.bodies[0], b, **extra))
+    rejects(w, "a", lambda: add(data.draw(st.sampled_from([None, 1, "a"])), b, **extra))
+    rejects(w, "same body", lambda: add(a, a, **extra))
+    rejects(w, "collide_connected", lambda: add(a, c, collide_connected=data.draw(st.sampled_from([1, None, "no"])),
+                                                **extra))
+    if kind == "distance":
+        name = data.draw(st.sampled_from(["anchor_a", "anchor_b", "length"]))
+        value = data.draw((bad_scalars | st.sampled_from([0.0, -1.0]) if name == "length" else bad_pairs)
+                          .filter(lambda v: v is not None))  # None: the default
+        rejects(w, name, lambda: w.add_distance_joint(a, c, **{name: value}))
+        rejects(w, "anchor_a", lambda: w.add_distance_joint(a, c, anchor_a=(0.0, 0.0), anchor_b=(0.0, 0.0)))
+    elif kind == "pin":
+        rejects(w, "anchor", lambda: w.add_pin_joint(a, c, anchor=data.draw(bad_pairs)))
+    else:
+        name = data.draw(st.sampled_from(["lower", "upper"]))
+        value = data.draw(bad_scalars.filter(lambda v: v is not None))  # None: no limit
+        rejects(w, name, lambda: w.add_angle_joint(a, c, **{name: value}))
+        rejects(w, "lower", lambda: w.add_angle_joint(a, c, lower=0.5, upper=-0.5))
+    joint = w.joints[0]
+    rejects(other, "joint", lambda: other.remove(joint))
+    rejects(w, "responder", lambda: setattr(w, "responder", data.draw(st.sampled_from(
+        [phys2d.NaiveImpulse(), phys2d.IterativeImpulse(), phys2d.SoftStep()]))))
+    gone = data.draw(st.sampled_from([a, b]))
+    w.remove(gone)  # takes its joint with it
+    assert not joint.alive
+    rejects(w, "joint", lambda: w.remove(joint))
+    rejects(w, "a" if gone is a else "b", lambda: add(a, c, **extra) if gone is a else add(c, b, **extra))
+
+
 RESPONDER_ARGS: dict[str, dict[str, st.SearchStrategy]] = {
     "PGS": {
         "iterations": st.sampled_from([0, -1, 1.5, True, "10", None, NAN]),
