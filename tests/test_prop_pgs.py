@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, note
+from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 
 import phys2d
@@ -155,8 +155,9 @@ def test_converged_pgs_solves_the_lcp(scene: SceneSpec, dt: float, beta: float, 
 def test_converged_pgs_is_complementary(scene: SceneSpec, dt: float) -> None:
     """With Coulomb friction, converged PGS satisfies, at every contact:
     lambda_n > 0 only where the normal velocity meets its target (w_n = 0, else w_n >= 0);
-    |lambda_t| < mu lambda_n only where the contact sticks (v_t = 0); and a friction
-    impulse never pushes along the sliding direction (lambda_t v_t <= 0)."""
+    |lambda_t| < mu lambda_n only where the contact sticks (v_t = 0); a sliding point
+    gets |lambda_t| = mu lambda_n exactly; and a friction impulse never pushes along the
+    sliding direction (lambda_t v_t <= 0)."""
     pgs = converged_pgs(beta=0.2)
     w = build(scene, pgs)
     c, Jn, Jt, Minv, V1, V_ext = step_with_system(w, dt)
@@ -173,6 +174,11 @@ def test_converged_pgs_is_complementary(scene: SceneSpec, dt: float) -> None:
     sticking = np.abs(lam_t) < mu * lam_n - 1e-9 * (1.0 + lam_n)
     assert np.all(np.abs(v_t[sticking]) <= tol)
     assert np.all(lam_t * v_t <= tol * (1.0 + np.abs(lam_t)))
+    # a sliding point pushes back with the whole cone, never more
+    assert np.all(np.abs(lam_t) <= mu * lam_n * (1 + 1e-12) + 1e-300)
+    sliding = np.abs(v_t) > tol
+    event(f"{'some' if sliding.any() else 'no'} point sliding")
+    np.testing.assert_allclose(np.abs(lam_t[sliding]), (mu * lam_n)[sliding], rtol=1e-9, atol=1e-12)
 
 
 @given(scene=scenes(max_bodies=5, ground=True), responder=pgs_settings(), dt=dts)
