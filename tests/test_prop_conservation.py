@@ -57,7 +57,9 @@ def test_angular_momentum_is_conserved(scene: SceneSpec, responder: phys2d.PGS, 
 
     PGS only: SoftStep moves the bodies between its sub-steps but keeps the tick's
     lever arms, so its impulses act at points that have drifted apart by the bodies'
-    motion within the tick, and angular momentum is kept only to O(dt) (as in Box2D v3).
+    motion within the tick, and angular momentum is kept only to O(dt) (as in Box2D v3);
+    the naive takes push overlapping bodies apart by moving x without changing v, which
+    keeps the centre of mass (and linear momentum) but not (x - o) x m v.
     """
     w = build(free_scene(scene), responder)
     for _ in range(30):

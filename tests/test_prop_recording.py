@@ -6,6 +6,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -60,3 +61,24 @@ def test_recording_round_trip(scene: SceneSpec, responder: phys2d.Responder, dt:
             assert np.array_equal(at[name], s[name]), name
         assert np.array_equal(got.residuals_at(s["tick"]), s["residuals"])
         assert got.kinetic_energy[i] == s["ke"]
+
+
+@settings(max_examples=10)
+@given(junk=st.binary(max_size=300), data=st.data())
+def test_recording_refuses_bad_input(junk: bytes, data) -> None:
+    """Recorder refuses bad arguments naming them; playback.load refuses a file of junk
+    bytes with RecordingError (a ValueError) naming the path; log() refuses non-worlds."""
+    with tempfile.TemporaryDirectory() as tmp:
+        bad = Path(tmp) / "junk.rrd"
+        bad.write_bytes(junk)
+        with pytest.raises(phys2d.playback.RecordingError, match="path"):
+            phys2d.playback.load(bad)
+        name, value = data.draw(st.sampled_from([
+            ("path", 3), ("path", Path(tmp) / "x.txt"), ("path", tmp), ("name", 5), ("scene", b"s"),
+            ("flush_every", 0), ("flush_every", 1.5), ("series_every", -1), ("contact_series", "yes"),
+            ("blueprint", None)]))
+        kwargs = {"path": Path(tmp) / "ok.rrd", name: value}
+        with pytest.raises((ValueError, TypeError), match=name):
+            phys2d.Recorder(**kwargs)
+        with phys2d.Recorder(Path(tmp) / "ok.rrd") as rec, pytest.raises(TypeError, match="world"):
+            rec.log(data.draw(st.sampled_from([None, "world", phys2d.PGS()])))
