@@ -76,7 +76,7 @@ def test_contacts_are_well_formed(scene: SceneSpec, responder: phys2d.PGS, dt: f
         c = w.contacts
         assert np.all(np.diff(c.key) > 0)
         assert np.all(c.body_a < c.body_b)
-        assert np.allclose(np.hypot(c.normal[:, 0], c.normal[:, 1]), 1.0, atol=1e-12)
+        assert np.allclose(np.hypot(c.normal[:, 0], c.normal[:, 1]), 1.0, rtol=0, atol=1e-12)
         assert np.all(c.separation <= w.contact_margin + 1e-12)
         # in extended precision, where mu_a mu_b neither over- nor underflows
         mixed = np.sqrt(mu[c.body_a].astype(np.longdouble) * mu[c.body_b]).astype(np.float64)

@@ -47,8 +47,8 @@ def min_centre_gap(scene: SceneSpec) -> float:
     return float(gaps[np.triu_indices(len(centres), 1)].min(initial=np.inf))
 
 
-@given(scene=scenes(max_bodies=6, ground=None, static=None), responder=responders(), dt=dts,
-       steps=st.integers(1, 40))
+@given(scene=scenes(min_bodies=2, max_bodies=6, ground=True, static=None), responder=responders(), dt=dts,
+       steps=st.integers(5, 40))
 def test_same_scene_twice_is_bit_identical(scene: SceneSpec, responder: phys2d.Responder,
                                            dt: float, steps: int) -> None:
     """Two worlds built from the same scene and stepped alike hold bit-identical arrays,
@@ -177,6 +177,6 @@ def test_mirror_symmetric_scene_stays_symmetric(x: float, spec: BodySpec) -> Non
                          angular_velocity=-spec.angular_velocity)
     for _ in range(90):
         w.step(1 / 60)
-    assert np.allclose(left.position * [-1, 1], right.position, atol=1e-8)
-    assert np.allclose(left.velocity * [-1, 1], right.velocity, atol=1e-8)
+    assert np.allclose(left.position * [-1, 1], right.position, rtol=0, atol=1e-8)
+    assert np.allclose(left.velocity * [-1, 1], right.velocity, rtol=0, atol=1e-8)
     assert abs(left.angular_velocity + right.angular_velocity) < 1e-8

@@ -255,3 +255,24 @@ def test_energy_kept_with_restitution_one_and_one_contact(speed: float, heading:
     assert w.kinetic_energy() == pytest.approx(ke0, rel=1e-10)
     np.testing.assert_allclose(w.linear_momentum(), p0, atol=1e-9 * (1 + np.abs(p0).max()))
     assert w.angular_momentum() == pytest.approx(l0, rel=1e-9, abs=1e-9)
+
+
+@given(depth=reals(0.02, 0.3), r=reals(0.3, 1.0), beta=reals(0.05, 1.0), slop=reals(0.0, 0.01),
+       density=reals(0.2, 5.0), dt=dts, steps=st.integers(1, 30))
+def test_baumgarte_removes_overlap_geometrically(depth: float, r: float, beta: float, slop: float,
+                                                 density: float, dt: float, steps: int) -> None:
+    """A circle spawned overlapping the ground by d, no gravity: the push
+    xi = -(beta/dt) min(0, C + slop) lifts it by beta (d - slop) in the first step, and it
+    keeps that speed, so after n steps the overlap is at most
+    slop + (1 - beta)^n (d - slop), never growing."""
+    w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.PGS(beta=beta, slop=slop))
+    w.add_box(position=(0.0, -0.5), half_extents=(20.0, 0.5), static=True, friction=0.0)
+    ball = w.add_circle(position=(0.3, r - depth), radius=r, density=density, friction=0.0)
+    overlap = depth
+    for n in range(1, steps + 1):
+        w.step(dt)
+        now = max(0.0, r - ball.position[1])
+        assert now <= overlap + 1e-12
+        assert now <= slop + (1.0 - beta) ** n * (depth - slop) + 1e-9
+        overlap = now
+    assert ball.velocity[1] == pytest.approx(beta * (depth - slop) / dt, rel=1e-9)
