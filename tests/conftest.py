@@ -4,6 +4,8 @@
               minutes on 2 cores; derandomized, so a CI run is reproducible
     thorough  many examples and a fresh random seed each run, for hunting bugs:
               PHYS2D_HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_prop_*.py
+    quick     a handful of examples, for runs with NUMBA_DISABLE_JIT=1 (the kernels as
+              plain Python, e.g. to measure their line coverage)
 
 deadline=None throughout: numba compiles each kernel on its first call, which would
 otherwise make the first example of a property look slow.
@@ -20,4 +22,5 @@ _COMMON = dict(deadline=None, print_blob=True,
 
 settings.register_profile("ci", max_examples=100, derandomize=True, **_COMMON)
 settings.register_profile("thorough", max_examples=400, **_COMMON)
+settings.register_profile("quick", max_examples=10, derandomize=True, **_COMMON)
 settings.load_profile(os.environ.get("PHYS2D_HYPOTHESIS_PROFILE", "ci"))
