@@ -359,6 +359,7 @@ def table(header, rows) -> list[str]:
 
 def report(args, names, timing, stab, first, meta) -> str:
     eng = [e for e in names if e != "phys2d+rec"]
+    variants = [e for e in names if e.startswith("phys2d[")]
     m = meta["machine"]
     slop = "default (0.1)" if args.pymunk_slop is None else args.pymunk_slop
     settle = min(args.seconds, SETTLE_SECONDS)
@@ -506,14 +507,14 @@ def report(args, names, timing, stab, first, meta) -> str:
             "this run: Box2D",
             "this run: pymunk",
             "this run: phys2d",
-        ],
-        target_rows(timing, stab, first),
+        ] + [f"this run: {v}" for v in variants],
+        target_rows(timing, stab, first, variants),
     )
     L.append("")
     return "\n".join(L)
 
 
-def target_rows(timing, stab, first):
+def target_rows(timing, stab, first, variants=()):
     def ratio(s, e):
         t = timing.get(s, {}).get(e)
         return f"{t['ratio']:.2f}x ({t['ms']:.2f} ms)" if t and "ratio" in t else "n/a"
@@ -540,14 +541,15 @@ def target_rows(timing, stab, first):
     warm = "n/a"
     if isinstance(first, dict) and first.get("warm"):
         warm = f"{statistics.median(r['first_step'] for r in first['warm']):.2f} s"
+    cols = ("Box2D", "pymunk", "phys2d", *variants)
     measured = [
-        [ratio("pyramid_20", e) for e in ("Box2D", "pymunk", "phys2d")],
-        [ratio("pyramid_40", e) for e in ("Box2D", "pymunk", "phys2d")],
-        [dx("pyramid_40", e) for e in ("Box2D", "pymunk", "phys2d")],
-        [fell("vertical_stack_20", e) for e in ("Box2D", "pymunk", "phys2d")],
-        [fell("mass_ratio_100", e) for e in ("Box2D", "pymunk", "phys2d")],
-        ["-", "-", rec_s],
-        ["-", "-", warm],
+        [ratio("pyramid_20", e) for e in cols],
+        [ratio("pyramid_40", e) for e in cols],
+        [dx("pyramid_40", e) for e in cols],
+        [fell("vertical_stack_20", e) for e in cols],
+        [fell("mass_ratio_100", e) for e in cols],
+        ["-", "-", rec_s] + ["-"] * len(variants),
+        ["-", "-", warm] + ["-"] * len(variants),
     ]
     return [list(t) + m for t, m in zip(ISSUE_TARGETS, measured, strict=True)]
 
@@ -641,8 +643,15 @@ def parse_args(argv=None):
         "expression EXPR (phys2d is in scope), e.g. "
         "--variant 'pgs20=phys2d.PGS(iterations=20, warm_start=True)'; repeatable",
     )
+    p.add_argument(
+        "--no-variants",
+        action="store_true",
+        help="run only the default phys2d (the lecture's PGS), not the variants of DEFAULT_VARIANTS",
+    )
     args = p.parse_args(argv)
     args.variants = {}
+    if not args.variant and not args.no_variants:
+        args.variant = [f"{label}={expr}" for label, expr in DEFAULT_VARIANTS.items()]
     for v in args.variant:
         label, sep, expr = v.partition("=")
         if not sep or not label or not expr:
@@ -661,6 +670,14 @@ def parse_args(argv=None):
     if args.out is None:
         args.out = BENCH_DIR / ("RESULTS-quick.md" if q else "RESULTS.md")
     return args
+
+
+# what the field learned after the lecture, each shown beside the lecture's PGS (issue 7)
+DEFAULT_VARIANTS = {
+    "block": "phys2d.PGS(iterations=10, warm_start=True, block=True)",
+    "soft4": "phys2d.SoftStep(substeps=4)",
+    "soft6": "phys2d.SoftStep(substeps=6)",
+}
 
 
 def main(argv=None) -> int:

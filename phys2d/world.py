@@ -55,7 +55,9 @@ class World:
     responder   the collision responder, default ``PGS()``; swappable between steps
     contact_margin  surfaces closer than this (m) already make contact points
                 (speculative contacts, separation > 0), so resting contacts do not
-                flicker on and off; 0 gives contacts only where shapes overlap
+                flicker on and off; bodies in motion are also met as far away as
+                their velocity could carry them within the step, so fast bodies stop
+                at the surface instead of sinking into it
     max_speed   a step that leaves any body faster than this (m/s, or rad/s for
                 spin) raises SimulationError and is undone
     """
@@ -225,6 +227,7 @@ class World:
             h._index -= 1
         item._index = -1
         self.contacts = Contacts()  # its indices no longer match w.bodies
+        self.last_step = StepReport()  # nor does the last step's report
         self._joints_changed()
 
     # -- joints --------------------------------------------------------------------
@@ -325,7 +328,7 @@ class World:
         try:
             V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
-            c = self._collide()
+            c = self._collide(dt)
             rows, hit = self._build_rows(c, V1, dt)
             # the responders see contacts in row order: rows 2q, 2q + 1 are contact order[q]'s
             rc = c if not responder.colour_order else c.reordered(rows.order)
@@ -357,14 +360,19 @@ class World:
         self.time += dt
         return self.last_step
 
-    def _collide(self) -> Contacts:
-        """Broadphase and narrowphase at the current positions: this step's contacts."""
+    def _collide(self, dt: float = 0.0) -> Contacts:
+        """Broadphase and narrowphase at the current positions: this step's contacts.
+
+        Bodies are looked for as far apart as contact_margin plus what their current
+        velocities could close within dt (speculative contacts).
+        """
         b = self._bodies
         world_v = np.empty((b.n_verts, 2))
         world_n = np.empty((b.n_verts, 2))
         aabb = np.empty((b.n, 4))
-        update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
-                        self.contact_margin, world_v, world_n, aabb)
+        travel = np.empty(b.n)
+        update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
+                        self.contact_margin, world_v, world_n, aabb, travel)
         if not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
             fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
             n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
@@ -378,7 +386,7 @@ class World:
                np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
         pair_start = np.empty(self._n_pairs + 1, np.int64)
         k = collide_pairs(self._pairs, self._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v,
-                          world_n, self.contact_margin, b.uid, b.friction, b.restitution, *out, pair_start)
+                          world_n, self.contact_margin, travel, b.uid, b.friction, b.restitution, *out, pair_start)
         body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
         self._solve_order = solve_order(self._pair_order, pair_start)
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,

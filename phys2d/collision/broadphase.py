@@ -19,24 +19,32 @@ from ..shapes import CIRCLE
 
 
 @njit(cache=True)
-def update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, margin, world_v,
-                    world_n, aabb):
+def update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n,
+                    aabb, travel):
     """World-frame vertices and edge normals of every polygon, and every body's AABB.
 
-    aabb[b] = (min x, min y, max x, max y) in m, fattened by the contact margin.
+    travel[b] = dt (|v| + |omega| r_max) is how far (m) any point of body b can move
+    within the step (r_max: the farthest point from its centre). aabb[b] = (min x,
+    min y, max x, max y) in m, grown by margin + travel[b], so a fast body meets what
+    it could reach this step (speculative contacts).
     """
     for b in range(x.shape[0]):
         px, py = x[b, 0], x[b, 1]
+        speed = np.sqrt(V[b, 0] * V[b, 0] + V[b, 1] * V[b, 1])
         if kind[b] == CIRCLE:
-            r = radius[b] + margin
-            aabb[b, 0] = px - r
-            aabb[b, 1] = py - r
-            aabb[b, 2] = px + r
-            aabb[b, 3] = py + r
+            r = radius[b]
+            travel[b] = dt * (speed + abs(V[b, 2]) * r)
+            grow = r + margin + travel[b]
+            aabb[b, 0] = px - grow
+            aabb[b, 1] = py - grow
+            aabb[b, 2] = px + grow
+            aabb[b, 3] = py + grow
             continue
         c, s = np.cos(theta[b]), np.sin(theta[b])
         lo_x, lo_y, hi_x, hi_y = np.inf, np.inf, -np.inf, -np.inf
+        r2 = 0.0
         for k in range(vstart[b], vstart[b] + vcount[b]):
+            r2 = max(r2, local_v[k, 0] * local_v[k, 0] + local_v[k, 1] * local_v[k, 1])
             vx = px + c * local_v[k, 0] - s * local_v[k, 1]
             vy = py + s * local_v[k, 0] + c * local_v[k, 1]
             world_v[k, 0] = vx
@@ -47,10 +55,12 @@ def update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, ma
             lo_y = min(lo_y, vy)
             hi_x = max(hi_x, vx)
             hi_y = max(hi_y, vy)
-        aabb[b, 0] = lo_x - margin
-        aabb[b, 1] = lo_y - margin
-        aabb[b, 2] = hi_x + margin
-        aabb[b, 3] = hi_y + margin
+        travel[b] = dt * (speed + abs(V[b, 2]) * np.sqrt(r2))
+        grow = margin + travel[b]
+        aabb[b, 0] = lo_x - grow
+        aabb[b, 1] = lo_y - grow
+        aabb[b, 2] = hi_x + grow
+        aabb[b, 3] = hi_y + grow
 
 
 @njit(cache=True)

@@ -195,11 +195,14 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
-def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, margin, uid, friction,
-                  restitution, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e, pair_start):
+def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, contact_margin, travel, uid,
+                  friction, restitution, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e,
+                  pair_start):
     """Manifolds of the first n_pairs candidate pairs; returns the number of points K.
 
-    Points up to ``margin`` apart (m) are kept as speculative contacts. Each point also
+    Points up to contact_margin + travel[a] + travel[b] apart (m) are kept as
+    speculative contacts: surfaces that are close, or that the bodies' motion could
+    bring together within the step (``travel``, see broadphase). Each point also
     gets its contact key (uid_a << 39 | uid_b << 16 | feature), the pair's friction
     sqrt(mu_a mu_b) and restitution max(e_a, e_b). The out arrays need room for
     2 * n_pairs points; pair q's points are pair_start[q] up to pair_start[q + 1].
@@ -208,6 +211,7 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
+        margin = contact_margin + travel[a] + travel[b]
         if kind[a] != CIRCLE and kind[b] != CIRCLE:
             m = collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
             count, nx, ny = m[0], m[1], m[2]

@@ -100,6 +100,14 @@ def row_velocity(k, i, j, J, V):
 
 
 @njit(cache=True)
+def apply_row_impulse(k, i, j, JM, impulse, V):
+    """V += M^-1 J_k^T impulse: what an impulse along row k does to bodies i and j."""
+    for c in range(3):
+        V[i, c] += JM[k, c] * impulse
+        V[j, c] += JM[k, 3 + c] * impulse
+
+
+@njit(cache=True)
 def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv, dt, beta,
                  slop, restitution_threshold, friction_model, gravity, points_in_manifold,
                  out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu, kind):

@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..constraints.rows import apply_row_impulse, row_velocity
 from .base import Responder, SolveResult, StepContext
 
 PUSH_PASSES = 50  # sweeps of the push-apart at most
@@ -108,19 +109,6 @@ def pair_rows(starts, use, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
 
 
 @njit(cache=True)
-def _row_v(Jr, p, V, a, b):
-    return (Jr[p, 0] * V[a, 0] + Jr[p, 1] * V[a, 1] + Jr[p, 2] * V[a, 2]
-            + Jr[p, 3] * V[b, 0] + Jr[p, 4] * V[b, 1] + Jr[p, 5] * V[b, 2])
-
-
-@njit(cache=True)
-def _apply(JMr, p, f, V, a, b):
-    for m in range(3):
-        V[a, m] += JMr[p, m] * f
-        V[b, m] += JMr[p, 3 + m] * f
-
-
-@njit(cache=True)
 def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
     """One pass over the pairs: the lecture's impulse where they approach, then friction.
 
@@ -132,16 +120,16 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
         if An[p] <= 0.0:
             continue
         a, b = pa[p], pb[p]
-        vn = _row_v(Jn, p, V, a, b)  # relative normal velocity, m/s
+        vn = row_velocity(p, a, b, Jn, V)  # relative normal velocity, m/s
         if vn >= 0.0:
             continue  # not approaching: no collision response
         f = -(1.0 + e[p]) * vn / An[p]
-        _apply(JMn, p, f, V, a, b)
+        apply_row_impulse(p, a, b, JMn, f, V)
         f_n[p] += f
         worst = max(worst, f * An[p])
         if At[p] > 0.0:
-            ft = min(max(-_row_v(Jt, p, V, a, b) / At[p], -mu[p] * f), mu[p] * f)
-            _apply(JMt, p, ft, V, a, b)
+            ft = min(max(-row_velocity(p, a, b, Jt, V) / At[p], -mu[p] * f), mu[p] * f)
+            apply_row_impulse(p, a, b, JMt, ft, V)
             f_t[p] += ft
             worst = max(worst, abs(ft) * At[p])
     return worst

@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..constraints.rows import apply_row_impulse, row_velocity
 from ..shapes import finite_float
 from .base import Responder, SolveResult, StepContext
 from .pgs import _check_int, block_is_well_conditioned, lcp2
@@ -47,21 +48,6 @@ def _soft(hertz, zeta, h, push_max):
     a2 = h * omega * a1
     a3 = 1.0 / (1.0 + a2)
     return omega / a1, a2 * a3, a3, push_max
-
-
-@njit(cache=True)
-def _velocity(k, a, b, J, V):
-    """J_k V (m/s)."""
-    return (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-            + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-
-
-@njit(cache=True)
-def _apply(k, a, b, JM, d, V):
-    """V += M^-1 J_k^T d."""
-    for q in range(3):
-        V[a, q] += JM[k, q] * d
-        V[b, q] += JM[k, 3 + q] * d
 
 
 @njit(cache=True)
@@ -119,23 +105,23 @@ def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, 
                 bias1, ms1, is1 = _push(_separation(c, a, b, C0, r, normal, moved), h, use_bias, soft)
                 bias2, ms2, is2 = _push(_separation(c + 1, a, b, C0, r, normal, moved), h, use_bias, soft)
                 a1, a2 = lam[k], lam[k2]
-                b1 = ms1 * (_velocity(k, a, b, J, V) + bias1) + is1 * k11 * a1 - (k11 * a1 + k12 * a2)
-                b2 = ms2 * (_velocity(k2, a, b, J, V) + bias2) + is2 * k22 * a2 - (k12 * a1 + k22 * a2)
+                b1 = ms1 * (row_velocity(k, a, b, J, V) + bias1) + is1 * k11 * a1 - (k11 * a1 + k12 * a2)
+                b2 = ms2 * (row_velocity(k2, a, b, J, V) + bias2) + is2 * k22 * a2 - (k12 * a1 + k22 * a2)
                 x1, x2 = lcp2(k11, k12, k22, b1, b2)
                 lam[k] = x1
                 lam[k2] = x2
-                _apply(k, a, b, JM, x1 - a1, V)
-                _apply(k2, a, b, JM, x2 - a2, V)
+                apply_row_impulse(k, a, b, JM, x1 - a1, V)
+                apply_row_impulse(k2, a, b, JM, x2 - a2, V)
                 worst = max(worst, abs(x1 - a1) * k11, abs(x2 - a2) * k22)
                 c += 2
                 continue
         if A_diag[k] > 0.0:
             bias, mass_scale, impulse_scale = _push(_separation(c, a, b, C0, r, normal, moved), h, use_bias, soft)
-            d = -mass_scale * (_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
+            d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
             new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
             d = new - lam[k]
             lam[k] = new
-            _apply(k, a, b, JM, d, V)
+            apply_row_impulse(k, a, b, JM, d, V)
             worst = max(worst, abs(d) * A_diag[k])
         c += 1
     for c in range(n_contacts):
@@ -144,11 +130,11 @@ def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, 
             continue
         a, b = i[k], j[k]
         top = mu[k] * lam[k - 1]
-        d = -_velocity(k, a, b, J, V) / A_diag[k]
+        d = -row_velocity(k, a, b, J, V) / A_diag[k]
         new = min(max(lam[k] + d, -top), top)
         d = new - lam[k]
         lam[k] = new
-        _apply(k, a, b, JM, d, V)
+        apply_row_impulse(k, a, b, JM, d, V)
         worst = max(worst, abs(d) * A_diag[k])
     return worst
 
@@ -182,7 +168,7 @@ def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, sta
         r[c, 1] = point[c, 1] - x[a, 1]
         r[c, 2] = point[c, 0] - x[b, 0]
         r[c, 3] = point[c, 1] - x[b, 1]
-        vn0[c] = _velocity(2 * c, a, b, J, V1)
+        vn0[c] = row_velocity(2 * c, a, b, J, V1)
     dv = (V - V1) / substeps  # a sub-step's share of the external forces
     V[:, :] = V1
     for k in range(n_rows):
@@ -192,7 +178,7 @@ def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, sta
         V += dv
         for k in range(n_rows):  # warm start: last sub-step's impulses
             if lam[k] != 0.0:
-                _apply(k, i[k], j[k], JM, lam[k], V)
+                apply_row_impulse(k, i[k], j[k], JM, lam[k], V)
         soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V, h, True, soft_dyn,
                    soft_static, block)
         for b in range(x.shape[0]):
@@ -217,11 +203,11 @@ def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, sta
         if restitution[c] == 0.0 or vn0[c] > -restitution_threshold or total[k] == 0.0 or A_diag[k] <= 0.0:
             continue
         a, b = i[k], j[k]
-        d = -(_velocity(k, a, b, J, V) + restitution[c] * vn0[c]) / A_diag[k]
+        d = -(row_velocity(k, a, b, J, V) + restitution[c] * vn0[c]) / A_diag[k]
         new = max(total[k] + d, 0.0)
         d = new - total[k]
         total[k] = new
-        _apply(k, a, b, JM, d, V)
+        apply_row_impulse(k, a, b, JM, d, V)
     return n_sweeps
 
 
