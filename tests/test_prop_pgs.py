@@ -18,7 +18,18 @@ from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 
 import phys2d
-from tests.strategies import SceneSpec, build, dts, pgs_settings, reals, responders, run, scenes
+from tests.strategies import (
+    GROUND,
+    SceneSpec,
+    body_specs,
+    build,
+    dts,
+    pgs_settings,
+    reals,
+    responders,
+    run,
+    scenes,
+)
 
 # -- the second method ------------------------------------------------------------
 
@@ -38,10 +49,11 @@ def jacobian(n_bodies: int, x: np.ndarray, c: phys2d.Contacts, direction: np.nda
 
 
 def normal_targets(c: phys2d.Contacts, vn1: np.ndarray, pgs: phys2d.PGS, dt: float) -> np.ndarray:
-    """xi of each normal row: speculative gap, Baumgarte push, or the bounce."""
+    """xi of each normal row: speculative gap, Baumgarte push, or the bounce (of a point
+    approaching faster than the threshold that will touch within the step)."""
     xi = np.where(c.separation > 0.0, -c.separation / dt,
                   -(pgs.beta / dt) * np.minimum(0.0, c.separation + pgs.slop))
-    bounce = vn1 < -pgs.restitution_threshold
+    bounce = (vn1 < -pgs.restitution_threshold) & (c.separation + dt * vn1 <= 0.0)
     return np.where(bounce, np.maximum(xi, -c.restitution * vn1), xi)
 
 
@@ -84,8 +96,24 @@ def converged_pgs(beta: float = 0.0, slop: float = 0.005, threshold: float = 1.0
                       restitution_threshold=threshold)
 
 
+@st.composite
+def near_touching(draw) -> SceneSpec:
+    """Up to three bodies standing on the ground, each a gap in [-slop, margin] above it
+    or above the body below (speculative and touching contacts, the resting case)."""
+    bodies = [GROUND]
+    y = 0.0
+    for _ in range(draw(st.integers(1, 3))):
+        spec = draw(body_specs(kinds=("box", "circle"), size=(0.3, 0.8), density=(0.5, 2.0),
+                               max_speed=1.0, max_spin=0.0))
+        half = spec.size if spec.kind == "circle" else spec.size[1]
+        y += draw(reals(-0.005, 0.02)) + half
+        bodies.append(replace(spec, position=(draw(reals(-0.1, 0.1)), y), angle=0.0))
+        y += half
+    return SceneSpec(tuple(bodies))
+
+
 small_scenes = scenes(min_bodies=1, max_bodies=3, ground=None, gravity=None, region=0.8,
-                      density=(0.5, 2.0), size=(0.3, 0.8), max_speed=3.0)
+                      density=(0.5, 2.0), size=(0.3, 0.8), max_speed=3.0) | near_touching()
 
 
 def frictionless(scene: SceneSpec) -> SceneSpec:
