@@ -152,7 +152,7 @@ def scenes(draw, *, min_bodies: int = 1, max_bodies: int = 6, ground: bool | Non
 
 
 def violent_scenes() -> st.SearchStrategy[SceneSpec]:
-    """Fast, spinning, overlapping bodies with mass ratios up to about 1e6."""
+    """Fast, spinning, overlapping bodies, static ones among them, mass ratios up to about 1e8."""
     return scenes(max_bodies=8, ground=None, region=1.0, max_speed=60.0, max_spin=60.0,
                   density=(1e-3, 1e2), size=(0.05, 2.0), static=None)
 
