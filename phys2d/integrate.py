@@ -8,6 +8,7 @@ theta' = omega is the 2D form of the lecture's q' = 1/2 w q.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 
@@ -30,11 +31,16 @@ def integrate_positions(x, theta, V, dt):
 
 
 @njit(cache=True)
-def first_too_fast(V, max_speed):
-    """Index of the first body faster than max_speed (m/s, or rad/s) or not finite; -1 if none."""
+def first_too_fast(V, x, theta, max_speed):
+    """Index of the first body faster than max_speed (m/s, or rad/s) or not finite; -1 if none.
+
+    x and theta are checked too: a finite velocity times a huge dt can still overflow them.
+    """
     limit = max_speed * max_speed
     for b in range(V.shape[0]):
         v2 = V[b, 0] * V[b, 0] + V[b, 1] * V[b, 1]
         if not (v2 <= limit and abs(V[b, 2]) <= max_speed):  # NaN fails every comparison
+            return b
+        if not (np.isfinite(x[b, 0]) and np.isfinite(x[b, 1]) and np.isfinite(theta[b])):
             return b
     return -1

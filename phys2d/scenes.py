@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from .responders.base import Responder
+from .shapes import positive_float
 from .world import World
 
 GROUND_HALF_WIDTH = 100.0  # m
@@ -35,7 +36,7 @@ def pyramid(rows: int = 20, responder: Responder | None = None, size: float = 1.
     rows = _check_count(rows, "rows")
     w = World(responder=responder)
     ground(w)
-    h = 0.5 * size
+    h = 0.5 * positive_float(size, "size")
     for r in range(rows):
         count = rows - r
         for k in range(count):
@@ -48,7 +49,7 @@ def vertical_stack(n: int = 10, responder: Responder | None = None, size: float 
     n = _check_count(n, "n")
     w = World(responder=responder)
     ground(w)
-    h = 0.5 * size
+    h = 0.5 * positive_float(size, "size")
     for k in range(n):
         w.add_box(position=(0.0, h + k * size), half_extents=(h, h))
     return w

@@ -74,8 +74,11 @@ def vec2(value, name: str) -> np.ndarray:
 def circle(radius) -> ShapeSpec:
     r = positive_float(radius, "radius")
     area = math.pi * r * r
+    unit_inertia = 0.5 * area * r * r
+    if not (0.0 < unit_inertia < math.inf):  # r^4 underflows to 0 or overflows
+        raise ValueError(f"radius {r:g} m is too small or too large for finite, non-zero area and inertia")
     empty = np.zeros((0, 2))
-    return ShapeSpec(CIRCLE, r, empty, empty, np.zeros(2), area, 0.5 * area * r * r)
+    return ShapeSpec(CIRCLE, r, empty, empty, np.zeros(2), area, unit_inertia)
 
 
 def box(half_extents) -> ShapeSpec:
@@ -138,6 +141,8 @@ def polygon(vertices, name: str = "vertices") -> ShapeSpec:
     cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     second = np.sum(cross * (np.einsum("ij,ij->i", a, a) + np.einsum("ij,ij->i", a, b)
                              + np.einsum("ij,ij->i", b, b))) / 12.0
+    if not (0.0 < second < math.inf):
+        raise ValueError(f"{name} is too large: its moment of inertia overflows")
     normals = np.stack([e[:, 1], -e[:, 0]], axis=1) / length[:, None]
     return ShapeSpec(POLYGON, 0.0, a.copy(), normals, centroid, area, float(second))
 
@@ -146,9 +151,11 @@ def mass_properties(spec: ShapeSpec, density: float) -> tuple[float, float]:
     """Mass (kg) and moment of inertia about the centre of mass (kg m^2)."""
     mass = density * spec.area
     inertia = density * spec.unit_inertia
-    if not (math.isfinite(mass) and math.isfinite(inertia)) or mass <= 0.0 or inertia <= 0.0:
+    # M^-1 = (1/m, 1/m, 1/I) must be finite too: a subnormal mass would give an infinite one
+    if not (0.0 < mass < math.inf and 0.0 < inertia < math.inf
+            and math.isfinite(1.0 / mass) and math.isfinite(1.0 / inertia)):
         raise ValueError(
             f"density and size give a mass of {mass:.3g} kg and inertia {inertia:.3g} kg m^2: "
-            "both must be finite and > 0"
+            "both must be finite and > 0, with finite inverses"
         )
     return mass, inertia

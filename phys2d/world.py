@@ -444,17 +444,19 @@ class World:
             joint._impulse = rows.lam[start : start + joint.row_count].copy()
 
     def _check_limits(self) -> None:
-        V = self._bodies.V
-        first = first_too_fast(V, self._max_speed)
+        b = self._bodies
+        V = b.V
+        first = first_too_fast(V, b.x, b.theta, self._max_speed)
         if first >= 0:
             speed = np.hypot(V[:, 0], V[:, 1])
             bad = ~(np.isfinite(speed) & (speed <= self._max_speed)
-                    & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed))
+                    & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed)
+                    & np.isfinite(b.x).all(axis=1) & np.isfinite(b.theta))
             idx = np.flatnonzero(bad)
             shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
             raise SimulationError(
                 f"step would leave bodies [{shown}] faster than max_speed={self._max_speed:g} "
-                "(m/s or rad/s) or not finite; the world was left as it was before the step")
+                "(m/s or rad/s) or with a non-finite state; the world was left as it was before the step")
 
     # -- energy and momentum ---------------------------------------------------------
     def kinetic_energy(self) -> float:

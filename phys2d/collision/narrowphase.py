@@ -231,7 +231,7 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
             count, nx, ny = c[0], sign * c[1], sign * c[2]
             points = ((c[3], c[4], c[5], c[6]), (c[3], c[4], c[5], c[6]))
         pair_key = (uid[a] << 39) | (uid[b] << 16)
-        mu = np.sqrt(friction[a] * friction[b])
+        mu = np.sqrt(friction[a]) * np.sqrt(friction[b])  # cannot overflow as sqrt(mu_a mu_b) can
         e = max(restitution[a], restitution[b])
         for m in range(count):
             px, py, sep, feature = points[m]

@@ -202,11 +202,11 @@ class PGS(Responder):
         if self.restitution_threshold < 0.0:
             raise ValueError(f"restitution_threshold must be >= 0, got {self.restitution_threshold}")
         models = {"coulomb": FRICTION_COULOMB, "lecture": FRICTION_LECTURE}
-        if friction not in models:
+        if not isinstance(friction, str) or friction not in models:
             raise ValueError(f"friction must be 'coulomb' or 'lecture', got {friction!r}")
         self.friction = friction
         self.friction_model = models[friction]
-        if form not in ("impulse", "matrix"):
+        if not isinstance(form, str) or form not in ("impulse", "matrix"):
             raise ValueError(f"form must be 'impulse' or 'matrix', got {form!r}")
         self.form = form
         if form == "matrix":
