@@ -276,8 +276,10 @@ class Body:
         j = vec2(impulse, "impulse")
         r = np.zeros(2) if point is None else vec2(point, "point") - a.x[self._index]
         m_inv = a.M_inv[self._index]
-        dv = np.array([j[0] * m_inv[0], j[1] * m_inv[1], (r[0] * j[1] - r[1] * j[0]) * m_inv[2]])
-        if not np.all(np.isfinite(a.V[self._index] + dv)):
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is caught just below, by name
+            dv = np.array([j[0] * m_inv[0], j[1] * m_inv[1], (r[0] * j[1] - r[1] * j[0]) * m_inv[2]])
+            finite = np.all(np.isfinite(a.V[self._index] + dv))
+        if not finite:
             raise ValueError("impulse: the resulting velocity would not be finite")
         a.V[self._index] += dv
 

@@ -109,8 +109,17 @@ def polygon(vertices, name: str = "vertices") -> ShapeSpec:
     v = v.astype(np.float64)
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{name} must be finite")
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # checked below, named
+        return _convex_polygon(v, name)
+
+
+def _convex_polygon(v: np.ndarray, name: str) -> ShapeSpec:
+    """The checks and area properties of ``polygon`` for finite (n, 2) vertices."""
+    n = v.shape[0]
     e = np.roll(v, -1, axis=0) - v  # edge k runs from v_k to v_k+1
     length = np.hypot(e[:, 0], e[:, 1])
+    if not np.all(np.isfinite(length)):
+        raise ValueError(f"{name} is too large: its edges overflow a float")
     if np.any(length < MIN_EDGE_LENGTH):
         k = int(np.argmin(length))
         raise ValueError(
@@ -119,6 +128,8 @@ def polygon(vertices, name: str = "vertices") -> ShapeSpec:
         )
     e_next = np.roll(e, -1, axis=0)
     turn = (e[:, 0] * e_next[:, 1] - e[:, 1] * e_next[:, 0]) / (length * np.roll(length, -1))
+    if not np.all(np.isfinite(turn)):
+        raise ValueError(f"{name} is too large: its turning angles overflow a float")
     if np.all(turn < -_COLLINEAR_TOL):
         raise ValueError(f"{name} must be counter-clockwise, got clockwise order")
     if np.any(np.abs(turn) <= _COLLINEAR_TOL):
