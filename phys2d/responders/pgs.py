@@ -101,6 +101,8 @@ def sweep(n_contacts, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam
             kk = first if r == 0 else second
             if kk < 0 or A_diag[kk] <= 0.0:
                 continue  # no row, or both bodies static: nothing can move
+            if bound_row[kk] >= 0 and lam[bound_row[kk]] == 0.0 and lam[kk] == 0.0:
+                continue  # friction of a point that does not push: its cone is [0, 0], nothing to do
             jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
                   + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
             delta = (xi[kk] - jv) * inv_A[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk

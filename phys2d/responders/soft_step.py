@@ -126,8 +126,8 @@ def soft_sweep(i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, 
         c += 1
     for c in range(n_contacts):
         k = 2 * c + 1
-        if A_diag[k] <= 0.0:
-            continue
+        if A_diag[k] <= 0.0 or (lam[k - 1] == 0.0 and lam[k] == 0.0):
+            continue  # static pair, or a point that does not push: its friction cone is [0, 0]
         a, b = i[k], j[k]
         top = mu[k] * lam[k - 1]
         d = -row_velocity(k, a, b, J, V) / A_diag[k]
