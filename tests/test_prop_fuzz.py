@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -324,8 +325,6 @@ def test_stock_scenes_refuse_bad_arguments(data) -> None:
 def extreme_scenes(draw) -> SceneSpec:
     """Valid but extreme: huge friction, densities 1e-6..1e6, sizes 1e-3..1e3 m,
     positions far from the origin, speeds near the limit."""
-    from dataclasses import replace
-
     scene = draw(scenes(max_bodies=5, ground=None, static=None, region=1.0))
     far = draw(st.sampled_from([0.0, 1e6, -1e9, 1e12]))
     out = []
