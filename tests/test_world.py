@@ -314,3 +314,12 @@ def test_fast_falling_box_stops_at_the_ground_instead_of_sinking_into_it():
         deepest = max(deepest, w.last_step.max_penetration)
     assert deepest <= w.responder.slop + 0.002
     assert box.vertices[:, 1].min() > -0.01 and ball.position[1] > 0.29
+
+
+def test_absurd_sweep_counts_are_refused_by_name_not_by_running_out_of_memory():
+    for make, name in ((lambda n: phys2d.PGS(iterations=n), "iterations"),
+                       (lambda n: phys2d.SoftStep(substeps=n), "substeps"),
+                       (lambda n: phys2d.IterativeImpulse(passes=n), "passes")):
+        with pytest.raises(ValueError, match=name):
+            make(10**13)
+        make(1000)  # large but sane is fine

@@ -145,11 +145,14 @@ def pgs_solve(i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam, V, iterations
     return iterations
 
 
-def _check_int(value, name: str, low: int) -> int:
+MAX_SWEEPS = 100_000  # per step: far past convergence, and the residual buffer stays small
+
+
+def _check_int(value, name: str, low: int, high: int = MAX_SWEEPS) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
-    if value < low:
-        raise ValueError(f"{name} must be >= {low}, got {value}")
+    if not low <= value <= high:
+        raise ValueError(f"{name} must be between {low} and {high}, got {value}")
     return int(value)
 
 
