@@ -208,6 +208,12 @@ def soft_step_solve(i, j, J, JM, A_diag, mu, restitution, C0, point, normal, sta
         d = new - total[k]
         total[k] = new
         apply_row_impulse(k, a, b, JM, d, V)
+        # a smaller push shrinks the cone: keep the tick's friction inside mu lambda_n
+        top = mu[k + 1] * total[k]
+        d = min(max(total[k + 1], -top), top) - total[k + 1]
+        if d != 0.0:
+            total[k + 1] += d
+            apply_row_impulse(k + 1, a, b, JM, d, V)
     return n_sweeps
 
 
