@@ -1,7 +1,7 @@
 """The ``phys2d`` command (also ``python -m phys2d``).
 
     phys2d scenes                                  the stock scenes and what --size means
-    phys2d run SCENE [--size N] [--responder naive|iterative|pgs|pgs-cold]
+    phys2d run SCENE [--size N] [--responder naive|iterative|pgs|pgs-cold|pgs-block|soft-step]
                      [--iterations K] [--steps N] [--dt S] [--out PATH | --no-record] [--no-series]
     phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH] [--no-series]
     phys2d inspect PATH                            a summary table of a recording
@@ -31,7 +31,7 @@ from .responders.base import Responder
 from .responders.pgs import PGS
 from .world import SimulationError, World
 
-RESPONDERS = ("naive", "iterative", "pgs", "pgs-cold")
+RESPONDERS = ("naive", "iterative", "pgs", "pgs-cold", "pgs-block", "soft-step")
 COMPARE_ORDER = ("naive", "iterative", "pgs-cold", "pgs")
 DEFAULT_DIR = "recordings"
 
@@ -91,23 +91,21 @@ def default_size(builder: Callable[..., World]) -> Any:
 
 
 def make_responder(name: str, iterations: int | None = None) -> Responder:
-    """A responder by its command-line name; ``iterations`` are PGS sweeps or iterative passes."""
+    """A responder by its command-line name; ``iterations`` are PGS sweeps, iterative
+    passes or soft-step sub-steps."""
     import phys2d
 
-    if name in ("pgs", "pgs-cold"):
-        return PGS(iterations=10 if iterations is None else iterations, warm_start=name == "pgs")
+    if name in ("pgs", "pgs-cold", "pgs-block"):
+        return PGS(iterations=10 if iterations is None else iterations, warm_start=name != "pgs-cold",
+                   block=name == "pgs-block")
     if name == "naive":
-        cls = getattr(phys2d, "NaiveImpulse", None)
-        if cls is None:
-            raise CLIError("responder 'naive' is not available in this version of phys2d")
         if iterations is not None:
             raise CLIError("--iterations does not apply to the naive responder (it makes one pass)")
-        return cls()
+        return phys2d.NaiveImpulse()
     if name == "iterative":
-        cls = getattr(phys2d, "IterativeImpulse", None)
-        if cls is None:
-            raise CLIError("responder 'iterative' is not available in this version of phys2d")
-        return cls() if iterations is None else cls(passes=iterations)
+        return phys2d.IterativeImpulse() if iterations is None else phys2d.IterativeImpulse(passes=iterations)
+    if name == "soft-step":
+        return phys2d.SoftStep() if iterations is None else phys2d.SoftStep(substeps=iterations)
     raise CLIError(f"unknown responder {name!r} (choose from: {', '.join(RESPONDERS)})")
 
 
@@ -351,7 +349,7 @@ def parser() -> argparse.ArgumentParser:
         q.add_argument("--steps", type=_count, default=default_steps, help="ticks to run (default %(default)s)")
         q.add_argument("--dt", type=_seconds, default=1 / 60, help="tick length in s (default 1/60)")
         q.add_argument("--iterations", type=_count, default=None,
-                       help="PGS sweeps or iterative passes per tick (default 10)")
+                       help="PGS sweeps, iterative passes or soft-step sub-steps per tick (default 10; soft-step 4)")
         q.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                        help="progress bar on stderr (default: when stderr is a terminal and the run is long)")
         q.add_argument("--no-series", action="store_true",

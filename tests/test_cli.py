@@ -77,6 +77,16 @@ def test_run_options_reach_the_engine(tmp_path):
     assert rec.properties["run"]["responder_name"] == "pgs-cold"
 
 
+def test_run_with_the_responders_beyond_the_lecture(tmp_path):
+    for name, expected in (("pgs-block", "block=True"), ("soft-step", "SoftStep(substeps=2")):
+        out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "10", "--responder", name,
+                         *(["--iterations", "2"] if name == "soft-step" else []), "--out", f"{name}.rrd",
+                         cwd=tmp_path)
+        assert out.returncode == 0, out.stderr
+        rec = playback.load(tmp_path / f"{name}.rrd")
+        assert expected in rec.properties["run"]["responder"]
+
+
 def test_run_without_series_keeps_the_contact_table(tmp_path):
     out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "15", "--no-series", "--out", "s.rrd",
                      cwd=tmp_path)
