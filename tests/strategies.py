@@ -294,6 +294,18 @@ def resting_scenes(draw, max_stacks: int = 3, max_height: int = 3) -> SceneSpec:
     return SceneSpec(tuple(bodies))
 
 
+def step_or_undone(w: phys2d.World, dt: float) -> bool:
+    """One step: True if it was taken; False if it raised SimulationError, after checking
+    that the failed step left the world bit-identical."""
+    before = fingerprint(w)
+    try:
+        w.step(dt)
+    except phys2d.SimulationError:
+        assert fingerprint(w) == before
+        return False
+    return True
+
+
 def run(w: phys2d.World, dt: float, steps: int):
     """Step ``w`` up to ``steps`` times, yielding after each step; stop quietly at a
     SimulationError (a Baumgarte push past max_speed is allowed: test_prop_safety
