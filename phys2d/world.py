@@ -388,7 +388,8 @@ class World:
         k = collide_pairs(self._pairs, self._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v,
                           world_n, self.contact_margin, travel, b.uid, b.friction, b.restitution, *out, pair_start)
         body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
-        self._solve_order = solve_order(self._pair_order, pair_start)
+        if self._responder.colour_order:
+            self._solve_order = solve_order(self._pair_order, pair_start)
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
                         feature=feature, key=key, friction=mu, restitution=e)
 

@@ -68,11 +68,17 @@ class RowBuffer:
 
     def __init__(self) -> None:
         self._rows = Rows(0)
+        self._head = self._rows.head(0)
 
     def take(self, n_rows: int) -> Rows:
+        """The first n_rows rows, lambda at 0 (the same views as last step when the count holds)."""
         if n_rows > len(self._rows):
             self._rows = Rows(max(n_rows, 2 * len(self._rows)))
-        return self._rows.head(n_rows)
+        elif n_rows == len(self._head):
+            self._head.lam[:] = 0.0
+            return self._head
+        self._head = self._rows.head(n_rows)
+        return self._head
 
 
 @njit(cache=True)
