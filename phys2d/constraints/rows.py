@@ -123,7 +123,7 @@ def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1,
               speculative point still C > 0 apart (it may close the gap, no more); the
               bounce -e (J V1) instead when larger and the approach speed exceeds the
               threshold; lambda in [0, inf).
-    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of row 2c, or the
+    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of row 2q, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
     """

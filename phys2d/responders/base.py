@@ -27,8 +27,8 @@ class StepContext:
     V: np.ndarray  # (N, 3) [vx, vy, omega] after external forces
     V1: np.ndarray  # (N, 3) the velocities the tick began with, before external forces
     M_inv: np.ndarray  # (N, 3) diagonal of M^-1
-    rows: Rows  # contact rows first (2c normal, 2c + 1 friction), then joint rows
-    n_contacts: int  # K: rows [0, 2K) belong to contacts
+    rows: Rows  # contact rows first (2q normal, 2q + 1 friction for the q-th contact below), then joints
+    n_contacts: int  # K: rows [0, 2K) belong to contacts; the contact arrays below are in row order
     body_a: np.ndarray  # (K,) contact bodies (for responders that work pair by pair)
     body_b: np.ndarray
     point: np.ndarray  # (K, 2) contact points p, m
