@@ -16,18 +16,20 @@ from . import scenes
 from .bodies import Body
 from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
 from .contacts import Contacts
+from .responders import REGISTRY, make_responder
 from .responders.base import Responder, StepReport
 from .responders.iterative import IterativeImpulse
 from .responders.naive import NaiveImpulse
 from .responders.pgs import PGS
 from .responders.soft_step import SoftStep
+from .verdict import Verdict, Watch
 from .world import SimulationError, World
 
 __version__ = "0.1.0"
 
 __all__ = ["AngleJoint", "Body", "Contacts", "DistanceJoint", "IterativeImpulse", "Joint",
-           "NaiveImpulse", "PGS", "PinJoint", "Recorder", "Responder", "SimulationError", "SoftStep",
-           "StepReport", "World", "playback", "scenes", "__version__"]
+           "NaiveImpulse", "PGS", "PinJoint", "REGISTRY", "Recorder", "Responder", "SimulationError", "SoftStep",
+           "StepReport", "Verdict", "Watch", "World", "make_responder", "playback", "scenes", "__version__"]
 
 
 def __getattr__(name: str):

@@ -27,11 +27,11 @@ from typing import Any, NoReturn, TextIO
 import numpy as np
 
 from . import scenes
+from .responders import REGISTRY
 from .responders.base import Responder
-from .responders.pgs import PGS
 from .world import SimulationError, World
 
-RESPONDERS = ("naive", "iterative", "pgs", "pgs-cold", "pgs-block", "soft-step")
+RESPONDERS = tuple(REGISTRY)
 COMPARE_ORDER = ("naive", "iterative", "pgs-cold", "pgs")
 DEFAULT_DIR = "recordings"
 
@@ -91,22 +91,14 @@ def default_size(builder: Callable[..., World]) -> Any:
 
 
 def make_responder(name: str, iterations: int | None = None) -> Responder:
-    """A responder by its command-line name; ``iterations`` are PGS sweeps, iterative
-    passes or soft-step sub-steps."""
-    import phys2d
-
-    if name in ("pgs", "pgs-cold", "pgs-block"):
-        return PGS(iterations=10 if iterations is None else iterations, warm_start=name != "pgs-cold",
-                   block=name == "pgs-block")
-    if name == "naive":
-        if iterations is not None:
-            raise CLIError("--iterations does not apply to the naive responder (it makes one pass)")
-        return phys2d.NaiveImpulse()
-    if name == "iterative":
-        return phys2d.IterativeImpulse() if iterations is None else phys2d.IterativeImpulse(passes=iterations)
-    if name == "soft-step":
-        return phys2d.SoftStep() if iterations is None else phys2d.SoftStep(substeps=iterations)
-    raise CLIError(f"unknown responder {name!r} (choose from: {', '.join(RESPONDERS)})")
+    """A responder by its registered name (``phys2d.responders.REGISTRY``); ``iterations``
+    are PGS sweeps, iterative passes or soft-step sub-steps."""
+    if name not in REGISTRY:
+        raise CLIError(f"unknown responder {name!r} (choose from: {', '.join(RESPONDERS)})")
+    entry = REGISTRY[name]
+    if iterations is not None and entry.count is None:
+        raise CLIError(f"--iterations does not apply to the {name} responder (it makes one pass)")
+    return entry(iterations)
 
 
 def build_world(scene: str, size: Any, responder: Responder) -> World:
