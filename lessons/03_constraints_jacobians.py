@@ -2,7 +2,7 @@
 
 Claim (lecture, "Constraints"): every constraint C(x) = 0 is a function of the
 positions, so by the chain rule its rate is C' = J V, with one row of J per
-constraint. A row between bodies i and j has 6 non-zeros (FORMULATION.md):
+constraint. A row between bodies i and j has 6 non-zeros (docs/formulation.md):
 
     contact    [-n, -(r_i x n) | n, r_j x n]        C = (x_j + r_j - x_i - r_i) . n
     friction   [-t, -(r_i x t) | t, r_j x t]        no C: the rate of slip along t
@@ -82,7 +82,7 @@ rows = []
 for k, name in names.items():
     Cdot = (C[name](x0 + h * V[:, :2], th0 + h * V[:, 2]) - C[name](x0 - h * V[:, :2], th0 - h * V[:, 2])) / (2 * h)
     JV = J[k] @ V.ravel()
-    if name == "distance":  # the engine stores the lecture's row divided by L (FORMULATION.md)
+    if name == "distance":  # the engine stores the lecture's row divided by L (docs/formulation.md)
         JV *= L
     rows.append([name, JV, Cdot, abs(JV - Cdot)])
 c.table(["row", "J V", "dC/dt (finite difference)", "|difference|"], rows, "{:+.6g}")

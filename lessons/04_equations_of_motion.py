@@ -1,6 +1,6 @@
 """Lesson 4: the equations of motion as one system A lambda = b.
 
-Claim (lecture, "Equations of motion", with FORMULATION.md's corrected units):
+Claim (lecture, "Equations of motion", with docs/formulation.md's corrected units):
 
     M (V2 - V1) = dt F_ext + J^T lambda,   J V2 = xi
     =>  (J M^-1 J^T) lambda = xi - J V1 - dt J M^-1 F_ext

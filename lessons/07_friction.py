@@ -2,7 +2,7 @@
 
 Claim (lecture, "Friction constraints"): friction rows are contact rows along
 the tangent, bounded by -mu m_c g <= lambda_t <= mu m_c g, "an approximation".
-FORMULATION.md uses Coulomb's bound |lambda_t| <= mu lambda_n instead (lambda_n:
+docs/formulation.md uses Coulomb's bound |lambda_t| <= mu lambda_n instead (lambda_n:
 the same point's normal impulse). They agree for one box on flat ground; the
 fixed bound ignores the slope (it uses g, not g cos(alpha)) and any load on top.
 
