@@ -9,6 +9,7 @@ A grid names values for each axis; every combination is one run:
     mass_ratio  the heavy box of ``mass_ratio`` (kg), or the top circle of ``circle_stack`` (kg)
     size        the scene's main count (rows, boxes, circles...; default: the scene's own)
     dt          tick length (s); "1/60" is accepted for 1/60
+    (whole-number axes also take ranges: "1..40" is 1, 2, ..., 40)
     steps       ticks per run (default 300)
     friction    friction coefficient set on every body (default: the scene's own)
     seed        seed of a small sideways shift of every dynamic body's start (default: none)
@@ -140,6 +141,22 @@ def _responder(v: Any) -> str:
     return v
 
 
+_INT_AXES = ("iterations", "substeps", "steps", "seed")
+
+
+def _range(item: Any, name: str) -> tuple[Any, ...]:
+    """A whole-number axis value, or a range "A..B" (both ends included) as its values."""
+    if not isinstance(item, str):
+        return (item,)
+    try:
+        a, b = (int(x) for x in item.split(".."))
+    except ValueError:
+        raise ValueError(f"{name} must be whole numbers or ranges \"A..B\", got {item!r}") from None
+    if b < a:
+        raise ValueError(f"{name}: a range must go up, got {item!r}")
+    return tuple(range(a, b + 1))
+
+
 _CHECKS = {
     "scenes": _scene,
     "responders": _responder,
@@ -224,6 +241,8 @@ class Grid:
     def __post_init__(self) -> None:
         for f in fields(self):
             values = _values(getattr(self, f.name), f.name)
+            if f.name in _INT_AXES:
+                values = tuple(v for item in values for v in _range(item, f.name))
             object.__setattr__(self, f.name, _unique(_CHECKS[f.name](v) for v in values))
 
     @classmethod

@@ -59,6 +59,7 @@ class SweepResult:
     ran      tasks run now; skipped: tasks whose rows were already in the table
     failed   tasks run now that stopped early (their ``error`` is not empty)
     seconds  wall clock of the whole sweep, s
+    where    what ran the tasks ("this process", "2 local processes", "Dask at tcp://...")
     rows     the table's rows as dicts, in the table's order and types
     """
 
@@ -69,6 +70,7 @@ class SweepResult:
     skipped: int
     failed: int
     seconds: float
+    where: str = ""
     rows: list[dict[str, Any]] = field(repr=False, default_factory=list)
 
 
@@ -162,7 +164,7 @@ def _pool(tasks: Sequence[Task], record: str | None, workers: int) -> Iterator[l
 def _dask(tasks: Sequence[Task], record: str | None, address: str) -> Iterator[list[dict[str, Any]]]:
     distributed = _require("dask.distributed", "--scheduler (a Dask cluster)")
     try:
-        client = distributed.Client(address, timeout="20s", set_as_default=False)
+        client = distributed.Client(address, timeout="10s", set_as_default=False)
     except (OSError, TimeoutError) as e:
         raise ConnectionError(f"could not reach the Dask scheduler at {address}: {e}") from None
     try:
@@ -274,7 +276,7 @@ def sweep(grid: Any, out: str | os.PathLike = DEFAULT_OUT, *, csv: str | os.Path
         ordered = _ordered(tasks, rows, old)
         table = write_table(ordered, path, csv_path)
     return SweepResult(table=table, path=path, csv=csv_path, ran=len(new_rows), skipped=skipped, failed=failed,
-                       seconds=time.perf_counter() - t_start, rows=table.to_pylist())
+                       seconds=time.perf_counter() - t_start, where=where, rows=table.to_pylist())
 
 
 def _check_grid_builds(tasks: Sequence[Task]) -> None:
