@@ -39,10 +39,12 @@ def in_notebook() -> bool:
 def _notebook_file() -> str:
     """The .py of the lesson this notebook is (PHYS2D_LESSON, the notebook's name, or a stand-in)."""
     shell = sys.modules["IPython"].get_ipython()
-    given = os.environ.get("PHYS2D_LESSON") or os.environ.get("JPY_SESSION_NAME") \
-        or shell.user_ns.get("__vsc_ipynb_file__") or "notebook"
-    stem = os.path.splitext(os.path.basename(given))[0]
-    return os.path.join(LESSONS, stem + ".py")
+    for given in (os.environ.get("PHYS2D_LESSON"), os.environ.get("JPY_SESSION_NAME"),
+                  shell.user_ns.get("__vsc_ipynb_file__")):
+        stem = os.path.splitext(os.path.basename(given or ""))[0]
+        if stem:
+            return os.path.join(LESSONS, stem + ".py")
+    return os.path.join(LESSONS, "notebook.py")
 
 
 if in_notebook():  # give the notebook the __file__ its script has (lessons name their recording after it)
