@@ -209,6 +209,10 @@ def sweep(grid: Any, out: str | os.PathLike = DEFAULT_OUT, *, csv: str | os.Path
 
     The metrics of a row are the same, bit for bit, on the pool and on a cluster
     (``task.METRIC_COLUMNS``); only the timings differ. Returns a ``SweepResult``.
+
+    The local pool starts fresh interpreters (multiprocessing's spawn), which import
+    the calling script again: in a script, call ``sweep`` under
+    ``if __name__ == "__main__":`` as with any process pool.
     """
     t_start = time.perf_counter()
     grids = as_grids(grid)

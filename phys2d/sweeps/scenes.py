@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 from .. import scenes
 from ..responders.base import Responder
@@ -56,7 +56,9 @@ COLUMNS = ("vertical_stack", "mass_ratio", "circle_stack")  # one column, bottom
 
 def all_scenes() -> dict[str, tuple[Callable[..., World], str]]:
     """The stock scenes (read now, so scenes added to ``phys2d.scenes`` count) and the sweep's own."""
-    return {**scenes.SCENES, **SWEEP_SCENES}
+    known = cast(dict[str, tuple[Callable[..., World], str]], dict(scenes.SCENES))
+    known.update(SWEEP_SCENES)
+    return known
 
 
 def build_scene(scene: str, size: Any, mass_ratio: float | None, responder: Responder) -> World:
