@@ -107,6 +107,17 @@ def test_a_toml_file_holds_several_grids_with_shared_defaults(tmp_path):
     a, b = phys2d.sweeps.load_toml(f)
     assert a.steps == (7,) and a.mass_ratio == (1.0, 10.0) and b.steps == (3,) and b.substeps == (1, 2)
     assert len(phys2d.sweeps.expand([a, b])) == 2 + 1 + 2
+    # a default a table does not use is fine there, as long as some table uses it
+    f.write_text('scenes = "circle_stack"\nsubsteps = [1, 2]\n[[grid]]\nresponders = "pgs"\n'
+                 '[[grid]]\nresponders = "soft-step"\n')
+    pgs, soft = phys2d.sweeps.load_toml(f)
+    assert [t.substeps for t in pgs.tasks()] == [None] and [t.substeps for t in soft.tasks()] == [1, 2]
+    f.write_text('scenes = "circle_stack"\nsubsteps = [1, 2]\n[[grid]]\nresponders = "pgs"\n')
+    with pytest.raises(ValueError, match="substeps applies only to the soft-step responder, and no"):
+        phys2d.sweeps.load_toml(f)
+    f.write_text('scenes = "circle_stack"\n[[grid]]\nresponders = "pgs"\nsubsteps = 3\n')
+    with pytest.raises(ValueError, match="table 1: substeps applies only"):
+        phys2d.sweeps.load_toml(f)[0].tasks()
     f.write_text("scenes = [\n")
     with pytest.raises(ValueError, match="not valid TOML"):
         phys2d.sweeps.load_toml(f)
@@ -314,6 +325,18 @@ def test_the_command_prints_a_summary_and_refuses_bad_input_in_one_line(tmp_path
         assert err.count("\n") == 1 and words in err and err.startswith("phys2d sweep: error: "), err
 
 
+@pytest.mark.parametrize("missing, args", [("tqdm", []), ("dask.distributed", ["--scheduler", "tcp://127.0.0.1:1"])])
+def test_a_missing_extra_is_named_with_its_install_line(tmp_path, capsys, monkeypatch, missing, args):
+    from phys2d.cli import main
+
+    monkeypatch.setitem(sys.modules, missing, None)  # as if not installed: importing it raises ImportError
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", "--scenes", "vertical_stack", "--size", "2", "--steps", "2", *args]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pip install 'phys2d[sweep]'" in err and missing.split(".")[0] in err
+    assert not (tmp_path / "sweeps").exists()  # nothing written
+
+
 def test_import_phys2d_loads_no_dask_pyarrow_or_matplotlib():
     code = ("import sys, phys2d; phys2d.World(); "
             "print(sorted(m for m in ('dask', 'distributed', 'pyarrow', 'matplotlib', 'jupytext', 'tqdm') "
@@ -324,7 +347,10 @@ def test_import_phys2d_loads_no_dask_pyarrow_or_matplotlib():
 
 
 def test_the_base_install_leaves_dask_jupyter_and_matplotlib_to_extras():
-    import tomllib
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        import tomli as tomllib
 
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     base = " ".join(meta["dependencies"]).lower()

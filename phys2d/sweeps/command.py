@@ -131,7 +131,8 @@ def grids_of(args: argparse.Namespace) -> list[Grid]:
             raise ValueError("give a grid file or --scenes (see 'phys2d sweep --help')")
         return grids_from_mapping(given, where="command line")
     grids = load_toml(args.grid)
-    return [Grid(**{**{f: getattr(g, f) for f in AXES}, **given}) for g in grids]
+    return [Grid(**{**{f: getattr(g, f) for f in AXES}, **given},
+                 lenient=tuple(a for a in g.lenient if a not in given)) for g in grids]
 
 
 def summary(rows: list[dict[str, Any]]) -> list[str]:

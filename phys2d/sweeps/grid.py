@@ -34,7 +34,7 @@ import math
 import os
 import sys
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from fractions import Fraction
 from typing import Any
 
@@ -237,16 +237,21 @@ class Grid:
     friction: tuple[float | None, ...] = (None,)
     seed: tuple[int | None, ...] = (None,)
     jitter: tuple[float, ...] = (DEFAULT_JITTER,)
+    lenient: tuple[str, ...] = field(default=(), compare=False, repr=False)
+    """Axes that may apply to none of this grid's runs: defaults a ``[[grid]]`` table inherits."""
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "lenient", tuple(self.lenient))
         for f in fields(self):
+            if f.name == "lenient":
+                continue
             values = _values(getattr(self, f.name), f.name)
             if f.name in _INT_AXES:
                 values = tuple(v for item in values for v in _range(item, f.name))
             object.__setattr__(self, f.name, _unique(_CHECKS[f.name](v) for v in values))
 
     @classmethod
-    def from_mapping(cls, spec: Mapping[str, Any]) -> Grid:
+    def from_mapping(cls, spec: Mapping[str, Any], lenient: Sequence[str] = ()) -> Grid:
         """A grid from {axis: value or list of values}; unknown keys are refused by name."""
         if not isinstance(spec, Mapping):
             raise TypeError(f"grid must be a mapping of axis -> values, got {type(spec).__name__}")
@@ -256,10 +261,26 @@ class Grid:
             raise ValueError(f"grid: unknown axis {k!r}{_suggest(str(k), AXES)} (axes: {', '.join(AXES)})")
         if "scenes" not in spec:
             raise ValueError("grid: scenes must be given (e.g. scenes = [\"vertical_stack\"])")
-        return cls(**{k: v for k, v in spec.items()})
+        return cls(**{k: v for k, v in spec.items()}, lenient=tuple(lenient))
 
     def tasks(self) -> list[Task]:
-        """Every run of the grid, in a fixed order (scene, size, ratio, responder, count, dt, ...)."""
+        """Every run of the grid, in a fixed order (scene, size, ratio, responder, count, dt, ...).
+
+        An axis given values that apply to none of the runs is refused (a ValueError
+        naming it), unless it is one of ``lenient``.
+        """
+        out, used = self._expand()
+        for axis in self.unused(used):
+            raise ValueError(f"{axis} applies only to {_APPLIES[axis]}, and this grid has none of them")
+        return out
+
+    def unused(self, used: set[str] | None = None, *, all_axes: bool = False) -> list[str]:
+        """The axes given values that apply to none of the runs (the lenient ones too with ``all_axes``)."""
+        used = self._expand()[1] if used is None else used
+        return [a for a in _APPLIES if getattr(self, a) != (None,) and a not in used
+                and (all_axes or a not in self.lenient)]
+
+    def _expand(self) -> tuple[list[Task], set[str]]:
         out: list[Task] = []
         used: set[str] = set()
         for scene in self.scenes:
@@ -282,13 +303,13 @@ class Grid:
                                                 for jit in (self.jitter if seed is not None else (None,)):
                                                     out.append(Task(scene, size, ratio, name, it, sub, dt, steps,
                                                                     mu, seed, jit))
-        for axis, why in (("iterations", "responders that take sweeps or passes (pgs..., iterative)"),
-                          ("substeps", "the soft-step responder"),
-                          ("mass_ratio", f"scenes {', '.join(RATIO_SCENES)}"),
-                          ("size", "scenes other than mass_ratio (its size is mass_ratio)")):
-            if getattr(self, axis) != (None,) and axis not in used:
-                raise ValueError(f"{axis} applies only to {why}, and this grid has none of them")
-        return out
+        return out, used
+
+
+_APPLIES = {"iterations": "responders that take sweeps or passes (pgs..., iterative)",
+            "substeps": "the soft-step responder",
+            "mass_ratio": f"scenes {', '.join(RATIO_SCENES)}",
+            "size": "scenes other than mass_ratio (its size is mass_ratio)"}
 
 
 GridLike = Grid | Mapping[str, Any] | str | os.PathLike | Sequence[Grid | Mapping[str, Any]]
@@ -320,10 +341,23 @@ def grids_from_mapping(data: Mapping[str, Any], where: str = "grid") -> list[Gri
     subs = data.get("grid")
     try:
         if subs is None:
-            return [Grid.from_mapping(base)]
+            grid = Grid.from_mapping(base)
+            grid.tasks()  # an axis that applies to none of the runs fails here, where it was written
+            return [grid]
         if not isinstance(subs, list) or not all(isinstance(s, Mapping) for s in subs) or not subs:
             raise ValueError("grid must be a list of tables ([[grid]] in TOML)")
-        return [Grid.from_mapping({**base, **s}) for s in subs]
+        grids = []
+        for k, sub in enumerate(subs, 1):
+            inherited = tuple(a for a in base if a not in sub)  # a default need not apply in every table
+            try:
+                grids.append(Grid.from_mapping({**base, **sub}, lenient=inherited))
+                grids[-1].tasks()
+            except (ValueError, TypeError) as e:
+                raise type(e)(f"[[grid]] table {k}: {e}") from None
+        for axis in base:  # but each default must apply somewhere
+            if axis in _APPLIES and all(axis in g.unused(all_axes=True) for g in grids):
+                raise ValueError(f"{axis} applies only to {_APPLIES[axis]}, and no [[grid]] table has one")
+        return grids
     except (ValueError, TypeError) as e:
         raise type(e)(f"{where}: {e}") from None
 

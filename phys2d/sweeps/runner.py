@@ -241,6 +241,9 @@ def sweep(grid: Any, out: str | os.PathLike = DEFAULT_OUT, *, csv: str | os.Path
     record_dir = None if record is None else os.path.abspath(os.fspath(record))
     _check_grid_builds(tasks)
     tqdm = _require("tqdm", "the sweep's progress bar").tqdm
+    _require("pyarrow.parquet", "the sweep's table")
+    if scheduler is not None:
+        _require("dask.distributed", "--scheduler (a Dask cluster)")
 
     old = read_table(path) if resume else []
     have = {r.get("run_id") for r in old}
