@@ -31,8 +31,8 @@ from the last tick's impulses) and sub-steps (soft-step, Box2D v3: each sub-step
 soft sweep and one relax sweep, the contacts stiff damped springs). Neither helps on
 the first tick: nothing is cached yet, and a spring needs time to load. Nor is the
 load the difference later on: with too few sweeps the stack sinks until Baumgarte's
-push makes up the missing impulse, so even cold PGS carries its load within 5 %
-after half a second. The difference is how far it sank. The second table counts the
+push makes up the missing impulse, so with a few sweeps per tick even cold PGS
+carries its load within 5 % after half a second. The difference is how far it sank. The second table counts the
 fewest sweeps (or sub-steps) per tick with which every contact carries its load
 within 5 % through the second half-second AND no overlap ever grows past 5 mm (the
 slop PGS leaves alone) in the 1 s run.
@@ -149,7 +149,7 @@ def main() -> None:
 
     print(f"first tick from rest, lambda from 0: sweeps until every contact is within {TOLERANCE:.0%} of the "
           "exact impulse (soft-step: sub-steps; '-' none in the sweep)")
-    c.table(["case", "Catto 2014", "3 r + 2", "1D Gauss-Seidel", "pgs-cold", "pgs (warm)", "soft-step"], rows1)
+    c.table(["case", "Catto 2014 (about)", "3 r + 2", "1D Gauss-Seidel", "pgs-cold", "pgs (warm)", "soft-step"], rows1)
     print(f"holding the load: fewest sweeps (soft-step: sub-steps, 2 sweeps each) per tick with every contact within "
           f"{TOLERANCE:.0%} of its load through the second half-second and no overlap past {1e3 * OVERLAP:g} mm "
           f"in 1 s")
