@@ -242,6 +242,23 @@ def test_a_sweep_writes_one_table_and_resumes_where_it_stopped(tmp_path):
         phys2d.sweep(SMALL, tmp_path / "bad.parquet", workers=1)
 
 
+def test_an_interrupted_pool_keeps_its_finished_rows_and_resumes(tmp_path):
+    out = tmp_path / "t.parquet"
+    seen = []
+
+    def stop(row):
+        seen.append(row["run_id"])
+        if len(seen) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        phys2d.sweep(SMALL, out, workers=2, on_row=stop)
+    kept = [r["run_id"] for r in pq.read_table(out).to_pylist()]
+    assert kept == [i for i in (t.run_id for t in phys2d.sweeps.expand(phys2d.sweeps.as_grids(SMALL))) if i in seen]
+    again = phys2d.sweep(SMALL, out, workers=1)
+    assert again.skipped == 3 and again.ran == 13 and again.table.num_rows == 16
+
+
 def test_recordings_on_request(tmp_path):
     r = phys2d.sweep({"scenes": "vertical_stack", "size": 2, "steps": 12, "responders": ["pgs", "naive"]},
                      tmp_path / "t.parquet", workers=1, record=tmp_path / "rec")

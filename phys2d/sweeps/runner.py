@@ -14,11 +14,11 @@ from __future__ import annotations
 import math
 import os
 import re
+import signal
 import struct
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -140,25 +140,28 @@ def _serial(tasks: Sequence[Task], record: str | None) -> Iterator[list[dict[str
         yield [run_task(t, record)]
 
 
+def _ignore_sigint() -> None:
+    """A pool worker leaves Ctrl-C to the parent, which stops the whole pool."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _run_chunk(args: tuple[list[Task], str | None]) -> list[dict[str, Any]]:
+    return run_tasks(*args)
+
+
 def _pool(tasks: Sequence[Task], record: str | None, workers: int) -> Iterator[list[dict[str, Any]]]:
     import multiprocessing
 
-    # spawn: a clean interpreter per worker (no fork of a process that has threads running);
-    # at most 2 chunks in flight per worker, so an interrupt does not wait for the whole grid
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as ex:
-        queue = list(reversed(_chunks(tasks, workers)))
-        pending: set[Any] = set()
-        try:
-            while queue or pending:
-                while queue and len(pending) < 2 * workers:
-                    pending.add(ex.submit(run_tasks, queue.pop(), record))
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for f in done:
-                    yield f.result()
-        except BaseException:
-            for f in pending:
-                f.cancel()
-            raise
+    # spawn: a clean interpreter per worker (no fork of a process that has threads running)
+    pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_ignore_sigint)
+    try:
+        yield from pool.imap_unordered(_run_chunk, [(chunk, record) for chunk in _chunks(tasks, workers)])
+        pool.close()
+    except BaseException:  # an interrupt, a failed task, or the caller stopped reading: stop the workers now
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
 
 
 def _dask(tasks: Sequence[Task], record: str | None, address: str) -> Iterator[list[dict[str, Any]]]:
