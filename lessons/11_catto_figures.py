@@ -237,7 +237,7 @@ def plot(args, ratios, measured, analysis, of) -> list:
         ax.axhline(1e3 * OVERLAP, color="k", lw=0.8, label=f"{1e3 * OVERLAP:g} mm (PGS slop)")
         ax.set_title(label)
         ax.set_xlabel("sweeps per tick (soft-step: sub-steps)")
-        ax.set_ylabel("deepest overlap in 1 s (mm)")
+        ax.set_ylabel("deepest overlap in 1 s (mm; 0.001: none)")
         ax.grid(alpha=0.3)
     axes.flat[0].legend(fontsize=8)
     fig.suptitle("After 2014: warm starting and sub-steps hold the load with fewer sweeps, sinking less")

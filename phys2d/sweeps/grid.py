@@ -71,6 +71,8 @@ def _suggest(word: str, choices: Iterable[str]) -> str:
 
 def _values(value: Any, name: str) -> tuple[Any, ...]:
     """A scalar or a sequence of values as a tuple (a str is one value)."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, range)):  # a set has no fixed order
         return (value,)
     out = tuple(value)
