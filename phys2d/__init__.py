@@ -9,7 +9,9 @@
 
 Recordings: ``phys2d.Recorder`` writes a world's ticks to a Rerun .rrd file and
 ``phys2d.playback.load`` reads one back; both are imported on first use, so the
-engine itself never loads rerun.
+engine itself never loads rerun. Likewise ``phys2d.sweep`` (a grid of runs to one
+Parquet table, on a process pool or a Dask cluster: ``phys2d.sweeps``) loads on
+first use, so ``import phys2d`` never imports pyarrow or dask.
 """
 
 from . import scenes
@@ -29,7 +31,7 @@ __version__ = "0.1.0"
 
 __all__ = ["AngleJoint", "Body", "Contacts", "DistanceJoint", "IterativeImpulse", "Joint",
            "NaiveImpulse", "PGS", "PinJoint", "REGISTRY", "Recorder", "Responder", "SimulationError", "SoftStep",
-           "StepReport", "Verdict", "Watch", "World", "make_responder", "playback", "scenes", "__version__"]
+           "StepReport", "Verdict", "Watch", "World", "make_responder", "playback", "scenes", "sweep", "__version__"]
 
 
 def __getattr__(name: str):
@@ -42,4 +44,8 @@ def __getattr__(name: str):
         from .recording import playback
 
         return playback
+    if name == "sweep":  # the function; its package is phys2d.sweeps
+        from .sweeps import sweep
+
+        return sweep
     raise AttributeError(f"module 'phys2d' has no attribute {name!r}")

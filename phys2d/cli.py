@@ -6,6 +6,7 @@
     phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH] [--no-series]
     phys2d inspect PATH                            a summary table of a recording
     phys2d view PATH [--web]                       the Rerun viewer, or the web viewer on 127.0.0.1
+    phys2d sweep [GRID.toml] [--scenes ...] ...    a grid of runs to one Parquet table (phys2d/sweeps/command.py)
 
 Bad arguments and failures print one line on stderr and exit non-zero (2 for usage
 errors, 1 for the rest); set PHYS2D_DEBUG=1 to see tracebacks of unexpected errors.
@@ -329,7 +330,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 # -- the parser ------------------------------------------------------------------------
 def parser() -> argparse.ArgumentParser:
     p = _Parser(prog="phys2d", description="phys2d: run, record, compare and inspect 2D rigid-body scenes.")
-    sub = p.add_subparsers(dest="command", metavar="{scenes,run,compare,inspect,view}")
+    sub = p.add_subparsers(dest="command", metavar="{scenes,run,compare,inspect,view,sweep}")
     sub.required = True
 
     s = sub.add_parser("scenes", help="the stock scenes and what --size means")
@@ -371,6 +372,10 @@ def parser() -> argparse.ArgumentParser:
     v.add_argument("--web-port", type=int, default=9090, help="web viewer port (default %(default)s)")
     v.add_argument("--port", type=int, default=9876, help="data (gRPC) port for --web (default %(default)s)")
     v.set_defaults(func=cmd_view)
+
+    from .sweeps.command import add_parser as add_sweep_parser  # its own module: dask and pyarrow load lazily
+
+    add_sweep_parser(sub)
     return p
 
 

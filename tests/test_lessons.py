@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import phys2d
+import phys2d.sweeps
 
 ROOT = Path(__file__).resolve().parents[1]
 LESSONS = ROOT / "lessons"
@@ -55,7 +56,7 @@ def runs_in(path: Path) -> dict[str, int]:
 
 def test_lesson_files_are_indexed_and_documented():
     names = sorted(p.stem for p in LESSONS.glob("[0-9][0-9]_*.py"))
-    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 11)]
+    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 12)]
     index = (LESSONS / "README.md").read_text()
     for n in names:
         text = (LESSONS / f"{n}.py").read_text()
@@ -203,3 +204,66 @@ def test_10_beyond_the_lecture(tmp_path):
         assert 0.005 < measured < 0.1 and measured == pytest.approx(est, rel=0.2)
     runs = runs_in(tmp_path / "10_beyond_the_lecture.rrd")
     assert runs == {f"{s}-{r}": 180 for s in ("stack", "ratio") for r in ("pgs", "pgs-block", "soft-step")}
+
+
+def gauss_seidel_count(masses, tol=0.05, dt=1 / 60, g=10.0):
+    """Sweeps of plain Gauss-Seidel (bottom contact first, from 0) until every contact impulse of a resting
+    1D column is within tol of the weight it carries: the test's own second method."""
+    m = np.asarray(masses, float)
+    exact = g * dt * np.cumsum(m[::-1])[::-1]  # contact k carries bodies k, k + 1, ...
+    lam = np.zeros(m.size)
+    v = np.full(m.size, -g * dt)  # velocities after gravity, from rest
+    for sweep in range(1, 1000):
+        for k in range(m.size):  # contact k: relative velocity v_k - v_(k-1), the ground below contact 0
+            vrel = v[k] - (v[k - 1] if k else 0.0)
+            inv = 1 / m[k] + (1 / m[k - 1] if k else 0.0)
+            new = max(0.0, lam[k] - vrel / inv)
+            d, lam[k] = new - lam[k], new
+            v[k] += d / m[k]
+            if k:
+                v[k - 1] -= d / m[k - 1]
+        if np.all(np.abs(lam - exact) <= tol * exact):
+            return sweep
+    raise AssertionError("no convergence")
+
+
+CATTO_CASES = {"equal, 1 kg on 1 kg": ([1, 1], 5), "light on heavy, 0.5 kg on 1 kg": ([1, 0.5], 3),
+               "heavy on light, 10 kg on 1 kg": ([1, 10], 50), "stack of 4 circles, 1 kg each": ([1, 1, 1, 1], 20)}
+
+
+def check_11(out: str, out_dir: Path) -> None:
+    """Lesson 11's printed figures (a script's stdout or a notebook's), held to Catto and a second method."""
+    def cells(label: str) -> list[list[str]]:  # every table row with this label, its cells split on 2+ spaces
+        return [re.split(r"\s{2,}", m.strip()) for m in re.findall(rf"^  {re.escape(label)}  +(.*)$", out, re.M)]
+
+    for label, (masses, catto) in CATTO_CASES.items():
+        first, held = cells(label)
+        catto_col, _line, analysis, cold, warm, soft = first
+        expected = gauss_seidel_count(masses)
+        assert int(catto_col) == catto  # Catto's figure, as the issue quotes it
+        assert int(analysis) == expected and int(cold) == expected  # the engine's 2D count is the 1D one
+        assert warm == cold  # on the first tick nothing is cached: warm starting solves the same problem
+        assert soft == "-" or 2 * int(soft) >= int(cold)  # sub-steps (2 sweeps each) do not help the first tick
+        h_cold, h_warm, h_soft = (float(c.lstrip("> ")) for c in held)
+        assert h_warm < h_cold and h_soft <= h_warm  # warm starting and sub-steps hold the load with fewer
+    for r in (0.5, 1, 2, 5, 10):  # the regression table: engine against the test's own Gauss-Seidel
+        engine, analysis = line(out, rf"^  {r:g} +")[:2]
+        assert engine == analysis == gauss_seidel_count([1, r])
+    slope, intercept = line(out, r"least-squares line through the engine's counts for r >= 1:")[:2]
+    assert slope == pytest.approx(3, abs=0.2) and intercept == pytest.approx(2, abs=1.5)  # Catto's 3 r + 2
+    same, total = line(out, r"^2D against 1D: .* in ")
+    assert same == total >= 9
+    rrd = out_dir / "11_catto_figures.rrd"
+    assert runs_in(rrd) == {f"{s}-{r}": 60 for s in ("ratio10", "stack4") for r in ("pgs-cold", "pgs", "soft-step")}
+    from rerun.chunk import RrdReader
+
+    entities = RrdReader(rrd).store().schema().entity_paths()
+    for name in ("11_iterations_vs_mass_ratio", "11_after_2014"):
+        assert f"/figures/{name}" in entities
+        assert (out_dir / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    n_rows = int(line(out, r"^sweep: ")[0])
+    assert phys2d.sweeps.read_table(str(out_dir / "11_catto_figures.parquet")).__len__() == n_rows
+
+
+def test_11_catto_figures(tmp_path):
+    check_11(run("11_catto_figures", tmp_path), tmp_path)
