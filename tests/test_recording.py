@@ -426,3 +426,102 @@ def test_without_contact_series_the_contact_table_is_still_written(tmp_path):
     back = playback.load(path)
     assert back.series_keys("lambda") == [] and back.series_keys("penetration") == []
     assert np.array_equal(back.contacts.normal_impulse, f32(np.concatenate([s["normal_impulse"] for s in snaps])))
+
+
+# -- which contacts get plots -----------------------------------------------------------------
+def _pyramid_run(tmp_path, name: str, plot, steps: int = 40, **kw):
+    path = tmp_path / f"{name}.rrd"
+    w = phys2d.scenes.pyramid(4)
+    snaps = record(path, w, steps, plot=plot, **kw)
+    return snaps, playback.load(path)
+
+
+def _deepest_by_key(snaps: list[dict]) -> dict[int, float]:
+    out: dict[int, float] = {}
+    for s in snaps:
+        for k, sep in zip(s["key"], s["separation"], strict=True):
+            out[int(k)] = max(out.get(int(k), -np.inf), -sep)
+    return out
+
+
+def test_default_plots_the_four_deepest_contacts(tmp_path):
+    snaps, rec = _pyramid_run(tmp_path, "deepest", None)
+    deepest = _deepest_by_key(snaps)
+    chosen = rec.series_keys("lambda")
+    assert len(chosen) == 4 and len(deepest) > 4
+    ranked = sorted(deepest, key=lambda k: (-deepest[k], k))
+    assert sorted(chosen) == sorted(contact_entity(k) for k in ranked[:4])
+    assert rec.series_keys("penetration") == chosen
+
+
+def test_plot_a_chosen_body_s_contacts(tmp_path):
+    snaps, rec = _pyramid_run(tmp_path, "body", "body:3")
+    want = {contact_entity(k) for s in snaps for k in s["key"] if 3 in (int(k) >> 39, (int(k) >> 16) & 0x7FFFFF)}
+    assert want and set(rec.series_keys("lambda")) == want
+
+
+def test_plot_contacts_named_on_the_command_line(tmp_path):
+    w = phys2d.scenes.pyramid(4)
+    for _ in range(5):
+        w.step(1 / 60)
+    names = [contact_entity(k) for k in w.contacts.key[[0, -1]]]
+    snaps, rec = _pyramid_run(tmp_path, "keys", ",".join(names + ["b90-b91/f0"]))  # one never touches
+    assert rec.series_keys("lambda") == sorted(names)
+    key = int(w.contacts.key[0])
+    t, lam = rec.series("lambda", key)
+    truth = [(s["tick"], s["normal_impulse"][list(s["key"]).index(key)]) for s in snaps if key in s["key"]]
+    assert list(t) == [tk for tk, _ in truth] and np.array_equal(lam[:, 0], [v for _, v in truth])
+
+
+@pytest.mark.parametrize("text, error", [("deepest:0", ValueError), ("body:-1", ValueError), ("body:x", ValueError),
+                                         ("b1-b0/f0", ValueError), ("nonsense", ValueError), ("", ValueError)])
+def test_bad_plot_choices_are_named(tmp_path, text, error):
+    with pytest.raises(error, match="plot|contact|keys|n must|uid"):
+        Recorder(tmp_path / "x.rrd", plot=text)
+    with pytest.raises(TypeError, match="plot"):
+        Recorder(tmp_path / "y.rrd", plot=3)
+    assert repr(ContactChoice.parse("body:4")) == "ContactChoice.body(4)"
+
+
+def _static_style(path, prefix: str) -> dict[str, tuple]:
+    """entity -> (names, colours) of the SeriesLines/SeriesPoints styles written once per entity."""
+    out = {}
+    for ch in RrdReader(str(path)).store().stream().filter(content=f"{prefix}/**", is_static=True):
+        rb = ch.to_record_batch()
+        cols = {n.split(":")[-1]: rb.column(n).to_pylist()[0] for n in rb.schema.names if ":" in n}
+        if "names" in cols:
+            out[ch.entity_path] = (cols["names"], cols.get("colors"))
+    return out
+
+
+def test_plot_legends_name_each_contact_by_its_bodies_and_feature_in_distinct_colours(mixed):
+    path, snaps, rec, _ = mixed
+    styles = _static_style(path, "/contacts/penetration")
+    assert len(styles) == len(rec.series_keys("penetration")) > 5
+    for entity, (names, _) in styles.items():
+        a, b, f = entity.split("/")[-2].replace("b", "").split("-") + [entity.split("/")[-1][1:]]
+        assert names == [f"b{a}-b{b} f{f}"]
+    colours = [c[0] for _, c in styles.values()]
+    assert len(set(colours)) == min(len(colours), len(schema.PALETTE))  # every palette colour used before any repeats
+    energy = _static_style(path, "/stats/energy")
+    assert sorted(n[0] for n, _ in energy.values()) == ["kinetic", "potential", "total"]
+    assert len({c[0] for _, c in energy.values()}) == 3
+
+
+def test_a_static_body_moved_by_hand_is_written_again(tmp_path):
+    path = tmp_path / "moved.rrd"
+    w = phys2d.scenes.vertical_stack(2)
+    ground = [b for b in w.bodies if b.static][0]
+    xs = []
+    with Recorder(path, flush_every=4) as rec:
+        for k in range(12):
+            if k == 6:
+                ground.position = ground.position + np.array([0.25, 0.0])
+            w.step(1 / 60)
+            rec.log(w)
+            xs.append(ground.position)
+    rows = sum(ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(
+        content="/world/sim/static", is_static=False, components="LineStrips2D:strips"))
+    assert rows == 2
+    back = playback.load(path)
+    assert np.array_equal(back.x[:, list(back.body_uid).index(0)], np.stack(xs))
