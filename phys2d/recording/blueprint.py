@@ -63,7 +63,8 @@ def build(runs: list[RunView]) -> rrb.Blueprint:
                         active_tab=0)
         plots = []
         if r.plotted:
-            plots += [_plot("lambda", [f"{p}{schema.LAMBDA}/**"]), _plot("penetration", [f"{p}{schema.PENETRATION}/**"])]
+            plots += [_plot("lambda", [f"{p}{schema.LAMBDA}/**"]),
+                      _plot("penetration", [f"{p}{schema.PENETRATION}/**"])]
         if r.has_joints:
             plots.append(_plot("reaction", [f"{p}{schema.REACTION}/**"], legend=False))
         plots += [_plot("residual", [f"{p}{schema.RESIDUAL}"]), _plot("energy", [f"{p}{schema.STATS_ROOT}/energy/**"])]

@@ -7,7 +7,6 @@ what ``schema`` names; none of them looks at a World.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 import pyarrow as pa
