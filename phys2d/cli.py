@@ -34,7 +34,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TextIO
 
 import numpy as np
 
@@ -49,7 +49,6 @@ COMPARE_ORDER = tuple(REGISTRY)  # compare runs every registered responder, in t
 DEFAULT_DIR = "recordings"
 COUNT_OPTIONS = ("sweeps", "passes", "substeps")  # the registry's names of a responder's count
 SINGULAR = {"sweeps": "sweep", "passes": "pass", "substeps": "sub-step"}
-COMPILE_NOTICE_AFTER = 1.0  # s: a first step slower than this is numba compiling; say so
 
 
 class CLIError(Exception):
@@ -177,22 +176,28 @@ def plot_choice(args: argparse.Namespace):
     return None
 
 
-def first_step(worlds: Sequence[World], dt: float, stream=None) -> None:
-    """Step each world once; if that takes long (numba compiling on a first run), say so meanwhile."""
-    stream = sys.stderr if stream is None else stream
+def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None) -> None:
+    """Step each world once; when numba compiles a kernel meanwhile (a first run: its disk cache
+    is cold), say so in one line before it starts, so a quiet wait is not mistaken for a hang."""
+    from numba.core import event
 
-    def notice() -> None:
-        print("phys2d: compiling the numba kernels (first run only, about 10-60 s; cached after that) ...",
-              file=stream, flush=True)
+    out = sys.stderr if stream is None else stream
 
-    timer = threading.Timer(COMPILE_NOTICE_AFTER, notice)
-    timer.daemon = True
-    timer.start()
-    try:
+    class Notice(event.Listener):
+        said = False
+
+        def on_start(self, ev: event.Event) -> None:
+            if not Notice.said:
+                Notice.said = True
+                print("phys2d: compiling the numba kernels (first run only, about 10-60 s; cached after that) ...",
+                      file=out, flush=True)
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    with event.install_listener("numba:compile", Notice()):
         for w in worlds:
             w.step(dt)
-    finally:
-        timer.cancel()
 
 
 def progress(total: int, initial: int, enabled: bool):
@@ -242,8 +247,48 @@ def rerun_binary() -> str:
     return exe
 
 
-def web_url(web_port: int, grpc_port: int) -> str:
-    return f"http://127.0.0.1:{web_port}/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A{grpc_port}%2Fproxy"
+def web_url(web_port: int, grpc_port: int, file_url: str | None = None) -> str:
+    """The web viewer's page, reading ``file_url`` (an http URL of an .rrd) or the live gRPC proxy."""
+    from urllib.parse import quote
+
+    source = file_url if file_url is not None else grpc_url(grpc_port)
+    return f"http://127.0.0.1:{web_port}/?url={quote(source, safe='')}"
+
+
+class FileServer:
+    """Serves one file over HTTP on 127.0.0.1 (with CORS), for the web viewer to fetch in one go:
+    much faster to open than streaming the same file through the viewer's gRPC proxy."""
+
+    def __init__(self, path: str, port: int = 0) -> None:
+        import http.server
+
+        name = "/" + os.path.basename(path)
+        size = os.path.getsize(path)
+
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_GET(self) -> None:  # noqa: N802 - the http.server API
+                if self.path.split("?")[0] != name:
+                    self.send_error(404)
+                    return
+                self.send_response(200)
+                self.send_header("Access-Control-Allow-Origin", "*")
+                self.send_header("Content-Type", "application/octet-stream")
+                self.send_header("Content-Length", str(size))
+                self.end_headers()
+                with open(path, "rb") as f:
+                    while chunk := f.read(1 << 20):
+                        self.wfile.write(chunk)
+
+            def log_message(self, *args: Any) -> None:
+                pass
+
+        self.server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Handler)
+        self.url = f"http://127.0.0.1:{self.server.server_address[1]}{name}"
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def close(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()
 
 
 def grpc_url(port: int) -> str:
@@ -308,13 +353,16 @@ class Viewer:
 
     def __init__(self, kind: str, files: Sequence[str] = (), web_port: int = 9090, port: int = 9876) -> None:
         self.kind, self.web_port, self.port = kind, web_port, port
+        self.files: FileServer | None = None
         exe = rerun_binary()
         self.log = tempfile.NamedTemporaryFile(prefix="phys2d-viewer-", suffix=".log", delete=False).name
         if kind == "web":
             check_port_free(web_port, "--web-port")
             check_port_free(port, "--port")
-            cmd = [exe, *files, "--web-viewer" if files else "--serve-web", "--bind", "127.0.0.1",
-                   "--web-viewer-port", str(web_port), "--port", str(port)]
+            # the page fetches a file over plain HTTP; the gRPC proxy (port) takes live streams
+            cmd = [exe, "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", str(web_port), "--port", str(port)]
+            if files:
+                self.files = FileServer(files[0])
         else:
             if not has_display():
                 raise _no_display("phys2d view PATH" if files else "--live")
@@ -327,7 +375,9 @@ class Viewer:
 
     @property
     def url(self) -> str:
-        return web_url(self.web_port, self.port) if self.kind == "web" else grpc_url(self.port)
+        if self.kind != "web":
+            return grpc_url(self.port)
+        return web_url(self.web_port, self.port, self.files.url if self.files is not None else None)
 
     def wait(self) -> int:
         """Until the viewer exits or Ctrl-C / SIGTERM; then stop it."""
@@ -346,6 +396,9 @@ class Viewer:
             self.stop()
 
     def stop(self) -> None:
+        if self.files is not None:
+            self.files.close()
+            self.files = None
         if self.proc.poll() is None:
             self.proc.terminate()
             try:

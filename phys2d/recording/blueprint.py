@@ -79,5 +79,5 @@ def build(runs: list[RunView]) -> rrb.Blueprint:
         rrb.Horizontal(left, rrb.Vertical(*plots), column_shares=[3, 2]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="expanded", timeline=schema.TICK),
+        rrb.TimePanel(state="collapsed", timeline=schema.TICK, play_state="following"),
     )

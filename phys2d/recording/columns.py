@@ -69,8 +69,7 @@ def write_start(rec: rr.RecordingStream, b: RunBuffer, colour: tuple[int, int, i
         rec.log(f"{p}{schema.STATS_ROOT}/{st.name}", rr.SeriesLines(names=names, colors=colours, widths=[1.5]),
                 static=True)
     name = f"{b.label} log10 residual" if b.label else "log10 residual"
-    rec.log(f"{p}{schema.RESIDUAL}", rr.SeriesPoints(names=[name], colors=[colour], markers="circle",
-                                                     marker_sizes=1.5), static=True)
+    rec.log(f"{p}{schema.RESIDUAL}", rr.SeriesLines(names=[name], colors=[colour], widths=[1.5]), static=True)
 
 
 # -- the scene ----------------------------------------------------------------------------------

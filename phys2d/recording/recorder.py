@@ -100,10 +100,9 @@ class _Sink:
         self.flush_every = flush_every
         self.series_every = series_every
         self.blueprint = blueprint
-        self.live = stream_to is not None
         self.runs: dict[str | None, _Run] = {}
         self.closed = False
-        self.sent_blueprint = False
+        self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
         self.rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()))
         sinks: list[Any] = []
         if path is not None:
@@ -142,19 +141,26 @@ class _Sink:
                            bodies=len(w), first_tick=int(w.tick), plotted=repr(self.choice))
         b.add(s, self.contact_series)
         if len(b.samples) >= self.flush_every:
-            columns.write_scene(self.rec, b)
-            if self.live and not self.sent_blueprint:
+            if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
                 self.send_blueprint()
+            columns.write_scene(self.rec, b)
             self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
         if b.series_ticks >= self.series_every:
             columns.write_series(self.rec, b)
 
     def send_blueprint(self) -> None:
-        if self.blueprint:
-            views = [bp.RunView(r.buffer.label, r.buffer.bounds, r.buffer.plotted or self._will_plot(r),
-                                r.buffer.has_joints) for r in self.runs.values()]
+        """The layout for the runs as they are now, unless the file already has that one.
+
+        It is sent before the first window of data (a viewer without it builds a view per entity,
+        slow to draw while the file loads) and again at the end only if the runs changed.
+        """
+        if not self.blueprint:
+            return
+        views = [bp.RunView(r.buffer.label, r.buffer.bounds, r.buffer.plotted or self._will_plot(r),
+                            r.buffer.has_joints) for r in self.runs.values()]
+        if views != self.sent_views:
             self.rec.send_blueprint(bp.build(views))
-            self.sent_blueprint = True
+            self.sent_views = views
 
     def _will_plot(self, r: _Run) -> bool:
         return self.contact_series and any(k.size for k in r.buffer.contacts.keys)
