@@ -452,7 +452,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if path or stream_to:
         rec = Recorder(path, name=f"{args.scene} {size} / {args.responder}", scene=args.scene,
                        contact_series=not args.no_series, plot=plot_choice(args), stream_to=stream_to,
-                       flush_every=6 if stream_to else 60)
+                       flush_every=6 if stream_to else 60, background=True)
     watch = Watch(w)
     deepest = 0.0
     t0 = time.perf_counter()
@@ -522,7 +522,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     # its own application id: the viewer keeps one blueprint per application, and a comparison's
     # layout (a world per run) differs from a single run's
     with Recorder(path, name=f"{args.scene} {size}: {' vs '.join(worlds)}", scene=args.scene,
-                  application_id="phys2d-compare", contact_series=not args.no_series, plot=plot_choice(args)) as rec:
+                  application_id="phys2d-compare", contact_series=not args.no_series, plot=plot_choice(args),
+                  background=True) as rec:
         for label, w in worlds.items():
             rec.log(w, run=label)
         try:

@@ -517,6 +517,16 @@ class World:
         return self._read_only(self._bodies.radius)
 
     @property
+    def body_masses(self) -> np.ndarray:
+        """(N,) float64 mass m of each body, kg (also for static bodies)."""
+        return self._read_only(self._bodies.mass)
+
+    @property
+    def body_inertias(self) -> np.ndarray:
+        """(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."""
+        return self._read_only(self._bodies.inertia)
+
+    @property
     def vertex_start(self) -> np.ndarray:
         """(N,) int32 first row of each body's polygon in ``local_vertices``."""
         return self._read_only(self._bodies.vstart)

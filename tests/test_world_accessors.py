@@ -25,6 +25,9 @@ def test_accessors_agree_with_the_body_handles():
     assert list(w.body_kinds) == [POLYGON, POLYGON, CIRCLE, POLYGON]
     np.testing.assert_array_equal(w.body_radii, [0.0, 0.0, 0.4, 0.0])
     assert list(w.vertex_count) == [4, 4, 0, 3]
+    np.testing.assert_array_equal(w.body_masses, [h.mass for h in handles])
+    np.testing.assert_array_equal(w.body_inertias, [h.inertia for h in handles])
+    assert w.body_masses[1] == pytest.approx(1.0 * 0.5)  # density 1 kg/m^2 times 1 m x 0.5 m
     for i, h in enumerate(handles):  # each body's slice of the packed vertices is its own polygon
         s, c = int(w.vertex_start[i]), int(w.vertex_count[i])
         np.testing.assert_array_equal(w.local_vertices[s:s + c], h.local_vertices)
@@ -32,7 +35,8 @@ def test_accessors_agree_with_the_body_handles():
     np.testing.assert_array_equal(np.abs(handles[1].local_vertices), np.tile([0.5, 0.25], (4, 1)))
 
 
-@pytest.mark.parametrize("name", ["body_uids", "body_static", "body_kinds", "body_radii", "vertex_start",
+@pytest.mark.parametrize("name", ["body_uids", "body_static", "body_kinds", "body_radii", "body_masses",
+                                  "body_inertias", "vertex_start",
                                   "vertex_count", "local_vertices"])
 def test_accessors_are_read_only(name):
     w, _ = small_world()

@@ -15,9 +15,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import schema
-from .sample import Layout, Sample
+from .sample import Sample
 
 DEFAULT_DEEPEST = 4  # contacts plotted when nothing else is asked for
+
+
+def member(key: np.ndarray, among: np.ndarray) -> np.ndarray:
+    """``np.isin(key, among)``, quicker for the few keys a plot shows."""
+    if among.size <= 16:
+        return (key[:, None] == among[None, :]).any(axis=1) if among.size else np.zeros(key.shape, np.bool_)
+    return np.isin(key, among)
 
 
 class ContactChoice:
@@ -88,21 +95,38 @@ class ContactChoice:
             a, b, _ = schema.split_key(key)
             return (a == self.uid) | (b == self.uid)
         if self.kind == "keys":
-            return np.isin(key, self.key_set)
-        return None if chosen is None or chosen.size < self.n else np.isin(key, chosen)
+            return member(key, self.key_set)
+        return None if chosen is None or chosen.size < self.n else member(key, chosen)
 
-    def decide(self, key: np.ndarray, penetration: np.ndarray, chosen: np.ndarray | None) -> np.ndarray:
-        """``chosen`` topped up to N with the deepest other contacts of a window (deepest over
-        the window; ties by key): once N are chosen, the choice stays."""
+    def decide(self, keys: list[np.ndarray], penetration: list[np.ndarray], chosen: np.ndarray | None) -> np.ndarray:
+        """``chosen`` topped up to N with the deepest other contacts of a window of ticks (deepest
+        over the window; ties by key): once N are chosen, the choice stays.
+
+        Only each tick's N deepest can be among the window's N deepest (a contact deepest at
+        tick t but not among t's N deepest has N others deeper still), so only those are ranked.
+        """
         chosen = np.zeros(0, np.int64) if chosen is None else chosen
-        others = ~np.isin(key, chosen)
-        if chosen.size >= self.n or not others.any():
+        need = self.n - chosen.size
+        if need <= 0:
             return chosen
-        uniq, inv = np.unique(key[others], return_inverse=True)
+        cand_k, cand_p = [], []
+        for k, p in zip(keys, penetration, strict=True):
+            free = ~member(k, chosen)
+            k, p = k[free], p[free]
+            if k.size > need:
+                top = np.argpartition(-p, need - 1)[:need]
+                top = np.flatnonzero(p >= p[top].min())  # keep ties at the cut
+                k, p = k[top], p[top]
+            cand_k.append(k)
+            cand_p.append(p)
+        key = np.concatenate(cand_k) if cand_k else np.zeros(0, np.int64)
+        if key.size == 0:
+            return chosen
+        uniq, inv = np.unique(key, return_inverse=True)
         deepest = np.full(uniq.size, -np.inf)
-        np.maximum.at(deepest, inv, penetration[others])
+        np.maximum.at(deepest, inv, np.concatenate(cand_p))
         order = np.lexsort((uniq, -deepest))
-        return np.sort(np.concatenate([chosen, uniq[order[: self.n - chosen.size]]]))
+        return np.sort(np.concatenate([chosen, uniq[order[:need]]]))
 
 
 def as_choice(plot) -> ContactChoice:
@@ -152,8 +176,8 @@ class RunBuffer:
     series_ticks: int = 0  # ticks in the series windows
     # remembered between writes
     sweeps: int = 0  # solver sweeps written so far: the sweep timeline
-    labelled: Layout | None = None  # the layout whose labels and classes were written last
-    static_state: tuple | None = None  # (layout, x, theta, V) of the static bodies as last written
+    labelled: int | None = None  # the layout version whose labels and classes were written last
+    static_state: tuple | None = None  # (layout version, static bodies' x, theta, V) as last written
     styled: set[int] = field(default_factory=set)  # plotted contacts whose legend entry is written
     colours: dict[int, tuple[int, int, int]] = field(default_factory=dict)
     bounds: tuple[float, float, float, float] | None = None  # xmin, xmax, ymin, ymax of the first tick

@@ -13,8 +13,8 @@ import pyarrow as pa
 import rerun as rr
 
 from . import schema
-from .buffer import RunBuffer, SeriesWindow
-from .sample import Sample, Strips, on_grid
+from .buffer import RunBuffer, SeriesWindow, member
+from .sample import Sample, Strips, aggregates, on_grid
 
 # exactly rerun's LineStrip2D arrow type: the viewer skips a column whose nullability differs
 _STRIP_TYPE = pa.list_(pa.field("item", pa.list_(pa.field("item", pa.float32(), nullable=False), 2), nullable=False))
@@ -81,14 +81,14 @@ def write_scene(rec: rr.RecordingStream, b: RunBuffer) -> None:
     ticks = np.fromiter((s.tick for s in ss), dtype=np.int64, count=len(ss))
     times = np.fromiter((s.time for s in ss), dtype=np.float64, count=len(ss))
     # split the window where the set of bodies changed
-    starts = [0] + [i for i in range(1, len(ss)) if ss[i].layout is not ss[i - 1].layout]
+    starts = [0] + [i for i in range(1, len(ss)) if ss[i].layout.version != ss[i - 1].layout.version]
     for s0, s1 in zip(starts, starts[1:] + [len(ss)], strict=True):
         _write_bodies(rec, b, ss[s0:s1], ticks[s0:s1], times[s0:s1])
     _write_static(rec, b, ss)
     _write_contacts(rec, b, ss, ticks, times)
     if b.has_joints:
         _write_joints(rec, b, ss)
-    stats = np.stack([s.stats for s in ss])
+    stats = aggregates(ss)
     for k, st in enumerate(schema.STATS):
         rec.send_columns(f"{b.prefix}{schema.STATS_ROOT}/{st.name}", indexes=_index(ticks, times),
                          columns=rr.Scalars.columns(scalars=stats[:, k]))
@@ -115,9 +115,9 @@ def _labels(rec: rr.RecordingStream, path: str, t: np.ndarray, tm: np.ndarray, c
 def _write_bodies(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
     lay = ss[0].layout
     path = f"{b.prefix}{schema.BODIES}"
-    if lay is not b.labelled:
+    if lay.version != b.labelled:
         _labels(rec, path, t, tm, lay.dynamic_class, lay.dynamic_labels)
-        b.labelled = lay
+        b.labelled = lay.version
     X = np.stack([s.x for s in ss])
     TH = np.stack([s.theta for s in ss])
     VV = np.stack([s.V for s in ss])
@@ -134,10 +134,9 @@ def _write_static(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample]) -> No
     for i, s in enumerate(ss):
         lay = s.layout
         st = lay.static
-        state = (lay, s.x[st], s.theta[st], s.V[st])
+        state = (lay.version, np.concatenate([s.x[st].ravel(), s.theta[st], s.V[st].ravel()]))
         last = b.static_state
-        if last is not None and last[0].uid.shape == lay.uid.shape and np.array_equal(last[0].uid, lay.uid) \
-                and all(np.array_equal(u, v) for u, v in zip(last[1:], state[1:], strict=True)):
+        if last is not None and last[0] == state[0] and np.array_equal(last[1], state[1]):
             continue
         rows.append(i)
         b.static_state = state
@@ -212,10 +211,8 @@ def write_series(rec: rr.RecordingStream, b: RunBuffer) -> None:
     w = b.contacts
     if w.ticks:
         if b.choice.kind == "deepest" and (b.chosen is None or b.chosen.size < b.choice.n):
-            allk = np.concatenate(w.keys)
-            pen = np.concatenate([v[:, 2] for v in w.values]) if allk.size else np.zeros(0)
-            b.chosen = b.choice.decide(allk, pen, b.chosen)
-            keep = [np.isin(k, b.chosen) for k in w.keys]
+            b.chosen = b.choice.decide(w.keys, [v[:, 2] for v in w.values], b.chosen)
+            keep = [member(k, b.chosen) for k in w.keys]
             w.keys = [k[m] for k, m in zip(w.keys, keep, strict=True)]
             w.values = [v[m] for v, m in zip(w.values, keep, strict=True)]
         new = _style_contacts(rec, b, w)

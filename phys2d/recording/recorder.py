@@ -11,7 +11,11 @@ The work is split by job, one module each:
     buffer.py     keeps a run's ticks until they are written; which contacts get plots
     columns.py    writes buffered ticks as a few columnar sends per entity
     blueprint.py  the layout the file opens with
+    sink.py       the writing side: a Rerun stream fed with sampled ticks, here or in a
+                  writer process of its own (``background=True``)
     schema.py     every entity path, field name, unit and dtype (shared with playback)
+
+This module imports no rerun: with ``background=True`` only the writer process does.
 
 ``log`` only samples (tens of microseconds). Every ``flush_every`` ticks the scene
 goes out as columns; the plotted per-contact series go out every ``series_every``
@@ -26,17 +30,13 @@ running viewer while the simulation runs (``phys2d run --live``).
 from __future__ import annotations
 
 import os
-import uuid
 import weakref
 from typing import Any
 
 import numpy as np
-import rerun as rr
 
-from . import blueprint as bp
-from . import columns, schema
-from .buffer import ContactChoice, RunBuffer, as_choice
-from .sample import Sampler
+from .buffer import ContactChoice, as_choice
+from .sample import Sample, Sampler
 
 
 def _checked_path(path: Any) -> str:
@@ -74,109 +74,82 @@ def _check_label(run: Any) -> str:
     return run
 
 
-def _send_property(rec: rr.RecordingStream, entity: str, **values: Any) -> None:
-    """Static run metadata at /__properties/<name>; empty values are left out (Rerun drops them)."""
-    kept = {k: v for k, v in values.items() if v is not None and v != ""}
-    rec.send_property(entity, rr.AnyValues(**kept))
+class _Local:
+    """The Sink in this process."""
+
+    def __init__(self, kwargs: dict[str, Any]) -> None:
+        from .sink import Sink
+
+        self.sink = Sink(**kwargs)
+
+    def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
+        self.sink.add(label, s, info)
+
+    def close(self) -> dict[str | None, list[str]]:
+        self.sink.close()
+        return self.sink.plotted()
 
 
-class _Run:
-    """One run: its sampler and its buffer."""
+class _Background:
+    """The Sink in a writer process of its own (forked: it starts at once and imports rerun
+    there); ticks go over a queue a window at a time. The queue's feeder thread does the
+    sending, so a busy writer never holds up the simulation."""
 
-    def __init__(self, label: str | None, choice: ContactChoice) -> None:
-        self.sampler = Sampler()
-        self.buffer = RunBuffer(label, schema.run_prefix(label), choice)
+    def __init__(self, kwargs: dict[str, Any], window: int) -> None:
+        import multiprocessing as mp
+
+        from .sink import serve
+
+        ctx = mp.get_context("fork")
+        self.queue = ctx.Queue()
+        self.reply, child = ctx.Pipe(duplex=False)
+        self.proc = ctx.Process(target=serve, args=(self.queue, child, kwargs), daemon=True,
+                                name="phys2d-recording-writer")
+        self.proc.start()
+        child.close()
+        self.window = window
+        self.pending: list[tuple[str | None, Sample, dict[str, Any] | None]] = []
+
+    def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
+        self.pending.append((label, s, info))
+        if len(self.pending) >= self.window:
+            self._send()
+
+    def _send(self) -> None:
+        if self.pending:
+            if not self.proc.is_alive():
+                raise RuntimeError("the recording's writer process stopped")
+            self.queue.put(("add", self.pending))
+            self.pending = []
+
+    def close(self) -> dict[str | None, list[str]]:
+        try:
+            self._send()
+            self.queue.put(("close",))
+            reply = self.reply.recv()
+        except (EOFError, OSError, RuntimeError):
+            reply = ("error", "the recording's writer process stopped")
+        finally:
+            self.proc.join(60)
+            self.reply.close()
+            self.queue.close()
+        if reply[0] == "error":
+            raise RuntimeError(f"writing the recording failed: {reply[1]}")
+        return reply[1]
 
 
-class _Sink:
-    """The stream and the runs' buffers; closed once, by ``Recorder.close`` or a finalizer."""
+class _State:
+    """What a Recorder closes, by ``close`` or its finalizer."""
 
-    def __init__(self, path: str | None, name: str | None, scene: str | None, application_id: str,
-                 recording_id: str | None, contact_series: bool, choice: ContactChoice, flush_every: int,
-                 series_every: int, blueprint: bool, stream_to: str | None) -> None:
-        self.scene = scene
-        self.contact_series = contact_series
-        self.choice = choice
-        self.flush_every = flush_every
-        self.series_every = series_every
-        self.blueprint = blueprint
-        self.runs: dict[str | None, _Run] = {}
+    def __init__(self, backend: _Local | _Background) -> None:
+        self.backend = backend
         self.closed = False
-        self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
-        self.rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()))
-        sinks: list[Any] = []
-        if path is not None:
-            sinks.append(rr.FileSink(path))
-        if stream_to is not None:
-            sinks.append(rr.GrpcSink(stream_to))
-        self.rec.set_sinks(*sinks)
-        self.rec.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
-        if name:
-            self.rec.send_recording_name(name)
-        from .. import __version__
-
-        _send_property(self.rec, schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
-
-    def run(self, label: str | None) -> _Run:
-        r = self.runs.get(label)
-        if r is None:
-            if label is None and self.runs:
-                raise ValueError("this recorder holds named runs: pass run=<label> to every log()")
-            if label is not None and None in self.runs:
-                raise ValueError("this recorder holds an unnamed run: log() without run= only")
-            r = _Run(label, self.choice)
-            colour = schema.PALETTE[len(self.runs) % len(schema.PALETTE)]
-            self.runs[label] = r
-            columns.write_start(self.rec, r.buffer, colour)
-        return r
-
-    def log(self, w, label: str | None) -> None:
-        r = self.run(label)
-        b = r.buffer
-        first = not b.samples and b.bounds is None
-        s = r.sampler.sample(w)
-        if first:
-            _send_property(self.rec, schema.run_property(label), responder=repr(w.responder),
-                           responder_name=str(getattr(w.responder, "name", "")), scene=self.scene, run=label,
-                           bodies=len(w), first_tick=int(w.tick), plotted=repr(self.choice))
-        b.add(s, self.contact_series)
-        if len(b.samples) >= self.flush_every:
-            if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
-                self.send_blueprint()
-            columns.write_scene(self.rec, b)
-            self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
-        if b.series_ticks >= self.series_every:
-            columns.write_series(self.rec, b)
-
-    def send_blueprint(self) -> None:
-        """The layout for the runs as they are now, unless the file already has that one.
-
-        It is sent before the first window of data (a viewer without it builds a view per entity,
-        slow to draw while the file loads) and again at the end only if the runs changed.
-        """
-        if not self.blueprint:
-            return
-        views = [bp.RunView(r.buffer.label, r.buffer.bounds, r.buffer.plotted or self._will_plot(r),
-                            r.buffer.has_joints) for r in self.runs.values()]
-        if views != self.sent_views:
-            self.rec.send_blueprint(bp.build(views))
-            self.sent_views = views
-
-    def _will_plot(self, r: _Run) -> bool:
-        return self.contact_series and any(k.size for k in r.buffer.contacts.keys)
+        self.plotted: dict[str | None, list[str]] = {}
 
     def close(self) -> None:
-        if self.closed:
-            return
-        self.closed = True
-        try:
-            for r in self.runs.values():
-                columns.write_scene(self.rec, r.buffer)
-                columns.write_series(self.rec, r.buffer)
-            self.send_blueprint()
-            self.rec.flush()
-        finally:
-            self.rec.disconnect()  # writes the footer: the file is complete and readable
+        if not self.closed:
+            self.closed = True
+            self.plotted = self.backend.close()
 
 
 class Recorder:
@@ -196,6 +169,9 @@ class Recorder:
     series_every  ticks buffered before the plotted series are written
     blueprint     store a layout (world beside the plots) in the file
     stream_to     a viewer's ``rerun+http://HOST:PORT/proxy`` URL to stream to as well
+    background    write from a process of its own (Linux, macOS: fork): this process only
+                  samples and hands windows of ticks over, so rerun's import and the encoding
+                  run on another core meanwhile (``phys2d run`` does this)
 
     Call ``log(w)`` after each ``w.step``; for comparisons log several worlds into one
     file with ``log(w, run="pgs")`` (each run under ``runs/<run>/``, same timelines).
@@ -205,7 +181,8 @@ class Recorder:
     def __init__(self, path: str | os.PathLike | None, *, name: str | None = None, scene: str | None = None,
                  application_id: str = "phys2d", recording_id: str | None = None,
                  contact_series: bool = True, plot: ContactChoice | str | None = None, flush_every: int = 60,
-                 series_every: int = 600, blueprint: bool = True, stream_to: str | None = None) -> None:
+                 series_every: int = 600, blueprint: bool = True, stream_to: str | None = None,
+                 background: bool = False) -> None:
         if stream_to is not None and (not isinstance(stream_to, str) or "://" not in stream_to):
             raise TypeError(f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', "
                             f"got {stream_to!r}")
@@ -215,41 +192,55 @@ class Recorder:
                 raise TypeError(f"{arg} must be a str or None, got {type(value).__name__}")
         if not isinstance(application_id, str) or not application_id:
             raise TypeError(f"application_id must be a non-empty str, got {application_id!r}")
-        for value, arg in ((contact_series, "contact_series"), (blueprint, "blueprint")):
+        for value, arg in ((contact_series, "contact_series"), (blueprint, "blueprint"), (background, "background")):
             if not isinstance(value, (bool, np.bool_)):
                 raise TypeError(f"{arg} must be True or False, got {value!r}")
         choice = as_choice(plot)
         flush_every = _check_count(flush_every, "flush_every")
         series_every = _check_count(series_every, "series_every")
         self.path = p
-        self._sink = _Sink(p, name, scene, application_id, recording_id, bool(contact_series), choice, flush_every,
-                           series_every, bool(blueprint), stream_to)
-        self._finalizer = weakref.finalize(self, _Sink.close, self._sink)
+        kwargs = dict(path=p, name=name, scene=scene, application_id=application_id, recording_id=recording_id,
+                      contact_series=bool(contact_series), choice=choice, flush_every=flush_every,
+                      series_every=series_every, blueprint=bool(blueprint), stream_to=stream_to)
+        self._samplers: dict[str | None, Sampler] = {}
+        backend = _Background(kwargs, flush_every) if background else _Local(kwargs)
+        self._state = _State(backend)
+        self._finalizer = weakref.finalize(self, _State.close, self._state)
 
     def log(self, world, *, run: str | None = None) -> None:
         """Buffer the world's current state as tick ``world.tick`` (of run ``run``)."""
         from ..world import World
 
-        if self._sink.closed:
+        if self._state.closed:
             raise ValueError(f"this recorder is closed ({self.path})")
         if not isinstance(world, World):
             raise TypeError(f"world must be a phys2d World, got {type(world).__name__}")
-        self._sink.log(world, None if run is None else _check_label(run))
+        label = None if run is None else _check_label(run)
+        sampler = self._samplers.get(label)
+        info = None
+        if sampler is None:
+            if label is None and self._samplers:
+                raise ValueError("this recorder holds named runs: pass run=<label> to every log()")
+            if label is not None and None in self._samplers:
+                raise ValueError("this recorder holds an unnamed run: log() without run= only")
+            sampler = self._samplers[label] = Sampler()
+            info = dict(responder=repr(world.responder), responder_name=str(getattr(world.responder, "name", "")),
+                        bodies=len(world), first_tick=int(world.tick))
+        self._state.backend.add(label, sampler.sample(world), info)
 
     @property
     def runs(self) -> list[str | None]:
         """The run labels logged so far (``[None]`` for a single unnamed run)."""
-        return list(self._sink.runs)
+        return list(self._samplers)
 
     @property
     def plotted(self) -> dict[str | None, list[str]]:
-        """Per run, the contacts whose series were written so far (entity names)."""
-        return {label: [schema.contact_entity(k) for k in sorted(r.buffer.styled)]
-                for label, r in self._sink.runs.items()}
+        """Per run, the contacts whose series were written (entity names); known once closed."""
+        return dict(self._state.plotted)
 
     @property
     def closed(self) -> bool:
-        return self._sink.closed
+        return self._state.closed
 
     def close(self) -> None:
         """Write what is buffered, the blueprint and the file footer; idempotent."""
