@@ -12,8 +12,9 @@ writer threads, closing the file (footer) and process exit. Reports per size:
     CPU per tick    the same for user + system CPU time of the process (all its threads), ms
     size per tick   file size / (steps + 1), kB (tick 0, the scene as built, is recorded too)
 
-``--repo`` runs another checkout's ``phys2d`` (e.g. an older commit, for before/after
-figures). Timings on a shared machine are noisy: compare figures from one run.
+``--repo`` (repeatable) runs other checkouts' ``phys2d`` (e.g. an older commit), repeat
+by repeat beside this one, so before/after figures come from one run under the same
+load. Timings on a shared machine are noisy: compare figures from one run.
 """
 
 from __future__ import annotations
@@ -26,43 +27,50 @@ import subprocess
 import sys
 import tempfile
 import time
+from typing import Any
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def run_once(repo: str, size: int, steps: int, out: str | None) -> tuple[float, float]:
-    """(wall s, CPU s) of one ``phys2d run`` process."""
+    """(wall s, CPU s) of one ``phys2d run`` process, run outside any checkout (``python -m``
+    puts the working directory first on the path), with ``repo`` on PYTHONPATH."""
     args = [sys.executable, "-m", "phys2d", "run", "pyramid", "--size", str(size), "--steps", str(steps)]
     args += ["--out", out] if out else ["--no-record"]
     env = {**os.environ, "PYTHONPATH": repo}
     env.pop("PHYS2D_DEBUG", None)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(args, env=env, capture_output=True, text=True)
+    proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=tempfile.gettempdir())
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
-        raise SystemExit(f"phys2d run failed: {proc.stderr.strip()}")
+        raise SystemExit(f"phys2d run failed ({repo}): {proc.stderr.strip()}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu
 
 
-def measure(repo: str, size: int, steps: int, repeats: int) -> dict[str, float]:
-    walls, cpus, sizes = [], [], []
+def measure(repos: list[str], size: int, steps: int, repeats: int) -> dict[str, dict[str, Any]]:
+    """Per repo: the median recording cost per tick (wall and CPU, ms), each repeat's, the size."""
+    walls: dict[str, list[float]] = {r: [] for r in repos}
+    cpus: dict[str, list[float]] = {r: [] for r in repos}
+    sizes: dict[str, list[int]] = {r: [] for r in repos}
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "pyramid.rrd")
-        run_once(repo, size, 20, path)  # warm the numba cache and the file system
+        for repo in repos:
+            run_once(repo, size, 20, path)  # warm the numba cache and the file system
         for k in range(repeats):
-            order = (None, path) if k % 2 == 0 else (path, None)
-            got = {}
-            for out in order:
-                got[out] = run_once(repo, size, steps, out)
-            walls.append((got[path][0] - got[None][0]) / steps)
-            cpus.append((got[path][1] - got[None][1]) / steps)
-            sizes.append(os.path.getsize(path))
-    return {"cost_ms": 1e3 * statistics.median(walls), "cpu_ms": 1e3 * statistics.median(cpus),
-            "all_ms": [1e3 * w for w in walls], "size_kb": statistics.median(sizes) / (steps + 1) / 1e3,
-            "size_mb": statistics.median(sizes) / 1e6}
+            for repo in repos:  # every repo in every repeat: the same load for all
+                order = (None, path) if k % 2 == 0 else (path, None)
+                got = {}
+                for out in order:
+                    got[out] = run_once(repo, size, steps, out)
+                walls[repo].append((got[path][0] - got[None][0]) / steps)
+                cpus[repo].append((got[path][1] - got[None][1]) / steps)
+                sizes[repo].append(os.path.getsize(path))
+    return {r: {"cost_ms": 1e3 * statistics.median(walls[r]), "cpu_ms": 1e3 * statistics.median(cpus[r]),
+                "all_ms": [1e3 * w for w in walls[r]], "size_kb": statistics.median(sizes[r]) / (steps + 1) / 1e3,
+                "size_mb": statistics.median(sizes[r]) / 1e6} for r in repos}
 
 
 def main() -> None:
@@ -70,15 +78,17 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[20, 40], help="pyramid rows (default 20 40)")
     ap.add_argument("--steps", type=int, default=600)
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--repo", default=HERE, help="the checkout whose phys2d to run (default: this one)")
+    ap.add_argument("--repo", action="append", default=[],
+                    help="also run this checkout's phys2d, repeat by repeat beside this one (repeatable)")
     a = ap.parse_args()
-    print(f"phys2d run pyramid --steps {a.steps}, recording on vs --no-record, {a.repeats} repeats, "
-          f"repo {os.path.abspath(a.repo)}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    repos = [os.path.abspath(r) for r in a.repo] + [HERE]
+    print(f"phys2d run pyramid --steps {a.steps}, recording on vs --no-record, {a.repeats} repeats; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     for size in a.sizes:
-        r = measure(a.repo, size, a.steps, a.repeats)
-        print(f"pyramid_{size}: recording costs {r['cost_ms']:.2f} ms per tick end to end "
-              f"(CPU {r['cpu_ms']:.2f} ms; each repeat: {', '.join(f'{x:.2f}' for x in r['all_ms'])}); "
-              f"file {r['size_mb']:.1f} MB, {r['size_kb']:.1f} kB per tick")
+        for repo, r in measure(repos, size, a.steps, a.repeats).items():
+            print(f"pyramid_{size} [{repo}]: recording costs {r['cost_ms']:.2f} ms per tick end to end "
+                  f"(CPU {r['cpu_ms']:.2f} ms; each repeat: {', '.join(f'{x:.2f}' for x in r['all_ms'])}); "
+                  f"file {r['size_mb']:.1f} MB, {r['size_kb']:.1f} kB per tick")
 
 
 if __name__ == "__main__":

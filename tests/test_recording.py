@@ -528,3 +528,59 @@ def test_a_static_body_moved_by_hand_is_written_again(tmp_path):
     assert rows == 2
     back = playback.load(path)
     assert np.array_equal(back.x[:, list(back.body_uid).index(0)], np.stack(xs))
+
+
+# -- the background writer -------------------------------------------------------------------
+def test_a_background_writer_writes_what_an_in_process_one_does(tmp_path):
+    out = {}
+    for background in (False, True):
+        path = tmp_path / f"bg{background}.rrd"
+        w = phys2d.scenes.mixed_shapes(6)
+        with Recorder(path, flush_every=9, background=background) as rec:
+            for _ in range(40):
+                w.step(1 / 60)
+                rec.log(w)
+        assert rec.plotted[None]  # the writer reports which contacts it plotted
+        assert_verified(path)
+        out[background] = (playback.load(path), rec.plotted)
+    (a, pa_), (b, pb) = out[False], out[True]
+    assert pa_ == pb
+    for name in ("tick", "x", "V", "residual", "kinetic_energy"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    for name in ("key", "normal_impulse", "point"):
+        assert np.array_equal(getattr(a.contacts, name), getattr(b.contacts, name)), name
+
+
+def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path):
+    """os._exit in the simulating process: the writer sees it gone, writes every window it was
+    sent and the footer."""
+    import sys
+    import textwrap
+
+    path = tmp_path / "orphan.rrd"
+    script = textwrap.dedent(f"""
+        import os, phys2d
+        from phys2d.recording import Recorder
+        w = phys2d.scenes.vertical_stack(3)
+        rec = Recorder({str(path)!r}, flush_every=10, background=True)
+        for _ in range(95):
+            w.step(1 / 60)
+            rec.log(w)
+        import time; time.sleep(0.5)  # the queue's feeder thread hands over the windows sent
+        os._exit(1)
+    """)
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": repo},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 1, out.stderr
+    for _ in range(100):  # the writer notices within a second or so
+        try:
+            assert_verified(path)
+            break
+        except AssertionError:
+            import time
+
+            time.sleep(0.2)
+    assert_verified(path)
+    back = playback.load(path)
+    assert list(back.tick) == list(range(1, 91))  # the 9 whole windows sent; 5 ticks were still buffered
