@@ -34,7 +34,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, NoReturn, TextIO
+from typing import Any, NoReturn, TextIO, cast
 
 import numpy as np
 
@@ -111,7 +111,7 @@ def scene_builder(name: str) -> Callable[..., World]:
         close = difflib.get_close_matches(name, scenes.SCENES, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise CLIError(f"unknown scene {name!r}{hint} (choose from: {', '.join(scenes.SCENES)})")
-    return scenes.SCENES[name][0]
+    return cast(Callable[..., World], scenes.SCENES[name][0])
 
 
 def default_size(builder: Callable[..., World]) -> Any:
@@ -426,7 +426,8 @@ def start_live(target: str, web_port: int, port: int) -> tuple[str, Viewer | Non
 
 # -- commands --------------------------------------------------------------------------
 def cmd_scenes(args: argparse.Namespace) -> int:
-    rows = [(name, repr(default_size(b)), meaning) for name, (b, meaning) in scenes.SCENES.items()]
+    rows = [(name, repr(default_size(cast(Callable[..., World], b))), meaning)
+            for name, (b, meaning) in scenes.SCENES.items()]
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     print(f"{'scene':<{w0}}  {'size':>{w1}}  --size means")

@@ -39,17 +39,17 @@ TITLES = {
 
 
 def _world(r: RunView) -> rrb.Spatial2DView:
-    kw = {}
+    bounds = None
     if r.bounds is not None:
         x0, x1, y0, y1 = r.bounds
-        kw["visual_bounds"] = rrb.VisualBounds2D(x_range=[x0, x1], y_range=[-y1, -y0])  # the view is y-down
+        bounds = rrb.VisualBounds2D(x_range=[x0, x1], y_range=[-y1, -y0])  # the view is y-down
     return rrb.Spatial2DView(name=f"world {r.label}" if r.label else "world",
-                             origin=f"/{schema.run_prefix(r.label)}{schema.WORLD}", **kw)
+                             origin=f"/{schema.run_prefix(r.label)}{schema.WORLD}", visual_bounds=bounds)
 
 
 def _plot(key: str, paths: list[str], legend: bool = True) -> rrb.TimeSeriesView:
-    kw = {} if legend else {"plot_legend": rrb.PlotLegend(visible=False)}
-    return rrb.TimeSeriesView(name=TITLES[key], origin="/", contents=[f"+ /{p}" for p in paths], **kw)
+    return rrb.TimeSeriesView(name=TITLES[key], origin="/", contents=[f"+ /{p}" for p in paths],
+                              plot_legend=None if legend else rrb.PlotLegend(visible=False))
 
 
 def build(runs: list[RunView]) -> rrb.Blueprint:
@@ -59,8 +59,8 @@ def build(runs: list[RunView]) -> rrb.Blueprint:
     if len(runs) == 1:
         r = runs[0]
         p = schema.run_prefix(r.label)
-        left = rrb.Tabs(_world(r), rrb.DataframeView(name="contact table", origin=f"/{p}{schema.CONTACTS}"),
-                        active_tab=0)
+        table = rrb.DataframeView(name="contact table", origin=f"/{p}{schema.CONTACTS}")
+        left: rrb.Tabs | rrb.Grid = rrb.Tabs(_world(r), table, active_tab=0)
         plots = []
         if r.plotted:
             plots += [_plot("lambda", [f"{p}{schema.LAMBDA}/**"]),

@@ -200,7 +200,7 @@ class RunBuffer:
             values = np.stack([s.lambda_n[sel], s.lambda_t[sel], -s.separation[sel] * schema.PENETRATION_SCALE],
                               axis=1)
             self.contacts.append(s.tick, s.time, s.key[sel], values)
-        if s.joint_keys is not None:
+        if s.joint_keys is not None and s.joint_impulses is not None:
             self.has_joints = True
             self.joints.append(s.tick, s.time, s.joint_keys, s.joint_impulses[:, None])
         if contact_series or s.joint_keys is not None:

@@ -179,8 +179,9 @@ def _write_joints(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample]) -> No
     js = [s for s in ss if s.joint_ends is not None]
     if not js:
         return
-    ends = on_grid(np.concatenate([s.joint_ends for s in js]).reshape(-1, 2, 2), schema.DRAW_GRID)
-    lengths = np.fromiter((len(s.joint_ends) for s in js), dtype=np.int64, count=len(js))
+    all_ends = [s.joint_ends for s in js if s.joint_ends is not None]
+    ends = on_grid(np.concatenate(all_ends).reshape(-1, 2, 2), schema.DRAW_GRID)
+    lengths = np.fromiter((len(e) for e in all_ends), dtype=np.int64, count=len(all_ends))
     t = np.fromiter((s.tick for s in js), dtype=np.int64, count=len(js))
     tm = np.fromiter((s.time for s in js), dtype=np.float64, count=len(js))
     rec.send_columns(f"{b.prefix}{schema.JOINTS}", indexes=_index(t, tm), columns=rr.LineStrips2D.columns(
@@ -207,7 +208,7 @@ def write_series(rec: rr.RecordingStream, b: RunBuffer) -> None:
     """The chosen contacts' lambda and penetration, and the joints' reactions, as one wide batch."""
     fields: list[pa.Field] = []
     arrays: list[pa.Array] = []
-    batches = []
+    batches: list[tuple[SeriesWindow, list[tuple[str, tuple[int, ...]]], Callable[[int], str]]] = []
     w = b.contacts
     if w.ticks:
         if b.choice.kind == "deepest" and (b.chosen is None or b.chosen.size < b.choice.n):
@@ -286,8 +287,8 @@ def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]]
     nulls = T - count
     names = [entity_of(int(k)) for k in uniq]
     d = rr.Scalars.descriptor_scalars()
-    meta = {b"rerun:component": d.component.encode(), b"rerun:archetype": d.archetype.encode(),
-            b"rerun:component_type": d.component_type.encode()}
+    meta = {b"rerun:component": str(d.component).encode(), b"rerun:archetype": str(d.archetype).encode(),
+            b"rerun:component_type": str(d.component_type).encode()}
     list_type = pa.list_(pa.float64())
     for family, which in families:
         m = len(which)

@@ -251,7 +251,7 @@ class Recording:
             return None
         t = t.filter(pc.is_valid(t.column("x")))  # rows that carry the table, not only labels
         n = _lengths(t, "uid")
-        vals = {f.name: _flat(t, f.name).astype(f.dtype) for f in schema.BODY_FIELDS}
+        vals: dict[str, np.ndarray] = {f.name: _flat(t, f.name).astype(f.dtype) for f in schema.BODY_FIELDS}
         return t.column(schema.TICK).to_numpy().astype(np.int64), n, vals, np.repeat(np.arange(len(n)), n)
 
     def _run(self, label: str) -> Run:

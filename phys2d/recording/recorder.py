@@ -192,9 +192,9 @@ class Recorder:
                 raise TypeError(f"{arg} must be a str or None, got {type(value).__name__}")
         if not isinstance(application_id, str) or not application_id:
             raise TypeError(f"application_id must be a non-empty str, got {application_id!r}")
-        for value, arg in ((contact_series, "contact_series"), (blueprint, "blueprint"), (background, "background")):
-            if not isinstance(value, (bool, np.bool_)):
-                raise TypeError(f"{arg} must be True or False, got {value!r}")
+        for flag, arg in ((contact_series, "contact_series"), (blueprint, "blueprint"), (background, "background")):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise TypeError(f"{arg} must be True or False, got {flag!r}")
         choice = as_choice(plot)
         flush_every = _check_count(flush_every, "flush_every")
         series_every = _check_count(series_every, "series_every")
