@@ -363,15 +363,20 @@ class Viewer:
             cmd = [exe, "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", str(web_port), "--port", str(port)]
             if files:
                 self.files = FileServer(files[0])
-        else:
+        elif files:  # a native window on a file: its data port does not matter, take a free one
             if not has_display():
-                raise _no_display("phys2d view PATH" if files else "--live")
+                raise _no_display(f"phys2d view {files[0]}")
+            cmd = [exe, *files, "--bind", "127.0.0.1", "--port", "auto"]
+        else:  # a native window that a live run streams to, on a known port
+            if not has_display():
+                raise _no_display("--live")
             check_port_free(port, "--port")
-            cmd = [exe, *files, "--bind", "127.0.0.1", "--port", str(port)]
+            cmd = [exe, "--bind", "127.0.0.1", "--port", str(port)]
         with open(self.log, "w") as log:
             self.proc = subprocess.Popen(cmd, env={**os.environ, "BROWSER": "true"}, stdin=subprocess.DEVNULL,
                                          stdout=log, stderr=subprocess.STDOUT, start_new_session=kind != "web")
-        _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
+        if kind == "web" or not files:
+            _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
 
     @property
     def url(self) -> str:
