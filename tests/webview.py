@@ -128,7 +128,7 @@ def panels(plot_colours: list[list[tuple[int, int, int]]]) -> dict[str, tuple[sl
     n = len(plot_colours)
     h = (BOTTOM - TOP) / n
     for k, colours in enumerate(plot_colours):
-        rows = slice(int(TOP + k * h + 25), int(TOP + (k + 1) * h - 20))  # below the title, above the axis
+        rows = slice(int(TOP + k * h + 25), int(TOP + (k + 1) * h - 12))  # below the title, above the axis labels
         out[f"plot {k}"] = (rows, slice(x0 + 170, WIDTH - 10), colours)
     return out
 

@@ -30,7 +30,7 @@ TITLES = {
     "lambda": f"impulse per contact: λn (dark), λt (light) ({schema.LAMBDA_UNIT})",
     "penetration": f"penetration per contact ({schema.PENETRATION_UNIT})",
     "residual": "solver residual per sweep, log10 (m/s)",
-    "energy": "energy (J)",
+    "energy": "energy (J): kinetic; potential and total in the legend",
     "reaction": "joint reactions (N s)",
     "max_penetration": f"deepest overlap per run ({schema.PENETRATION_UNIT})",
     "kinetic": "kinetic energy per run (J)",

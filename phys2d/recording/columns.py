@@ -66,8 +66,10 @@ def write_start(rec: rr.RecordingStream, b: RunBuffer, colour: tuple[int, int, i
             names, colours = [f"{b.label} {st.label}"], [colour]
         else:
             names, colours = [st.label], [schema.ENERGY_COLOURS.get(st.name.split("/")[-1], colour)]
-        rec.log(f"{p}{schema.STATS_ROOT}/{st.name}", rr.SeriesLines(names=names, colors=colours, widths=[1.5]),
-                static=True)
+        # potential and total energy dwarf the kinetic: listed in the legend, shown when clicked there
+        shown = st.name not in schema.ENERGY_HIDDEN
+        rec.log(f"{p}{schema.STATS_ROOT}/{st.name}", rr.SeriesLines(names=names, colors=colours, widths=[1.5],
+                                                                     visible_series=[shown]), static=True)
     name = f"{b.label} log10 residual" if b.label else "log10 residual"
     rec.log(f"{p}{schema.RESIDUAL}", rr.SeriesLines(names=[name], colors=[colour], widths=[1.5]), static=True)
 

@@ -160,6 +160,7 @@ PALETTE = (
     (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207),
 )
 ENERGY_COLOURS = {"kinetic": (214, 39, 40), "potential": (31, 119, 180), "total": (60, 60, 60)}
+ENERGY_HIDDEN = ("energy/potential", "energy/total")  # off until clicked in the legend: they dwarf the kinetic
 
 
 def lighter(colour: tuple[int, int, int], amount: float = 0.5) -> tuple[int, int, int]:
