@@ -30,6 +30,7 @@ running viewer while the simulation runs (``phys2d run --live``).
 from __future__ import annotations
 
 import os
+import sys
 import weakref
 from typing import Any
 
@@ -169,9 +170,10 @@ class Recorder:
     series_every  ticks buffered before the plotted series are written
     blueprint     store a layout (world beside the plots) in the file
     stream_to     a viewer's ``rerun+http://HOST:PORT/proxy`` URL to stream to as well
-    background    write from a process of its own (Linux, macOS: fork): this process only
-                  samples and hands windows of ticks over, so rerun's import and the encoding
-                  run on another core meanwhile (``phys2d run`` does this)
+    background    write from a process of its own: this process only samples and hands windows
+                  of ticks over, so rerun's import and the encoding run on another core
+                  meanwhile (``phys2d run`` does this); needs fork, so Linux only, elsewhere
+                  the recorder writes in this process
 
     Call ``log(w)`` after each ``w.step``; for comparisons log several worlds into one
     file with ``log(w, run="pgs")`` (each run under ``runs/<run>/``, same timelines).
@@ -203,7 +205,8 @@ class Recorder:
                       contact_series=bool(contact_series), choice=choice, flush_every=flush_every,
                       series_every=series_every, blueprint=bool(blueprint), stream_to=stream_to)
         self._samplers: dict[str | None, Sampler] = {}
-        backend = _Background(kwargs, flush_every) if background else _Local(kwargs)
+        forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
+        backend = _Background(kwargs, flush_every) if background and forks else _Local(kwargs)
         self._state = _State(backend)
         self._finalizer = weakref.finalize(self, _State.close, self._state)
 
