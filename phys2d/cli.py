@@ -445,6 +445,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .recording import Recorder
 
     count = requested_count(args)
+    choice = plot_choice(args)  # checked even when nothing is recorded
     responder = make_responder(args.responder, count)
     w = build_world(args.scene, args.size, responder)
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
@@ -457,7 +458,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     rec = None
     if path or stream_to:
         rec = Recorder(path, name=f"{args.scene} {size} / {args.responder}", scene=args.scene,
-                       contact_series=not args.no_series, plot=plot_choice(args), stream_to=stream_to,
+                       contact_series=not args.no_series, plot=choice, stream_to=stream_to,
                        flush_every=6 if stream_to else 60, background=True)
     watch = Watch(w)
     deepest = 0.0

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import phys2d
+import phys2d.recording
 from phys2d.recording import playback
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -387,3 +388,20 @@ def test_run_live_web_prints_the_viewer_url_and_serves_it(tmp_path):
     finally:
         run.terminate()
         run.wait(30)
+
+
+def test_plot_options_choose_the_plotted_contacts(tmp_path):
+    out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "20", "--plot-body", "2", "--out", "b.rrd",
+                     cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    w = phys2d.scenes.vertical_stack(3)  # the same run, in this process: every contact identity of body 2
+    want = set()
+    for _ in range(20):
+        w.step(1 / 60)
+        want |= {phys2d.recording.contact_entity(k) for k in w.contacts.key if 2 in (k >> 39, (k >> 16) & 0x7FFFFF)}
+    got = playback.load(tmp_path / "b.rrd").series_keys("lambda")
+    assert want and set(got) == want
+    assert "plotted contacts: " + ", ".join(sorted(want)) in out.stdout
+    bad = phys2d_cmd("run", "vertical_stack", "--steps", "2", "--plot-contacts", "b2-b1/f0", "--no-record",
+                     cwd=tmp_path)
+    assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "b2-b1/f0" in bad.stderr
