@@ -1,65 +1,94 @@
-"""What recording costs per tick: a 20-row pyramid stepped with and without a Recorder.
+"""What recording costs a user, end to end through the command, and how big the file is.
 
-    PYTHONPATH=. python benchmarks/recording.py [--rows 20] [--steps 600] [--repeats 5]
+    PYTHONPATH=. python benchmarks/recording.py [--sizes 20 40] [--steps 600] [--repeats 5] [--repo PATH]
 
-Each repeat builds the scene afresh, lets it settle for a few ticks (numba compiles on
-the first), then times ``steps`` ticks of ``w.step`` alone and ``steps`` ticks of
-``w.step`` + ``rec.log`` + the final ``close`` (which writes the buffered columns and
-the footer). The two runs alternate so drift hits both. Reports the median over
-repeats of the wall time per tick (ms) with recording off and on, their difference
-(the recording cost), and the file size.
+For each pyramid size, runs ``python -m phys2d run pyramid --size N --steps S`` as a
+user does, once with ``--no-record`` and once writing a recording, ``repeats``
+times, alternating which goes first so drift hits both. Each run is a fresh process,
+so the figures include everything a user waits for: importing rerun, sampling, the
+writer threads, closing the file (footer) and process exit. Reports per size:
+
+    cost per tick   median over repeats of (wall time with recording - without) / steps, ms
+    CPU per tick    the same for user + system CPU time of the process (all its threads), ms
+    size per tick   file size / (steps + 1), kB (tick 0, the scene as built, is recorded too)
+
+``--repo`` (repeatable) runs other checkouts' ``phys2d`` (e.g. an older commit), repeat
+by repeat beside this one, so before/after figures come from one run under the same
+load. Timings on a shared machine are noisy: compare figures from one run.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
+from typing import Any
 
-import phys2d
-from phys2d.recording import Recorder
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def run(rows: int, steps: int, path: str | None, dt: float = 1 / 60) -> tuple[float, int]:
-    """Seconds for ``steps`` ticks (plus closing the recording), and the final contact count."""
-    w = phys2d.scenes.pyramid(rows)
-    for _ in range(5):
-        w.step(dt)
-    rec = Recorder(path, name=f"pyramid {rows}", scene="pyramid") if path else None
+def run_once(repo: str, size: int, steps: int, out: str | None) -> tuple[float, float]:
+    """(wall s, CPU s) of one ``phys2d run`` process, run outside any checkout (``python -m``
+    puts the working directory first on the path), with ``repo`` on PYTHONPATH."""
+    args = [sys.executable, "-m", "phys2d", "run", "pyramid", "--size", str(size), "--steps", str(steps)]
+    args += ["--out", out] if out else ["--no-record"]
+    env = {**os.environ, "PYTHONPATH": repo}
+    env.pop("PHYS2D_DEBUG", None)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    for _ in range(steps):
-        w.step(dt)
-        if rec is not None:
-            rec.log(w)
-    if rec is not None:
-        rec.close()
-    return time.perf_counter() - t0, len(w.contacts)
+    proc = subprocess.run(args, env=env, capture_output=True, text=True, cwd=tempfile.gettempdir())
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"phys2d run failed ({repo}): {proc.stderr.strip()}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def measure(repos: list[str], size: int, steps: int, repeats: int) -> dict[str, dict[str, Any]]:
+    """Per repo: the median recording cost per tick (wall and CPU, ms), each repeat's, the size."""
+    walls: dict[str, list[float]] = {r: [] for r in repos}
+    cpus: dict[str, list[float]] = {r: [] for r in repos}
+    sizes: dict[str, list[int]] = {r: [] for r in repos}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "pyramid.rrd")
+        for repo in repos:
+            run_once(repo, size, 20, path)  # warm the numba cache and the file system
+        for k in range(repeats):
+            for repo in repos:  # every repo in every repeat: the same load for all
+                order = (None, path) if k % 2 == 0 else (path, None)
+                got = {}
+                for out in order:
+                    got[out] = run_once(repo, size, steps, out)
+                walls[repo].append((got[path][0] - got[None][0]) / steps)
+                cpus[repo].append((got[path][1] - got[None][1]) / steps)
+                sizes[repo].append(os.path.getsize(path))
+    return {r: {"cost_ms": 1e3 * statistics.median(walls[r]), "cpu_ms": 1e3 * statistics.median(cpus[r]),
+                "all_ms": [1e3 * w for w in walls[r]], "size_kb": statistics.median(sizes[r]) / (steps + 1) / 1e3,
+                "size_mb": statistics.median(sizes[r]) / 1e6} for r in repos}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rows", type=int, default=20)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[20, 40], help="pyramid rows (default 20 40)")
     ap.add_argument("--steps", type=int, default=600)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--repo", action="append", default=[],
+                    help="also run this checkout's phys2d, repeat by repeat beside this one (repeatable)")
     a = ap.parse_args()
-    run(a.rows, 10, None)  # compile
-    off, on, sizes = [], [], []
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "pyramid.rrd")
-        for _ in range(a.repeats):
-            t_off, k = run(a.rows, a.steps, None)
-            t_on, _ = run(a.rows, a.steps, path)
-            off.append(1e3 * t_off / a.steps)
-            on.append(1e3 * t_on / a.steps)
-            sizes.append(os.path.getsize(path))
-    cost = [b - a_ for a_, b in zip(off, on, strict=True)]
-    print(f"pyramid({a.rows}): {k} contacts at the end, {a.steps} ticks, median of {a.repeats} repeats")
-    print(f"  recording off: {statistics.median(off):.3f} ms/tick  (all: {', '.join(f'{x:.3f}' for x in off)})")
-    print(f"  recording on:  {statistics.median(on):.3f} ms/tick  (all: {', '.join(f'{x:.3f}' for x in on)})")
-    print(f"  recording cost: {statistics.median(cost):.3f} ms/tick (median of the per-repeat differences)")
-    print(f"  file: {statistics.median(sizes) / 1e6:.1f} MB, {statistics.median(sizes) / a.steps / 1e3:.0f} kB/tick")
+    repos = [os.path.abspath(r) for r in a.repo] + [HERE]
+    print(f"phys2d run pyramid --steps {a.steps}, recording on vs --no-record, {a.repeats} repeats; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    for size in a.sizes:
+        for repo, r in measure(repos, size, a.steps, a.repeats).items():
+            print(f"pyramid_{size} [{repo}]: recording costs {r['cost_ms']:.2f} ms per tick end to end "
+                  f"(CPU {r['cpu_ms']:.2f} ms; each repeat: {', '.join(f'{x:.2f}' for x in r['all_ms'])}); "
+                  f"file {r['size_mb']:.1f} MB, {r['size_kb']:.1f} kB per tick")
 
 
 if __name__ == "__main__":

@@ -1,15 +1,24 @@
 """The ``phys2d`` command (also ``python -m phys2d``).
 
-    phys2d scenes                                  the stock scenes and what --size means
-    phys2d run SCENE [--size N] [--responder naive|iterative|pgs|pgs-cold|pgs-block|soft-step]
-                     [--iterations K] [--steps N] [--dt S] [--out PATH | --no-record] [--no-series]
-    phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH] [--no-series]
-    phys2d inspect PATH                            a summary table of a recording
-    phys2d view PATH [--web]                       the Rerun viewer, or the web viewer on 127.0.0.1
+    phys2d scenes                       the stock scenes and what --size means
+    phys2d run SCENE [--size N] [--responder NAME] [--sweeps K | --passes K | --substeps K]
+                     [--steps N] [--dt S] [--out PATH | --no-record] [--no-series]
+                     [--plot-deepest N | --plot-body UID | --plot-contacts NAMES] [--live [spawn|web|URL]]
+    phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH] [--no-series] [counts]
+    phys2d inspect PATH                 a summary table of a recording
+    phys2d view PATH [--web]            the Rerun viewer, or the web viewer on 127.0.0.1
     phys2d sweep [GRID.toml] [--scenes ...] ...    a grid of runs to one Parquet table (phys2d/sweeps/command.py)
+    phys2d --version
+
+Counts: ``--sweeps`` (PGS), ``--passes`` (iterative) and ``--substeps`` (soft-step) are
+each accepted only by responders that take them (``phys2d.responders.REGISTRY``);
+``--iterations`` is an alias for whichever of the three the responder takes.
 
 Bad arguments and failures print one line on stderr and exit non-zero (2 for usage
 errors, 1 for the rest); set PHYS2D_DEBUG=1 to see tracebacks of unexpected errors.
+
+Subcommands are listed in ``COMMANDS``: to add one, write ``add_<name>(sub)`` that
+registers its parser (``set_defaults(func=...)``) and append it there.
 """
 
 from __future__ import annotations
@@ -19,22 +28,28 @@ import difflib
 import inspect as pyinspect
 import os
 import signal
+import socket
 import subprocess
 import sys
+import tempfile
+import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, NoReturn, TextIO
+from typing import Any, NoReturn, TextIO, cast
 
 import numpy as np
 
 from . import scenes
 from .responders import REGISTRY
 from .responders.base import Responder
+from .verdict import Watch
 from .world import SimulationError, World
 
 RESPONDERS = tuple(REGISTRY)
-COMPARE_ORDER = ("naive", "iterative", "pgs-cold", "pgs")
+COMPARE_ORDER = tuple(REGISTRY)  # compare runs every registered responder, in the registry's order
 DEFAULT_DIR = "recordings"
+COUNT_OPTIONS = ("sweeps", "passes", "substeps")  # the registry's names of a responder's count
+SINGULAR = {"sweeps": "sweep", "passes": "pass", "substeps": "sub-step"}
 
 
 class CLIError(Exception):
@@ -75,6 +90,21 @@ def _size(text: str) -> int | float:
     raise argparse.ArgumentTypeError(f"must be a number, got {text!r}")
 
 
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a port number 1-65535, got {text!r}") from None
+    if not 1 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port number 1-65535, got {text!r}")
+    return value
+
+
+def plural(n: int, word: str) -> str:
+    """``1 sweep``, ``2 sweeps``: ``word`` is the plural (a registry count name or any noun + s)."""
+    return f"{n} {word if n != 1 else SINGULAR.get(word, word[:-1] if word.endswith('s') else word)}"
+
+
 # -- the pieces ------------------------------------------------------------------
 def scene_builder(name: str) -> Callable[..., World]:
     """The builder of a stock scene, or a CLIError naming the choices."""
@@ -82,7 +112,7 @@ def scene_builder(name: str) -> Callable[..., World]:
         close = difflib.get_close_matches(name, scenes.SCENES, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise CLIError(f"unknown scene {name!r}{hint} (choose from: {', '.join(scenes.SCENES)})")
-    return scenes.SCENES[name][0]
+    return cast(Callable[..., World], scenes.SCENES[name][0])
 
 
 def default_size(builder: Callable[..., World]) -> Any:
@@ -91,15 +121,36 @@ def default_size(builder: Callable[..., World]) -> Any:
     return first.default
 
 
-def make_responder(name: str, iterations: int | None = None) -> Responder:
-    """A responder by its registered name (``phys2d.responders.REGISTRY``); ``iterations``
-    are PGS sweeps, iterative passes or soft-step sub-steps."""
+def requested_count(args: argparse.Namespace) -> tuple[str, int] | None:
+    """(option, value) of the one count option given (``iterations`` or a registry count), or None."""
+    given = [(name, getattr(args, name)) for name in ("iterations", *COUNT_OPTIONS)
+             if getattr(args, name, None) is not None]
+    if len(given) > 1:
+        raise CLIError(f"give one of --iterations, --sweeps, --passes, --substeps, not {len(given)} "
+                       f"({', '.join('--' + n for n, _ in given)})")
+    return given[0] if given else None
+
+
+def make_responder(name: str, count: tuple[str, int] | None = None, *, strict: bool = True) -> Responder:
+    """A responder by its registered name, with ``count`` = (option, value) from the command line.
+
+    ``--iterations`` goes to whichever count the responder takes; ``--sweeps``, ``--passes``
+    and ``--substeps`` only to responders that take that count (with ``strict=False`` the
+    others keep their default, as ``compare`` does).
+    """
     if name not in REGISTRY:
         raise CLIError(f"unknown responder {name!r} (choose from: {', '.join(RESPONDERS)})")
     entry = REGISTRY[name]
-    if iterations is not None and entry.count is None:
-        raise CLIError(f"--iterations does not apply to the {name} responder (it makes one pass)")
-    return entry(iterations)
+    value = None
+    if count is not None:
+        option, n = count
+        takes = entry.count
+        if takes is not None and option in ("iterations", takes):
+            value = n
+        elif strict:
+            what = f"it takes --{takes}" if takes else "it makes one pass"
+            raise CLIError(f"--{option} does not apply to the {name} responder ({what})")
+    return entry(value)
 
 
 def build_world(scene: str, size: Any, responder: Responder) -> World:
@@ -110,35 +161,52 @@ def build_world(scene: str, size: Any, responder: Responder) -> World:
         raise CLIError(f"--size {size!r} for scene {scene!r} ({scenes.SCENES[scene][1]}): {e}") from None
 
 
-class Progress:
-    """A one-line progress bar on a stream (stderr), redrawn at most every 0.2 s."""
+def plot_choice(args: argparse.Namespace):
+    """The contacts to plot, from --plot-deepest / --plot-body / --plot-contacts (None: the default)."""
+    from .recording import ContactChoice
 
-    def __init__(self, total: int, enabled: bool, stream: TextIO | None = None, width: int = 30) -> None:
-        self.total, self.enabled, self.width = total, enabled, width
-        self.stream = sys.stderr if stream is None else stream
-        self.t0 = time.perf_counter()
-        self.last = -1.0
+    try:
+        if getattr(args, "plot_body", None) is not None:
+            return ContactChoice.body(args.plot_body)
+        if getattr(args, "plot_contacts", None) is not None:
+            return ContactChoice.keys(args.plot_contacts)
+        if getattr(args, "plot_deepest", None) is not None:
+            return ContactChoice.deepest(args.plot_deepest)
+    except (TypeError, ValueError) as e:
+        raise CLIError(str(e)) from None
+    return None
 
-    def update(self, done: int) -> None:
-        if not self.enabled:
-            return
-        now = time.perf_counter()
-        if done < self.total and now - self.last < 0.2:
-            return
-        self.last = now
-        frac = done / self.total
-        fill = int(round(self.width * frac))
-        elapsed = now - self.t0
-        per = 1e3 * elapsed / done if done else 0.0
-        eta = elapsed / done * (self.total - done) if done else 0.0
-        self.stream.write(f"\r  tick {done}/{self.total} [{'#' * fill}{'-' * (self.width - fill)}] "
-                          f"{100 * frac:3.0f}%  {per:.2f} ms/tick  eta {eta:.0f} s ")
-        self.stream.flush()
 
-    def close(self) -> None:
-        if self.enabled:
-            self.stream.write("\n")
-            self.stream.flush()
+def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None) -> None:
+    """Step each world once; when numba compiles a kernel meanwhile (a first run: its disk cache
+    is cold), say so in one line before it starts, so a quiet wait is not mistaken for a hang."""
+    from numba.core import event
+
+    out = sys.stderr if stream is None else stream
+
+    class Notice(event.Listener):
+        said = False
+
+        def on_start(self, ev: event.Event) -> None:
+            if not Notice.said:
+                Notice.said = True
+                print("phys2d: compiling the numba kernels (first run only, about 10-60 s; cached after that) ...",
+                      file=out, flush=True)
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    with event.install_listener("numba:compile", Notice()):
+        for w in worlds:
+            w.step(dt)
+
+
+def progress(total: int, initial: int, enabled: bool):
+    """A tqdm bar on stderr; created after the first step, so its rate and ETA leave out compiling."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, desc="tick", unit="tick", disable=not enabled, file=sys.stderr,
+                mininterval=0.2, leave=True, dynamic_ncols=True)
 
 
 def _progress_enabled(flag: bool | None, steps: int) -> bool:
@@ -147,21 +215,225 @@ def _progress_enabled(flag: bool | None, steps: int) -> bool:
     return sys.stderr.isatty() and steps >= 200
 
 
-def _out_path(out: str | None, default_name: str) -> str:
-    return out if out is not None else os.path.join(DEFAULT_DIR, default_name)
-
-
-def _size_mb(path: str) -> str:
-    return f"{os.path.getsize(path) / 1e6:.1f} MB"
+def _size_of(path: str, ticks: int) -> str:
+    size = os.path.getsize(path)
+    return f"{size / 1e6:.1f} MB, {size / 1e3 / max(ticks, 1):.1f} kB per tick"
 
 
 def _how_to_open(path: str) -> str:
     return f"open it with: phys2d view {path}   (or: rerun {path}; phys2d view {path} --web for a browser)"
 
 
+def _count_tag(count: tuple[str, int] | None, responder: str) -> str:
+    """The count in an output name, when one was given and the responder took it: ``-5sweeps``."""
+    if count is None or REGISTRY[responder].count is None:
+        return ""
+    return f"-{count[1]}{REGISTRY[responder].count}"
+
+
+def _work_done(w: World, responder: str) -> str:
+    s = w.last_step
+    word = REGISTRY[responder].count or "passes"
+    return f"{s.residuals[-1]:.3g} m/s after {plural(int(s.iterations), word)}" if s.residuals.size else "-"
+
+
+# -- viewers -------------------------------------------------------------------------
+def rerun_binary() -> str:
+    """The real rerun executable inside the rerun-sdk wheel (not the Python wrapper)."""
+    import rerun_cli
+
+    exe = os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
+    if not os.path.isfile(exe):
+        raise CLIError(f"the rerun viewer binary was not found at {exe}; reinstall rerun-sdk")
+    return exe
+
+
+def web_url(web_port: int, grpc_port: int, file_url: str | None = None) -> str:
+    """The web viewer's page, reading ``file_url`` (an http URL of an .rrd) or the live gRPC proxy."""
+    from urllib.parse import quote
+
+    source = file_url if file_url is not None else grpc_url(grpc_port)
+    return f"http://127.0.0.1:{web_port}/?url={quote(source, safe='')}"
+
+
+class FileServer:
+    """Serves one file over HTTP on 127.0.0.1 (with CORS), for the web viewer to fetch in one go:
+    much faster to open than streaming the same file through the viewer's gRPC proxy."""
+
+    def __init__(self, path: str, port: int = 0) -> None:
+        import http.server
+
+        name = "/" + os.path.basename(path)
+        size = os.path.getsize(path)
+
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_GET(self) -> None:  # noqa: N802 - the http.server API
+                if self.path.split("?")[0] != name:
+                    self.send_error(404)
+                    return
+                self.send_response(200)
+                self.send_header("Access-Control-Allow-Origin", "*")
+                self.send_header("Content-Type", "application/octet-stream")
+                self.send_header("Content-Length", str(size))
+                self.end_headers()
+                with open(path, "rb") as f:
+                    while chunk := f.read(1 << 20):
+                        self.wfile.write(chunk)
+
+            def log_message(self, *args: Any) -> None:
+                pass
+
+        self.server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Handler)
+        self.url = f"http://127.0.0.1:{self.server.server_address[1]}{name}"
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def close(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()
+
+
+def grpc_url(port: int) -> str:
+    return f"rerun+http://127.0.0.1:{port}/proxy"
+
+
+def has_display() -> bool:
+    """Whether a native window can open (always on macOS and Windows; X11 or Wayland on Linux)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _no_display(what: str) -> CLIError:
+    return CLIError(f"no display to open the viewer window on ($DISPLAY and $WAYLAND_DISPLAY are not set); "
+                    f"use {what} --web to view it in a browser instead")
+
+
+def check_port_free(port: int, option: str) -> None:
+    """A clear error when something already listens on 127.0.0.1:port."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            raise CLIError(f"port {port} is already in use (another viewer?); choose a free one with "
+                           f"{option} PORT, or stop what is using it") from None
+
+
+def _wait_listening(proc: subprocess.Popen, port: int, log: str, timeout: float = 30.0) -> None:
+    """Wait until ``proc`` listens on ``port``; a CLIError with its last words if it exits first."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if proc.poll() is not None:
+            raise CLIError(f"the viewer stopped at once (exit {proc.returncode}): {_last_line(log)}")
+        with socket.socket() as s:
+            s.settimeout(0.2)
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.1)
+    raise CLIError(f"the viewer did not start listening on port {port} within {timeout:.0f} s")
+
+
+def _last_line(path: str) -> str:
+    try:
+        with open(path, errors="replace") as f:
+            lines = [ln.strip() for ln in f if ln.strip()]
+    except OSError:
+        return "(no output)"
+    if not lines:
+        return "(no output)"
+    text = lines[-1]
+    for ln in reversed(lines):  # prefer an error line over trailing noise
+        if "error" in ln.lower() or "panic" in ln.lower():
+            text = ln
+            break
+    return text[-300:]
+
+
+class Viewer:
+    """A rerun viewer process we started: native (``spawn``) or a web viewer with its gRPC proxy."""
+
+    def __init__(self, kind: str, files: Sequence[str] = (), web_port: int = 9090, port: int = 9876) -> None:
+        self.kind, self.web_port, self.port = kind, web_port, port
+        self.files: FileServer | None = None
+        exe = rerun_binary()
+        self.log = tempfile.NamedTemporaryFile(prefix="phys2d-viewer-", suffix=".log", delete=False).name
+        if kind == "web":
+            check_port_free(web_port, "--web-port")
+            check_port_free(port, "--port")
+            # the page fetches a file over plain HTTP; the gRPC proxy (port) takes live streams
+            cmd = [exe, "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", str(web_port), "--port", str(port)]
+            if files:
+                self.files = FileServer(files[0])
+        elif files:  # a native window on a file: its data port does not matter, take a free one
+            if not has_display():
+                raise _no_display(f"phys2d view {files[0]}")
+            cmd = [exe, *files, "--bind", "127.0.0.1", "--port", "auto"]
+        else:  # a native window that a live run streams to, on a known port
+            if not has_display():
+                raise _no_display("--live")
+            check_port_free(port, "--port")
+            cmd = [exe, "--bind", "127.0.0.1", "--port", str(port)]
+        with open(self.log, "w") as log:
+            self.proc = subprocess.Popen(cmd, env={**os.environ, "BROWSER": "true"}, stdin=subprocess.DEVNULL,
+                                         stdout=log, stderr=subprocess.STDOUT, start_new_session=kind != "web")
+        if kind == "web" or not files:
+            _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
+
+    @property
+    def url(self) -> str:
+        if self.kind != "web":
+            return grpc_url(self.port)
+        return web_url(self.web_port, self.port, self.files.url if self.files is not None else None)
+
+    def wait(self) -> int:
+        """Until the viewer exits or Ctrl-C / SIGTERM; then stop it."""
+        def stop(*_: Any) -> NoReturn:
+            raise KeyboardInterrupt
+
+        signal.signal(signal.SIGTERM, stop)
+        try:
+            code = self.proc.wait()
+            if code != 0:
+                raise CLIError(f"the viewer failed (exit {code}): {_last_line(self.log)}")
+            return 0
+        except KeyboardInterrupt:
+            return 0
+        finally:
+            self.stop()
+
+    def stop(self) -> None:
+        if self.files is not None:
+            self.files.close()
+            self.files = None
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+        try:
+            os.unlink(self.log)
+        except OSError:
+            pass
+
+
+def start_live(target: str, web_port: int, port: int) -> tuple[str, Viewer | None]:
+    """(gRPC URL to stream to, the viewer we started or None) for ``--live TARGET``."""
+    if "://" in target:
+        return target, None
+    kind = target if target != "auto" else ("spawn" if has_display() else "web")
+    viewer = Viewer(kind, web_port=web_port, port=port)
+    if kind == "web":
+        print(f"live web viewer: {viewer.url}   (127.0.0.1 only)", flush=True)
+    else:
+        print(f"live: streaming to a native viewer on port {port}", flush=True)
+    return grpc_url(port), viewer
+
+
 # -- commands --------------------------------------------------------------------------
 def cmd_scenes(args: argparse.Namespace) -> int:
-    rows = [(name, repr(default_size(b)), meaning) for name, (b, meaning) in scenes.SCENES.items()]
+    rows = [(name, repr(default_size(cast(Callable[..., World], b))), meaning)
+            for name, (b, meaning) in scenes.SCENES.items()]
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     print(f"{'scene':<{w0}}  {'size':>{w1}}  --size means")
@@ -173,44 +445,71 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 def cmd_run(args: argparse.Namespace) -> int:
     from .recording import Recorder
 
-    responder = make_responder(args.responder, args.iterations)
+    count = requested_count(args)
+    choice = plot_choice(args)  # checked even when nothing is recorded
+    responder = make_responder(args.responder, count)
     w = build_world(args.scene, args.size, responder)
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
-    path = None if args.no_record else _out_path(args.out, f"{args.scene}.rrd")
-    rec = Recorder(path, name=f"{args.scene} {size} / {responder.name}", scene=args.scene,
-                   contact_series=not args.no_series) if path else None
-    bar = Progress(args.steps, _progress_enabled(args.progress, args.steps))
+    name = f"{args.scene}-{size}-{args.responder}{_count_tag(count, args.responder)}.rrd"
+    path = None if args.no_record else (args.out or os.path.join(DEFAULT_DIR, name))
+    viewer = None
+    stream_to = None
+    if args.live is not None:
+        stream_to, viewer = start_live(args.live, args.web_port, args.port)
+    rec = None
+    if path or stream_to:
+        rec = Recorder(path, name=f"{args.scene} {size} / {args.responder}", scene=args.scene,
+                       contact_series=not args.no_series, plot=choice, stream_to=stream_to,
+                       flush_every=6 if stream_to else 60, background=True)
+    watch = Watch(w)
     deepest = 0.0
     t0 = time.perf_counter()
+    bar = None
     try:
         if rec is not None:
             rec.log(w)  # tick 0: the scene as built
         for k in range(args.steps):
             try:
-                w.step(args.dt)
+                if k == 0:
+                    first_step([w], args.dt)
+                    t_first = time.perf_counter()
+                    bar = progress(args.steps, 1, _progress_enabled(args.progress, args.steps))
+                else:
+                    w.step(args.dt)
             except SimulationError as e:
-                bar.close()
+                if bar is not None:
+                    bar.close()
                 saved = f"; ticks 0-{w.tick} are recorded in {path}" if path else ""
                 raise CLIError(f"step {k + 1} failed: {e}{saved}") from None
+            watch.observe()
             if rec is not None:
                 rec.log(w)
             deepest = max(deepest, w.last_step.max_penetration)
-            bar.update(k + 1)
+            if bar is not None and k:
+                bar.update(1)
     finally:
         if rec is not None:
             rec.close()
-    bar.close()
+        if bar is not None:
+            bar.close()
     elapsed = time.perf_counter() - t0
-    s = w.last_step
-    res = f"{s.residuals[-1]:.3g} m/s after {s.iterations} sweeps" if s.residuals.size else "-"
+    steady = time.perf_counter() - t_first
     print(f"{args.scene} (size {size}), {len(w)} bodies, responder {responder!r}")
-    print(f"{args.steps} steps of {args.dt:.4g} s in {elapsed:.2f} s ({1e3 * elapsed / args.steps:.3f} ms/step"
-          f"{' with recording' if rec else ''})")
-    print(f"last step: {len(w.contacts)} contacts, cache hit rate {s.cache_hit_rate:.3f}, residual {res}; "
-          f"deepest overlap {1e3 * deepest:.2f} mm")
+    per = f"{1e3 * steady / (args.steps - 1):.3f} ms/step after the first" if args.steps > 1 else "1 step"
+    print(f"{plural(args.steps, 'steps')} of {args.dt:.4g} s in {elapsed:.2f} s ({per}"
+          f"{', recording included' if rec else ''})")
+    print(f"last step: {plural(len(w.contacts), 'contacts')}, cache hit rate {w.last_step.cache_hit_rate:.3f}, "
+          f"residual {_work_done(w, args.responder)}")
+    print(f"verdict: {watch.verdict().line()}")
     if path:
-        print(f"recording: {path} ({_size_mb(path)})")
+        plotted = rec.plotted.get(None, []) if rec is not None else []
+        print(f"recording: {path} ({_size_of(path, args.steps + 1)})")
+        if plotted:
+            print(f"plotted contacts: {', '.join(plotted)}")
         print(_how_to_open(path))
+    if viewer is not None and viewer.kind == "web":
+        print(f"the run is over; the web viewer keeps serving it at {viewer.url} until Ctrl-C", flush=True)
+        return viewer.wait()
     return 0
 
 
@@ -218,44 +517,53 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from .recording import Recorder
 
     scene_builder(args.scene)
+    count = requested_count(args)
     worlds: dict[str, World] = {}
     for name in COMPARE_ORDER:
-        try:
-            responder = make_responder(name, args.iterations if name != "naive" else None)
-        except CLIError as e:
-            print(f"phys2d compare: note: {e}; left out", file=sys.stderr)
-            continue
-        worlds[name] = build_world(args.scene, args.size, responder)
+        worlds[name] = build_world(args.scene, args.size, make_responder(name, count, strict=False))
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
-    path = _out_path(args.out, f"{args.scene}-compare.rrd")
+    tag = f"-{count[1]}{count[0]}" if count else ""
+    path = args.out or os.path.join(DEFAULT_DIR, f"{args.scene}-{size}-compare{tag}.rrd")
     failed: dict[str, str] = {}
-    bar = Progress(args.steps, _progress_enabled(args.progress, args.steps * len(worlds)))
-    deepest = dict.fromkeys(worlds, 0.0)
+    watches = {label: Watch(w) for label, w in worlds.items()}
+    bar = None
     # its own application id: the viewer keeps one blueprint per application, and a comparison's
     # layout (a world per run) differs from a single run's
     with Recorder(path, name=f"{args.scene} {size}: {' vs '.join(worlds)}", scene=args.scene,
-                  application_id="phys2d-compare", contact_series=not args.no_series) as rec:
+                  application_id="phys2d-compare", contact_series=not args.no_series, plot=plot_choice(args),
+                  background=True) as rec:
         for label, w in worlds.items():
             rec.log(w, run=label)
-        for k in range(args.steps):
-            for label, w in worlds.items():
-                if label in failed:
-                    continue
-                try:
-                    w.step(args.dt)
-                except SimulationError as e:
-                    failed[label] = f"step {k + 1}: {e}"
-                    continue
-                rec.log(w, run=label)
-                deepest[label] = max(deepest[label], w.last_step.max_penetration)
-            bar.update(k + 1)
-    bar.close()
-    print(f"{args.scene} (size {size}), {args.steps} steps of {args.dt:.4g} s, same timelines (tick, sim_time)")
-    print(f"{'run':<10} {'contacts':>8} {'deepest overlap (mm)':>21} {'kinetic energy (J)':>19}")
-    for label, w in worlds.items():
-        note = f"  stopped at {failed[label]}" if label in failed else ""
-        print(f"{label:<10} {len(w.contacts):>8} {1e3 * deepest[label]:>21.2f} {w.kinetic_energy():>19.4g}{note}")
-    print(f"recording: {path} ({_size_mb(path)})")
+        try:
+            for k in range(args.steps):
+                for label, w in worlds.items():
+                    if label in failed:
+                        continue
+                    try:
+                        if k == 0:
+                            first_step([w], args.dt)
+                        else:
+                            w.step(args.dt)
+                    except SimulationError as e:
+                        failed[label] = f"step {k + 1}: {e}"
+                        continue
+                    watches[label].observe()
+                    rec.log(w, run=label)
+                if k == 0:
+                    bar = progress(args.steps, 1, _progress_enabled(args.progress, args.steps * len(worlds)))
+                elif bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+    print(f"{args.scene} (size {size}), {plural(args.steps, 'steps')} of {args.dt:.4g} s, every responder, "
+          f"same timelines (tick, sim_time)")
+    width = max(len(label) for label in worlds)
+    for label in worlds:
+        v = watches[label].verdict()
+        note = f" (stopped at {failed[label]})" if label in failed else ""
+        print(f"{label:<{width}}  {v.line()}{note}")
+    print(f"recording: {path} ({_size_of(path, args.steps + 1)})")
     print(_how_to_open(path))
     return 0
 
@@ -264,7 +572,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from .recording import playback
 
     rec = playback.load(args.path)
-    print(f"{args.path}: {len(rec.runs)} run(s), phys2d {rec.properties.get('phys2d', {}).get('engine_version', '?')}")
+    print(f"{args.path}: {plural(len(rec.runs), 'runs')}, "
+          f"phys2d {rec.properties.get('phys2d', {}).get('engine_version', '?')}")
     head = (f"{'run':<10} {'responder':<10} {'ticks':>11} {'bodies':>6} {'contacts':>8} {'max pen (mm)':>12} "
             f"{'max lambda_n':>12} {'last residual':>13} {'KE end (J)':>11}")
     print(head)
@@ -284,98 +593,125 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
-def rerun_binary() -> str:
-    """The real rerun executable inside the rerun-sdk wheel (not the Python wrapper)."""
-    import rerun_cli
-
-    exe = os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
-    if not os.path.isfile(exe):
-        raise CLIError(f"the rerun viewer binary was not found at {exe}; reinstall rerun-sdk")
-    return exe
-
-
-def web_url(web_port: int, grpc_port: int) -> str:
-    return f"http://127.0.0.1:{web_port}/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A{grpc_port}%2Fproxy"
-
-
 def cmd_view(args: argparse.Namespace) -> int:
     if not os.path.isfile(args.path):
         raise CLIError(f"no such recording: {args.path}")
-    exe = rerun_binary()
-    if not args.web:
-        return subprocess.call([exe, args.path])
-    cmd = [exe, args.path, "--web-viewer", "--bind", "127.0.0.1", "--web-viewer-port", str(args.web_port),
-           "--port", str(args.port)]
-    proc = subprocess.Popen(cmd, env={**os.environ, "BROWSER": "true"}, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-
-    def stop(*_: Any) -> NoReturn:
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, stop)
-    print(f"web viewer: {web_url(args.web_port, args.port)}   (127.0.0.1 only; Ctrl-C stops it)", flush=True)
-    try:
-        return proc.wait()
-    except KeyboardInterrupt:
-        return 0
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+    if not args.web and not has_display():
+        raise _no_display(f"phys2d view {args.path}")
+    viewer = Viewer("web" if args.web else "spawn", files=[args.path], web_port=args.web_port, port=args.port)
+    if args.web:
+        print(f"web viewer: {viewer.url}   (127.0.0.1 only; Ctrl-C stops it)", flush=True)
+    return viewer.wait()
 
 
 # -- the parser ------------------------------------------------------------------------
-def parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="phys2d", description="phys2d: run, record, compare and inspect 2D rigid-body scenes.")
-    sub = p.add_subparsers(dest="command", metavar="{scenes,run,compare,inspect,view,sweep}")
-    sub.required = True
+def _common(q: argparse.ArgumentParser, default_steps: int) -> None:
+    q.add_argument("scene", help="a stock scene (see 'phys2d scenes')")
+    q.add_argument("--size", type=_size, default=None, help="the scene's main count (see 'phys2d scenes')")
+    q.add_argument("--steps", type=_count, default=default_steps, help="ticks to run (default %(default)s)")
+    q.add_argument("--dt", type=_seconds, default=1 / 60, help="tick length in s (default 1/60)")
+    counts = q.add_argument_group("work per tick (each accepted only by responders that take it)")
+    counts.add_argument("--sweeps", type=_count, default=None, help="PGS sweeps per tick (default 10)")
+    counts.add_argument("--passes", type=_count, default=None, help="iterative passes per tick (default 10)")
+    counts.add_argument("--substeps", type=_count, default=None, help="soft-step sub-steps per tick (default 4)")
+    counts.add_argument("--iterations", type=_count, default=None,
+                        help="alias: the sweeps, passes or sub-steps of whichever responder runs")
+    q.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal and the run is long)")
+    q.add_argument("--no-series", action="store_true",
+                   help="leave out the plotted per-contact lambda/penetration series; the per-tick contact "
+                        "table (every contact) is kept")
+    plot = q.add_mutually_exclusive_group()
+    plot.add_argument("--plot-deepest", type=_count, default=None, metavar="N",
+                      help="plot lambda and penetration of the N deepest contacts (default 4)")
+    plot.add_argument("--plot-body", type=int, default=None, metavar="UID",
+                      help="plot every contact of the body with this uid (its index in a stock scene)")
+    plot.add_argument("--plot-contacts", default=None, metavar="NAMES",
+                      help="plot these contacts, comma-separated, named as in the legends: b3-b7/f512,...")
 
+
+def add_scenes(sub: Any) -> None:
     s = sub.add_parser("scenes", help="the stock scenes and what --size means")
     s.set_defaults(func=cmd_scenes)
 
-    def common(q: argparse.ArgumentParser, default_steps: int) -> None:
-        q.add_argument("scene", help="a stock scene (see 'phys2d scenes')")
-        q.add_argument("--size", type=_size, default=None, help="the scene's main count (see 'phys2d scenes')")
-        q.add_argument("--steps", type=_count, default=default_steps, help="ticks to run (default %(default)s)")
-        q.add_argument("--dt", type=_seconds, default=1 / 60, help="tick length in s (default 1/60)")
-        q.add_argument("--iterations", type=_count, default=None,
-                       help="PGS sweeps, iterative passes or soft-step sub-steps per tick (default 10; soft-step 4)")
-        q.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                       help="progress bar on stderr (default: when stderr is a terminal and the run is long)")
-        q.add_argument("--no-series", action="store_true",
-                       help="leave out the per-contact lambda/penetration series (about half the file); "
-                            "the per-tick contact table is kept")
 
+def add_run(sub: Any) -> None:
     r = sub.add_parser("run", help="run a scene and record it")
-    common(r, 600)
-    r.add_argument("--responder", choices=RESPONDERS, default="pgs", help="collision responder (default pgs)")
+    _common(r, 600)
+    r.add_argument("--responder", choices=RESPONDERS, default="pgs",
+                   help="collision responder (default pgs): " + "; ".join(
+                       f"{n}: {e.description}" for n, e in REGISTRY.items()))
     out = r.add_mutually_exclusive_group()
-    out.add_argument("--out", default=None, help=f"recording path (default {DEFAULT_DIR}/SCENE.rrd)")
+    out.add_argument("--out", default=None,
+                     help=f"recording path (default {DEFAULT_DIR}/SCENE-SIZE-RESPONDER.rrd, so runs never overwrite "
+                          "each other)")
     out.add_argument("--no-record", action="store_true", help="run without writing a recording")
+    r.add_argument("--live", nargs="?", const="auto", default=None, metavar="spawn|web|URL",
+                   help="stream to a viewer while the simulation runs: a spawned native viewer, the web viewer "
+                        "on 127.0.0.1, or a running viewer's rerun+http://... URL (default: spawn if there is a "
+                        "display, else web)")
+    r.add_argument("--web-port", type=_port, default=9090, help="web viewer port for --live web (default 9090)")
+    r.add_argument("--port", type=_port, default=9876, help="viewer data (gRPC) port for --live (default 9876)")
     r.set_defaults(func=cmd_run)
 
-    c = sub.add_parser("compare", help="one scene under every responder, in one recording")
-    common(c, 300)
-    c.add_argument("--out", default=None, help=f"recording path (default {DEFAULT_DIR}/SCENE-compare.rrd)")
+
+def add_compare(sub: Any) -> None:
+    c = sub.add_parser("compare", help="one scene under every responder, in one recording, with verdicts")
+    _common(c, 300)
+    c.add_argument("--out", default=None, help=f"recording path (default {DEFAULT_DIR}/SCENE-SIZE-compare.rrd)")
     c.set_defaults(func=cmd_compare)
 
+
+def add_inspect(sub: Any) -> None:
     i = sub.add_parser("inspect", help="a summary table of a recording")
     i.add_argument("path")
     i.set_defaults(func=cmd_inspect)
 
-    v = sub.add_parser("view", help="open a recording in the Rerun viewer")
+
+def add_view(sub: Any) -> None:
+    v = sub.add_parser("view", help="open a recording in the Rerun viewer (--web: in a browser)")
     v.add_argument("path")
     v.add_argument("--web", action="store_true", help="serve the web viewer on 127.0.0.1 instead")
-    v.add_argument("--web-port", type=int, default=9090, help="web viewer port (default %(default)s)")
-    v.add_argument("--port", type=int, default=9876, help="data (gRPC) port for --web (default %(default)s)")
+    v.add_argument("--web-port", type=_port, default=9090, help="web viewer port (default %(default)s)")
+    v.add_argument("--port", type=_port, default=9876, help="viewer data (gRPC) port (default %(default)s)")
     v.set_defaults(func=cmd_view)
 
-    from .sweeps.command import add_parser as add_sweep_parser  # its own module: dask and pyarrow load lazily
 
-    add_sweep_parser(sub)
+def add_sweep(sub: Any) -> None:
+    from .sweeps.command import add_parser  # its own module: dask and pyarrow load lazily
+
+    add_parser(sub)
+
+
+COMMANDS: list[Callable[[Any], None]] = [add_scenes, add_run, add_compare, add_inspect, add_view, add_sweep]
+
+
+def version() -> str:
+    import numba
+    import rerun
+
+    from . import __version__
+
+    return f"phys2d {__version__} (rerun-sdk {rerun.__version__}, numba {numba.__version__}, numpy {np.__version__})"
+
+
+class _Version(argparse.Action):
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kw: Any) -> None:
+        super().__init__(option_strings, dest=dest, nargs=0, help="print the version and exit", **kw)
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: Any) -> NoReturn:
+        print(version())
+        parser.exit(0)
+
+
+def parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="phys2d", description="phys2d: run, record, compare and inspect 2D rigid-body scenes.")
+    p.add_argument("--version", action=_Version)
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+    sub.required = True
+    for add in COMMANDS:
+        add(sub)
+    sub.metavar = "{" + ",".join(sub.choices) + "}"
     return p
 
 

@@ -489,6 +489,59 @@ class World:
         v = b.V[dyn]
         return float(np.sum(b.inertia[dyn] * v[:, 2] + m * (r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0])))
 
+    # -- read-only views for observers (the recorder, tools): no copies, no writes ----------
+    # Each is a read-only view of the world's arrays, valid until a body is added or removed.
+    def _read_only(self, a: np.ndarray) -> np.ndarray:
+        v = a.view()
+        v.flags.writeable = False
+        return v
+
+    @property
+    def body_uids(self) -> np.ndarray:
+        """(N,) int64 uid of each body: unique in the world's lifetime, kept through removals."""
+        return self._read_only(self._bodies.uid)
+
+    @property
+    def body_static(self) -> np.ndarray:
+        """(N,) bool, True for static bodies (M^-1 = 0)."""
+        return self._read_only(self._bodies.static)
+
+    @property
+    def body_kinds(self) -> np.ndarray:
+        """(N,) int32 shape kind of each body: ``phys2d.shapes.CIRCLE`` or ``POLYGON``."""
+        return self._read_only(self._bodies.kind)
+
+    @property
+    def body_radii(self) -> np.ndarray:
+        """(N,) float64 circle radius of each body, m (0 for polygons)."""
+        return self._read_only(self._bodies.radius)
+
+    @property
+    def body_masses(self) -> np.ndarray:
+        """(N,) float64 mass m of each body, kg (also for static bodies)."""
+        return self._read_only(self._bodies.mass)
+
+    @property
+    def body_inertias(self) -> np.ndarray:
+        """(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."""
+        return self._read_only(self._bodies.inertia)
+
+    @property
+    def vertex_start(self) -> np.ndarray:
+        """(N,) int32 first row of each body's polygon in ``local_vertices``."""
+        return self._read_only(self._bodies.vstart)
+
+    @property
+    def vertex_count(self) -> np.ndarray:
+        """(N,) int32 number of polygon vertices of each body (0 for circles)."""
+        return self._read_only(self._bodies.vcount)
+
+    @property
+    def local_vertices(self) -> np.ndarray:
+        """(V, 2) float64 every polygon vertex in its body's frame, m, counter-clockwise;
+        body i's are rows ``vertex_start[i] : vertex_start[i] + vertex_count[i]``."""
+        return self._read_only(self._bodies.local_v)
+
     def __repr__(self) -> str:
         n = self._bodies.n
         n_static = int(self._bodies.static.sum())

@@ -12,7 +12,7 @@ import pytest
 from rerun.chunk import RrdReader
 
 import phys2d
-from phys2d.recording import Recorder, contact_entity, playback
+from phys2d.recording import ContactChoice, Recorder, contact_entity, playback, schema
 from phys2d.world import SimulationError
 
 
@@ -32,7 +32,7 @@ def snapshot(w: phys2d.World) -> dict:
     """The engine's own arrays after a step, copied."""
     c, s = w.contacts, w.last_step
     return dict(
-        tick=w.tick, time=w.time, x=w.x.copy(), theta=w.theta.copy(), V=w.V.copy(), uid=w._bodies.uid.copy(),
+        tick=w.tick, time=w.time, x=w.x.copy(), theta=w.theta.copy(), V=w.V.copy(), uid=w.body_uids.copy(),
         key=c.key.copy(), point=c.point.copy(), normal=c.normal.copy(), separation=c.separation.copy(),
         normal_impulse=c.normal_impulse.copy(), tangent_impulse=c.tangent_impulse.copy(),
         warm_started=c.warm_started.copy(), residuals=s.residuals.copy(), max_penetration=s.max_penetration,
@@ -52,15 +52,29 @@ def record(path, w: phys2d.World, steps: int, **kw) -> list[dict]:
     return snaps
 
 
+def assert_drawn(got: np.ndarray, engine: np.ndarray, grid: float) -> None:
+    """A drawn value: a whole multiple of ``grid``, within half a grid step of the engine's."""
+    assert got.shape == engine.shape
+    assert np.array_equal(got / grid, np.round(got / grid))
+    assert np.all(np.abs(got - engine) <= 0.5 * grid + 1e-12)
+
+
+def f32(a) -> np.ndarray:
+    """What float32 storage keeps of the engine's float64 values."""
+    return np.asarray(a, dtype=np.float64).astype(np.float32).astype(np.float64)
+
+
 @pytest.fixture(scope="module")
 def mixed(tmp_path_factory):
     """Boxes, circles and polygons falling in a heap: contacts come, go and come back.
 
-    Small flush windows so that several scene and series batches (and their seams) are read.
+    Small flush windows so that several scene and series batches (and their seams) are read;
+    every contact plotted, so every series can be checked.
     """
     path = tmp_path_factory.mktemp("rec") / "mixed.rrd"
     w = phys2d.scenes.mixed_shapes(10)
-    snaps = record(path, w, 150, name="mixed", scene="mixed_shapes", flush_every=7, series_every=23)
+    snaps = record(path, w, 150, name="mixed", scene="mixed_shapes", flush_every=7, series_every=23,
+                   plot="deepest:100000")
     return path, snaps, playback.load(path), w
 
 
@@ -78,14 +92,20 @@ def test_poses_round_trip_exactly(mixed):
     assert np.array_equal(rec.V, np.stack([s["V"] for s in snaps]))
 
 
-def test_contacts_and_impulses_round_trip_exactly(mixed):
+def test_contact_table_holds_every_contact_at_its_precision(mixed):
+    """Identities and flags exactly; impulses and separation as float32; points and normals as drawn."""
     _, snaps, rec, _ = mixed
     assert len(rec.contacts) == len(snaps)
     assert sum(len(s["key"]) for s in snaps) > 100  # the scene really has contacts
     for i, s in enumerate(snaps):
         got = rec.contacts.at(i)
-        for name in ("key", "point", "normal", "separation", "normal_impulse", "tangent_impulse", "warm_started"):
-            assert np.array_equal(got[name], s[name]), (i, name)
+        assert np.array_equal(got["key"], s["key"]), i
+        assert np.array_equal(got["warm_started"], s["warm_started"]), i
+        assert np.array_equal(got["body_a"], s["key"] >> 39) and np.array_equal(got["feature"], s["key"] & 0xFFFF)
+        for name in ("separation", "normal_impulse", "tangent_impulse"):
+            assert np.array_equal(got[name], f32(s[name])), (i, name)
+        assert_drawn(got["point"], s["point"], schema.DRAW_GRID)
+        assert_drawn(got["normal"], s["normal"], schema.NORMAL_GRID)
     assert rec.contacts.warm_started.any() and not rec.contacts.warm_started.all()
 
 
@@ -93,11 +113,14 @@ def test_solver_and_aggregates_round_trip_exactly(mixed):
     _, snaps, rec, _ = mixed
     for s in snaps:
         assert np.array_equal(rec.residuals_at(s["tick"]), s["residuals"])
-    assert np.array_equal(rec.kinetic_energy, [s["ke"] for s in snaps])
-    assert np.array_equal(rec.potential_energy, [s["pe"] for s in snaps])
-    assert np.array_equal(rec.linear_momentum, np.stack([s["p"] for s in snaps]))
-    assert np.array_equal(rec.angular_momentum, [s["L"] for s in snaps])
-    assert np.array_equal(rec.max_penetration, [s["max_penetration"] for s in snaps])
+    # energies and momenta are worked out by the recorder from the sampled state: the engine's
+    # methods agree to round-off (summation order)
+    for got, want in ((rec.kinetic_energy, [s["ke"] for s in snaps]), (rec.potential_energy, [s["pe"] for s in snaps]),
+                      (rec.linear_momentum, np.stack([s["p"] for s in snaps])),
+                      (rec.angular_momentum, [s["L"] for s in snaps])):
+        want = np.asarray(want)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    np.testing.assert_allclose(rec.max_penetration, [s["max_penetration"] for s in snaps], rtol=1e-15, atol=0)
     assert np.array_equal(rec.contact_count, [s["contact_count"] for s in snaps])
     assert np.array_equal(rec.cache_hit_rate, [s["cache_hit_rate"] for s in snaps])
     assert np.array_equal(rec.iterations, [s["iterations"] for s in snaps])
@@ -117,7 +140,7 @@ def test_per_contact_series_follow_each_contact_and_break_where_it_ends(mixed):
     truth: dict[int, dict[int, tuple]] = {}
     for s in snaps:
         for k, ln, lt, sep in zip(s["key"], s["normal_impulse"], s["tangent_impulse"], s["separation"], strict=True):
-            truth.setdefault(int(k), {})[s["tick"]] = (ln, lt, -sep)
+            truth.setdefault(int(k), {})[s["tick"]] = (ln, lt, -sep * 1e3)  # penetration in mm
     assert sorted(rec.series_keys("lambda")) == sorted(contact_entity(k) for k in truth)
     ticks = [s["tick"] for s in snaps]
     gaps = 0
@@ -142,22 +165,45 @@ def test_per_contact_series_follow_each_contact_and_break_where_it_ends(mixed):
     assert gaps > 0  # the scene made contacts vanish, so the NaN marker was exercised
 
 
-def test_outlines_drawn_are_the_bodies_vertices(mixed):
-    """The LineStrips2D of the last tick are the bodies' world vertices, closed (y-up, rotated)."""
-    path, _, _, w = mixed
-    store = RrdReader(str(path)).store()
+def strips_at_last_tick(path, entity: str) -> list:
     rows = []
-    for ch in store.stream().filter(content="/world/sim/bodies", is_static=False,
-                                    components="LineStrips2D:strips"):
+    for ch in RrdReader(str(path)).store().stream().filter(content=entity, is_static=False,
+                                                           components="LineStrips2D:strips"):
         rb = ch.to_record_batch()
         rows += [(t, s) for t, s in zip(rb.column("tick").to_pylist(), rb.column("LineStrips2D:strips").to_pylist(),
                                         strict=True) if s is not None]
-    last = max(rows, key=lambda r: r[0])[1]
-    polys = [b for b in w.bodies if b.shape == "polygon"]
-    assert len(last) == len(polys)
-    for b, strip in zip(polys, last, strict=True):
-        v = b.vertices
-        np.testing.assert_allclose(np.array(strip), np.vstack([v, v[:1]]), atol=1e-4)
+    return max(rows, key=lambda r: r[0])[1]
+
+
+def test_outlines_drawn_are_the_bodies_vertices(mixed):
+    """Each dynamic body's strip at the last tick: a polygon's world vertices, closed; a circle's
+    centre, then its rim from the point at its angle around (y-up, rotated), all on the draw grid."""
+    path, _, _, w = mixed
+    last = strips_at_last_tick(path, "/world/sim/bodies")
+    dynamic = [b for b in w.bodies if not b.static]
+    assert len(last) == len(dynamic)
+    assert any(b.shape == "circle" for b in dynamic) and any(b.shape == "polygon" for b in dynamic)
+    for b, strip in zip(dynamic, last, strict=True):
+        strip = np.array(strip)
+        if b.shape == "polygon":
+            v = b.vertices
+            want = np.vstack([v, v[:1]])
+        else:
+            phi = b.angle + 2 * np.pi * np.arange(schema.CIRCLE_SEGMENTS + 1) / schema.CIRCLE_SEGMENTS
+            want = np.vstack([b.position, b.position + b.radius * np.stack([np.cos(phi), np.sin(phi)], axis=1)])
+        assert_drawn(strip, want, schema.DRAW_GRID)
+
+
+def test_static_geometry_is_written_once(mixed):
+    """The ground never moves: one row on world/sim/static, none of it on world/sim/bodies."""
+    path, snaps, rec, w = mixed
+    rows = sum(ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(
+        content="/world/sim/static", is_static=False, components="LineStrips2D:strips"))
+    assert rows == 1
+    ground = [b for b in w.bodies if b.static]
+    assert len(ground) == 1 and len(strips_at_last_tick(path, "/world/sim/static")) == 1
+    col = list(rec.body_uid).index(w.body_uids[ground[0].index])
+    assert np.array_equal(rec.x[:, col], np.stack([s["x"][ground[0].index] for s in snaps]))  # read at every tick
 
 
 def test_a_blueprint_is_stored_in_the_file(mixed):
@@ -249,7 +295,7 @@ def test_comparison_runs_share_one_recording_and_timelines(tmp_path):
         r = back.runs[label]
         assert list(r.tick) == list(range(1, 41))
         assert np.array_equal(r.x, np.stack([s["x"] for s in snaps]))
-        assert np.array_equal(r.contacts.normal_impulse, np.concatenate([s["normal_impulse"] for s in snaps]))
+        assert np.array_equal(r.contacts.normal_impulse, f32(np.concatenate([s["normal_impulse"] for s in snaps])))
         assert r.properties["responder"] == repr(worlds[label].responder)
     # warm starting really differs from cold, so the runs are not one run read twice
     assert not np.array_equal(back.runs["pgs"].residual, back.runs["pgs-cold"].residual)
@@ -300,7 +346,7 @@ def test_joints_are_drawn_and_their_reactions_recorded(tmp_path):
     back = playback.load(path)
     assert len(back.joint_anchors) == 12
     for got, want in zip(back.joint_anchors, expect_anchor, strict=True):
-        np.testing.assert_allclose(got, want, atol=1e-5)  # drawn as float32
+        assert_drawn(got, want, schema.DRAW_GRID)
     assert back.series_keys("reaction") == ["j0/r0", "j0/r1", "j1/r0"]
     for key, (q, row) in {"j0/r0": (0, 0), "j0/r1": (0, 1), "j1/r0": (1, 0)}.items():
         t, v = back.series("reaction", key)
@@ -326,9 +372,9 @@ def test_contact_table_is_one_row_per_tick_including_empty_ticks(tmp_path):
     store = RrdReader(str(path)).store()
     n_rows = 0
     for ch in store.stream().filter(content="/world/sim/contacts", is_static=False,
-                                    components="Points2D:positions"):
+                                    components="Arrows2D:origins"):
         rb = ch.to_record_batch()
-        lens = pc.list_value_length(rb.column("Points2D:positions")).to_numpy(zero_copy_only=False)
+        lens = pc.list_value_length(rb.column("Arrows2D:origins")).to_numpy(zero_copy_only=False)
         n_rows += len(lens)
         ticks = rb.column("tick").to_numpy()
         assert (lens[ticks == 21] == 0).all()
@@ -382,4 +428,159 @@ def test_without_contact_series_the_contact_table_is_still_written(tmp_path):
     assert_verified(path)
     back = playback.load(path)
     assert back.series_keys("lambda") == [] and back.series_keys("penetration") == []
-    assert np.array_equal(back.contacts.normal_impulse, np.concatenate([s["normal_impulse"] for s in snaps]))
+    assert np.array_equal(back.contacts.normal_impulse, f32(np.concatenate([s["normal_impulse"] for s in snaps])))
+
+
+# -- which contacts get plots -----------------------------------------------------------------
+def _pyramid_run(tmp_path, name: str, plot, steps: int = 40, **kw):
+    path = tmp_path / f"{name}.rrd"
+    w = phys2d.scenes.pyramid(4)
+    snaps = record(path, w, steps, plot=plot, **kw)
+    return snaps, playback.load(path)
+
+
+def _deepest_by_key(snaps: list[dict]) -> dict[int, float]:
+    out: dict[int, float] = {}
+    for s in snaps:
+        for k, sep in zip(s["key"], s["separation"], strict=True):
+            out[int(k)] = max(out.get(int(k), -np.inf), -sep)
+    return out
+
+
+def test_default_plots_the_four_deepest_contacts(tmp_path):
+    snaps, rec = _pyramid_run(tmp_path, "deepest", None)
+    deepest = _deepest_by_key(snaps)
+    chosen = rec.series_keys("lambda")
+    assert len(chosen) == 4 and len(deepest) > 4
+    ranked = sorted(deepest, key=lambda k: (-deepest[k], k))
+    assert sorted(chosen) == sorted(contact_entity(k) for k in ranked[:4])
+    assert rec.series_keys("penetration") == chosen
+
+
+def test_plot_a_chosen_body_s_contacts(tmp_path):
+    snaps, rec = _pyramid_run(tmp_path, "body", "body:3")
+    want = {contact_entity(k) for s in snaps for k in s["key"] if 3 in (int(k) >> 39, (int(k) >> 16) & 0x7FFFFF)}
+    assert want and set(rec.series_keys("lambda")) == want
+
+
+def test_plot_contacts_named_on_the_command_line(tmp_path):
+    w = phys2d.scenes.pyramid(4)
+    for _ in range(5):
+        w.step(1 / 60)
+    names = [contact_entity(k) for k in w.contacts.key[[0, -1]]]
+    snaps, rec = _pyramid_run(tmp_path, "keys", ",".join(names + ["b90-b91/f0"]))  # one never touches
+    assert rec.series_keys("lambda") == sorted(names)
+    key = int(w.contacts.key[0])
+    t, lam = rec.series("lambda", key)
+    truth = [(s["tick"], s["normal_impulse"][list(s["key"]).index(key)]) for s in snaps if key in s["key"]]
+    assert list(t) == [tk for tk, _ in truth] and np.array_equal(lam[:, 0], [v for _, v in truth])
+
+
+@pytest.mark.parametrize("text, error", [("deepest:0", ValueError), ("body:-1", ValueError), ("body:x", ValueError),
+                                         ("b1-b0/f0", ValueError), ("nonsense", ValueError), ("", ValueError)])
+def test_bad_plot_choices_are_named(tmp_path, text, error):
+    with pytest.raises(error, match="plot|contact|keys|n must|uid"):
+        Recorder(tmp_path / "x.rrd", plot=text)
+    with pytest.raises(TypeError, match="plot"):
+        Recorder(tmp_path / "y.rrd", plot=3)
+    assert repr(ContactChoice.parse("body:4")) == "ContactChoice.body(4)"
+
+
+def _static_style(path, prefix: str) -> dict[str, tuple]:
+    """entity -> (names, colours) of the SeriesLines/SeriesPoints styles written once per entity."""
+    out = {}
+    for ch in RrdReader(str(path)).store().stream().filter(content=f"{prefix}/**", is_static=True):
+        rb = ch.to_record_batch()
+        cols = {n.split(":")[-1]: rb.column(n).to_pylist()[0] for n in rb.schema.names if ":" in n}
+        if "names" in cols:
+            out[ch.entity_path] = (cols["names"], cols.get("colors"))
+    return out
+
+
+def test_plot_legends_name_each_contact_by_its_bodies_and_feature_in_distinct_colours(mixed):
+    path, snaps, rec, _ = mixed
+    styles = _static_style(path, "/contacts/penetration")
+    assert len(styles) == len(rec.series_keys("penetration")) > 5
+    for entity, (names, _) in styles.items():
+        a, b, f = entity.split("/")[-2].replace("b", "").split("-") + [entity.split("/")[-1][1:]]
+        assert names == [f"b{a}-b{b} f{f}"]
+    colours = [c[0] for _, c in styles.values()]
+    assert len(set(colours)) == min(len(colours), len(schema.PALETTE))  # every palette colour used before any repeats
+    energy = _static_style(path, "/stats/energy")
+    assert sorted(n[0] for n, _ in energy.values()) == ["kinetic", "potential", "total"]
+    assert len({c[0] for _, c in energy.values()}) == 3
+
+
+def test_a_static_body_moved_by_hand_is_written_again(tmp_path):
+    path = tmp_path / "moved.rrd"
+    w = phys2d.scenes.vertical_stack(2)
+    ground = [b for b in w.bodies if b.static][0]
+    xs = []
+    with Recorder(path, flush_every=4) as rec:
+        for k in range(12):
+            if k == 6:
+                ground.position = ground.position + np.array([0.25, 0.0])
+            w.step(1 / 60)
+            rec.log(w)
+            xs.append(ground.position)
+    rows = sum(ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(
+        content="/world/sim/static", is_static=False, components="LineStrips2D:strips"))
+    assert rows == 2
+    back = playback.load(path)
+    assert np.array_equal(back.x[:, list(back.body_uid).index(0)], np.stack(xs))
+
+
+# -- the background writer -------------------------------------------------------------------
+def test_a_background_writer_writes_what_an_in_process_one_does(tmp_path):
+    out = {}
+    for background in (False, True):
+        path = tmp_path / f"bg{background}.rrd"
+        w = phys2d.scenes.mixed_shapes(6)
+        with Recorder(path, flush_every=9, background=background) as rec:
+            for _ in range(40):
+                w.step(1 / 60)
+                rec.log(w)
+        assert rec.plotted[None]  # the writer reports which contacts it plotted
+        assert_verified(path)
+        out[background] = (playback.load(path), rec.plotted)
+    (a, pa_), (b, pb) = out[False], out[True]
+    assert pa_ == pb
+    for name in ("tick", "x", "V", "residual", "kinetic_energy"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    for name in ("key", "normal_impulse", "point"):
+        assert np.array_equal(getattr(a.contacts, name), getattr(b.contacts, name)), name
+
+
+def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path):
+    """os._exit in the simulating process: the writer sees it gone, writes every window it was
+    sent and the footer."""
+    import sys
+    import textwrap
+
+    path = tmp_path / "orphan.rrd"
+    script = textwrap.dedent(f"""
+        import os, phys2d
+        from phys2d.recording import Recorder
+        w = phys2d.scenes.vertical_stack(3)
+        rec = Recorder({str(path)!r}, flush_every=10, background=True)
+        for _ in range(95):
+            w.step(1 / 60)
+            rec.log(w)
+        import time; time.sleep(0.5)  # the queue's feeder thread hands over the windows sent
+        os._exit(1)
+    """)
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": repo},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 1, out.stderr
+    for _ in range(100):  # the writer notices within a second or so
+        try:
+            assert_verified(path)
+            break
+        except AssertionError:
+            import time
+
+            time.sleep(0.2)
+    assert_verified(path)
+    back = playback.load(path)
+    assert list(back.tick) == list(range(1, 91))  # the 9 whole windows sent; 5 ticks were still buffered

@@ -1,9 +1,22 @@
 """Recordings: a World's ticks to a Rerun .rrd file (``Recorder``) and back (``playback``).
 
-The engine never imports this package; recording only reads a World.
+``schema`` holds the format (entity paths, field names, units) that both use.
+The engine never imports this package; recording only reads a World. ``Recorder``
+and ``ContactChoice`` load without rerun (a background recorder imports it only in
+its writer process); ``playback`` imports rerun's reader when first used.
 """
 
-from . import playback
-from .recorder import Recorder, contact_entity
+from . import schema
+from .buffer import ContactChoice
+from .recorder import Recorder
+from .schema import contact_entity
 
-__all__ = ["Recorder", "contact_entity", "playback"]
+__all__ = ["ContactChoice", "Recorder", "contact_entity", "playback", "schema"]
+
+
+def __getattr__(name: str):
+    if name == "playback":
+        import importlib
+
+        return importlib.import_module(f"{__name__}.playback")
+    raise AttributeError(f"module 'phys2d.recording' has no attribute {name!r}")

@@ -8,9 +8,11 @@
     ticks, lam = rec.series("lambda", key)   # one contact's [lambda_n, lambda_t] over time
 
 A file with several runs (``phys2d compare``) gives ``rec.runs["pgs"]`` and so on;
-a file with one run forwards attribute access to it. Every array holds exactly the
-float64 values the engine had; ``time`` comes from the ``sim_time`` timeline, which
-Rerun stores in whole nanoseconds.
+a file with one run forwards attribute access to it. Poses, velocities, residuals,
+the per-tick aggregates and the plotted series are exactly the float64 values the
+engine had; the per-tick contact table is float32 (drawn points and normals also on
+the draw grid), see ``schema``. ``time`` comes from the ``sim_time`` timeline, which
+Rerun stores in whole nanoseconds. Entity paths and field names come from ``schema``.
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ import pyarrow as pa
 import pyarrow.compute as pc
 from rerun.chunk import RrdReader
 
-from .recorder import contact_entity
+from . import schema
+from .schema import contact_entity
 
-SERIES_FAMILIES = {"lambda": "contacts/lambda", "penetration": "contacts/penetration",
-                   "reaction": "joints/reaction"}
+SERIES_FAMILIES = {"lambda": schema.LAMBDA, "penetration": schema.PENETRATION, "reaction": schema.REACTION}
+SERIES_UNITS = {"lambda": schema.LAMBDA_UNIT, "penetration": schema.PENETRATION_UNIT, "reaction": "N s"}
 
 
 class RecordingError(ValueError):
@@ -56,6 +59,12 @@ def _flat(t: pa.Table, name: str) -> np.ndarray:
     return pc.list_flatten(col).to_numpy(zero_copy_only=False)
 
 
+def _points(t: pa.Table, name: str) -> np.ndarray:
+    """A list<fixed_size_list<f32, 2>> column (Points, Arrows) as (n, 2) float64."""
+    col = pc.list_flatten(t.column(name).combine_chunks())
+    return col.flatten().to_numpy(zero_copy_only=False).astype(np.float64).reshape(-1, 2)
+
+
 def _lengths(t: pa.Table, name: str) -> np.ndarray:
     return pc.list_value_length(t.column(name)).fill_null(0).to_numpy(zero_copy_only=False).astype(np.int64)
 
@@ -71,14 +80,19 @@ def _scalars(t: pa.Table | None, width: int = 1) -> np.ndarray:
 class ContactFrames:
     """Every tick's contacts, flattened: tick i's contacts are rows ``offsets[i]:offsets[i+1]``.
 
-    key (M,) int64 identities (``phys2d.recording.contact_entity(key)`` names them),
-    point, normal (M, 2), separation (M,) m, normal_impulse, tangent_impulse (M,) N s,
+    key (M,) int64 identities (``schema.contact_entity(key)`` names them), body_a, body_b (M,)
+    the bodies' uids, feature (M,) feature ids; separation (M,) m and normal_impulse,
+    tangent_impulse (M,) N s as float32 values widened (the contact table is for looking at);
+    point (M, 2) m and normal (M, 2) as drawn: on ``schema.DRAW_GRID`` and ``schema.NORMAL_GRID``;
     warm_started (M,) bool; tick (M,) the tick of each row.
     """
 
     offsets: np.ndarray
     tick: np.ndarray
     key: np.ndarray
+    body_a: np.ndarray
+    body_b: np.ndarray
+    feature: np.ndarray
     point: np.ndarray
     normal: np.ndarray
     separation: np.ndarray
@@ -86,7 +100,15 @@ class ContactFrames:
     tangent_impulse: np.ndarray
     warm_started: np.ndarray
 
-    _FIELDS = ("key", "point", "normal", "separation", "normal_impulse", "tangent_impulse", "warm_started")
+    _FIELDS = ("key", "body_a", "body_b", "feature", "point", "normal", "separation", "normal_impulse",
+               "tangent_impulse", "warm_started")
+
+    @classmethod
+    def empty(cls, ticks: int) -> ContactFrames:
+        z = np.zeros(0)
+        i = np.zeros(0, np.int64)
+        return cls(np.zeros(ticks + 1, np.int64), i, i, i.copy(), i.copy(), i.copy(), np.zeros((0, 2)),
+                   np.zeros((0, 2)), z, z.copy(), z.copy(), z.astype(np.bool_))
 
     def __len__(self) -> int:
         return int(self.offsets.shape[0]) - 1
@@ -107,13 +129,13 @@ class ContactFrames:
 class Run:
     """One world's recorded ticks (T of them) as arrays.
 
-    tick (T,) and time (T,) s; body_uid (U,) every body seen, in first-seen order;
-    x (T, U, 2) m, theta (T, U) rad, V (T, U, 3) [vx, vy, omega] (NaN where a body did
-    not exist at that tick); contacts: ContactFrames; residual_tick, residual (R,) the
-    residual (m/s) after every solver sweep; per tick: kinetic_energy, potential_energy
-    (J), linear_momentum (T, 2) kg m/s, angular_momentum kg m^2/s, max_penetration m,
-    contact_count, cache_hit_rate, iterations; properties: what the run was (responder,
-    scene, ...).
+    tick (T,) and time (T,) s; body_uid (U,) every body seen, in uid order (a world's
+    order); x (T, U, 2) m, theta (T, U) rad, V (T, U, 3) [vx, vy, omega], float64 as
+    the engine held them (NaN where a body did not exist at that tick); contacts:
+    ContactFrames; residual_tick, residual (R,) the residual (m/s) after every solver
+    sweep; per tick: kinetic_energy, potential_energy (J), linear_momentum (T, 2) kg m/s,
+    angular_momentum kg m^2/s, max_penetration m, contact_count, cache_hit_rate,
+    iterations; properties: what the run was (responder, scene, ...).
     """
 
     label: str
@@ -140,7 +162,7 @@ class Run:
 
     @property
     def prefix(self) -> str:
-        return f"runs/{self.label}/" if self.label else ""
+        return schema.run_prefix(self.label)
 
     def residuals_at(self, tick: int) -> np.ndarray:
         """The residual (m/s) after each solver sweep of ``tick`` (a tick number, as in ``self.tick``)."""
@@ -153,10 +175,11 @@ class Run:
         return self._recording._series_names(f"/{self.prefix}{family}/")
 
     def series(self, quantity: str, key: int | str) -> tuple[np.ndarray, np.ndarray]:
-        """(ticks, values) of one contact's (or joint row's) series; a NaN row marks where it ended.
+        """(ticks, values) of one plotted contact's (or joint row's) series, float64 as the engine
+        held them; a NaN row marks where it ended.
 
-        quantity  'lambda' (values (n, 2): lambda_n, lambda_t in N s), 'penetration' ((n,), m)
-                  or 'reaction' (joint rows, (n,) N s)
+        quantity  'lambda' (values (n, 2): lambda_n, lambda_t in N s), 'penetration' ((n,),
+                  -separation in mm: ``schema.PENETRATION_UNIT``) or 'reaction' (joint rows, (n,) N s)
         key       a contact key from ``contacts.key`` or an entity name from ``series_keys``
         """
         family = self._family(quantity)
@@ -171,7 +194,7 @@ class Run:
         if t is None:
             raise KeyError(f"no {quantity} series for {name!r} in run {self.label or '(unnamed)'}")
         valid = t.filter(pc.is_valid(t.column("Scalars:scalars")))
-        ticks = valid.column("tick").to_numpy()
+        ticks = valid.column(schema.TICK).to_numpy()
         values = _scalars(valid, 2 if quantity == "lambda" else 1)
         return ticks, values
 
@@ -190,11 +213,13 @@ class Recording:
         self._store = store
         self._entities = entities  # entity path -> its temporal chunks (not yet converted)
         self.properties = properties  # property entity ('phys2d', 'run', 'runs/<label>') -> values
-        labels = sorted({e.split("/")[2] for e in entities if e.startswith("/runs/")})
-        if "/world/sim/bodies" in entities:
+        root = f"/{schema.RUNS_ROOT}/"
+        labels = sorted({e.split("/")[2] for e in entities
+                         if e.startswith(root) and e.endswith("/" + schema.BODIES)})
+        if f"/{schema.BODIES}" in entities:
             labels.insert(0, "")
         if not labels:
-            raise RecordingError(f"{path!r} holds no phys2d run (no world/sim/bodies entity)")
+            raise RecordingError(f"{path!r} holds no phys2d run (no {schema.BODIES} entity)")
         self.runs: dict[str, Run] = {label: self._run(label) for label in labels}
 
     def __getattr__(self, name: str):
@@ -219,76 +244,96 @@ class Recording:
     def _series_names(self, prefix: str) -> list[str]:
         return sorted(e[len(prefix):] for e in self._entities if e.startswith(prefix))
 
+    def _bodies(self, entity: str) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray] | None:
+        """(ticks (n,), instances per row (n,), flat field values, row of each instance) of a body table."""
+        t = self._temporal(entity)
+        if t is None or "x" not in t.column_names:
+            return None
+        t = t.filter(pc.is_valid(t.column("x")))  # rows that carry the table, not only labels
+        n = _lengths(t, "uid")
+        vals: dict[str, np.ndarray] = {f.name: _flat(t, f.name).astype(f.dtype) for f in schema.BODY_FIELDS}
+        return t.column(schema.TICK).to_numpy().astype(np.int64), n, vals, np.repeat(np.arange(len(n)), n)
+
     def _run(self, label: str) -> Run:
-        p = f"/runs/{label}/" if label else "/"
-        bodies = self._temporal(f"{p}world/sim/bodies")
-        if bodies is None:
+        p = "/" + schema.run_prefix(label)
+        dyn = self._bodies(f"{p}{schema.BODIES}")
+        if dyn is None:
             raise RecordingError(f"{self.path!r}: run {label!r} has no bodies")
-        bodies = bodies.filter(pc.is_valid(bodies.column("x")))  # rows that carry poses, not only labels
-        tick = bodies.column("tick").to_numpy().astype(np.int64)
-        time = bodies.column("sim_time").cast(pa.int64()).to_numpy() / 1e9
-        n = _lengths(bodies, "uid")
-        uid = _flat(bodies, "uid").astype(np.int64)
-        body_uid, first = np.unique(uid, return_index=True)
-        body_uid = body_uid[np.argsort(first)]  # first-seen order
-        slot = np.empty(uid.size, np.int64)
-        order = np.argsort(body_uid)
-        slot = order[np.searchsorted(body_uid[order], uid)]
-        row = np.repeat(np.arange(tick.size), n)
-        T, U = tick.size, body_uid.size
+        tick, n_dyn, dval, drow = dyn
+        bodies_t = self._temporal(f"{p}{schema.BODIES}")
+        assert bodies_t is not None
+        bt = bodies_t.filter(pc.is_valid(bodies_t.column("x")))
+        time = bt.column(schema.SIM_TIME).cast(pa.int64()).to_numpy() / 1e9
+        T = tick.size
+        # static bodies: written when they change; each tick takes the latest row at or before it
+        stat = self._bodies(f"{p}{schema.STATIC}")
+        uids = [dval["uid"]]
+        if stat is not None:
+            s_tick, n_st, sval, srow = stat
+            which = np.searchsorted(s_tick, tick, side="right") - 1  # latest static row per tick (-1: none)
+            s_start = np.concatenate([[0], np.cumsum(n_st)])
+            take = [np.arange(s_start[k], s_start[k + 1]) if k >= 0 else np.zeros(0, np.int64) for k in which]
+            s_idx = np.concatenate(take) if take else np.zeros(0, np.int64)
+            s_rowtick = np.repeat(np.arange(T), [len(a) for a in take])
+            uids.append(sval["uid"][s_idx])
+        body_uid = np.unique(np.concatenate(uids))  # uid order is the world's order
+        U = body_uid.size
+        x, theta, V = np.full((T, U, 2), np.nan), np.full((T, U), np.nan), np.full((T, U, 3), np.nan)
 
-        def grid(*names: str) -> np.ndarray:
-            out = np.full((T, U, len(names)), np.nan)
-            for k, name in enumerate(names):
-                out[row, slot, k] = _flat(bodies, name)
-            return out
+        def fill(rows: np.ndarray, vals: dict[str, np.ndarray], idx) -> None:
+            slot = np.searchsorted(body_uid, vals["uid"][idx])
+            x[rows, slot, 0], x[rows, slot, 1] = vals["x"][idx], vals["y"][idx]
+            theta[rows, slot] = vals["angle"][idx]
+            V[rows, slot, 0], V[rows, slot, 1], V[rows, slot, 2] = vals["vx"][idx], vals["vy"][idx], vals["omega"][idx]
 
-        x, theta, V = grid("x", "y"), grid("angle")[..., 0], grid("vx", "vy", "omega")
+        fill(drow, dval, slice(None))
+        if stat is not None:
+            fill(s_rowtick, sval, s_idx)
 
-        ct = self._temporal(f"{p}world/sim/contacts")
-        if ct is not None:
-            ct = ct.filter(pc.is_valid(ct.column("key")))
-            cn = _lengths(ct, "key")
-            c_tick = np.repeat(ct.column("tick").to_numpy(), cn)
-
-            def f(name: str) -> np.ndarray:
-                return _flat(ct, name)
-
+        ct = self._temporal(f"{p}{schema.CONTACTS}")
+        if ct is not None and "lambda_n" in ct.column_names:
+            ct = ct.filter(pc.is_valid(ct.column("lambda_n")))
+            cn = _lengths(ct, "lambda_n")
+            rows_tick = ct.column(schema.TICK).to_numpy()
+            counts = np.zeros(T, np.int64)  # contacts per body tick (a tick without a contact row has none)
+            counts[np.searchsorted(tick, rows_tick)] = cn
+            f = {name: _flat(ct, name) for name in ("body_a", "body_b", "feature", "lambda_n", "lambda_t",
+                                                     "separation", "warm_started")}
+            a, b_, feat = (f[k].astype(np.int64) for k in ("body_a", "body_b", "feature"))
+            origins = _points(ct, "Arrows2D:origins")
+            vectors = _points(ct, "Arrows2D:vectors")
             contacts = ContactFrames(
-                offsets=np.concatenate([[0], np.cumsum(cn)]), tick=c_tick, key=f("key").astype(np.int64),
-                point=np.stack([f("point_x"), f("point_y")], axis=1),
-                normal=np.stack([f("normal_x"), f("normal_y")], axis=1), separation=f("separation"),
-                normal_impulse=f("lambda_n"), tangent_impulse=f("lambda_t"),
-                warm_started=f("warm_started").astype(np.bool_))
+                offsets=np.concatenate([[0], np.cumsum(counts)]), tick=np.repeat(rows_tick, cn),
+                key=schema.contact_key(a, b_, feat), body_a=a, body_b=b_, feature=feat, point=origins,
+                normal=vectors / schema.NORMAL_LENGTH, separation=f["separation"].astype(np.float64),
+                normal_impulse=f["lambda_n"].astype(np.float64), tangent_impulse=f["lambda_t"].astype(np.float64),
+                warm_started=f["warm_started"].astype(np.bool_))
         else:
-            z = np.zeros(0)
-            contacts = ContactFrames(np.zeros(1, np.int64), z.astype(np.int64), z.astype(np.int64),
-                                     np.zeros((0, 2)), np.zeros((0, 2)), z, z.copy(), z.copy(), z.astype(np.bool_))
+            contacts = ContactFrames.empty(T)
 
-        res = self._temporal(f"{p}solver/residual")
-        stats = {name: self._temporal(f"{p}stats/{name}") for name in (
-            "energy", "momentum", "angular_momentum", "max_penetration", "contact_count", "cache_hit_rate",
-            "iterations")}
-        energy = _scalars(stats["energy"], 3)
-        joints = self._temporal(f"{p}world/sim/joints")
+        res = self._temporal(f"{p}{schema.RESIDUAL}")
+        stats = {st.name: _scalars(self._temporal(f"{p}{schema.STATS_ROOT}/{st.name}")) for st in schema.STATS}
+        joints = self._temporal(f"{p}{schema.JOINTS}")
         anchors: list[np.ndarray] = []
-        if joints is not None:
+        if joints is not None and "LineStrips2D:strips" in joints.column_names:
+            joints = joints.filter(pc.is_valid(joints.column("LineStrips2D:strips")))
             jl = _lengths(joints, "LineStrips2D:strips")
             pts = np.asarray(pc.list_flatten(pc.list_flatten(joints.column("LineStrips2D:strips"))).to_pylist(),
                              dtype=np.float64).reshape(-1, 2, 2)
             anchors = np.split(pts, np.cumsum(jl)[:-1])
-        props = self.properties.get(f"runs/{label}" if label else "run", {})
+        props = self.properties.get(schema.run_property(label), {})
         return Run(
-            label=label, properties={**self.properties.get("phys2d", {}), **props}, tick=tick, time=time,
-            body_uid=body_uid, x=x, theta=theta, V=V, contacts=contacts,
-            residual_tick=res.column("tick").to_numpy().astype(np.int64) if res is not None else np.zeros(0, np.int64),
-            residual=_scalars(res), kinetic_energy=energy[:, 0] if energy.size else np.zeros(0),
-            potential_energy=energy[:, 1] if energy.size else np.zeros(0),
-            linear_momentum=_scalars(stats["momentum"], 2), angular_momentum=_scalars(stats["angular_momentum"]),
-            max_penetration=_scalars(stats["max_penetration"]),
-            contact_count=_scalars(stats["contact_count"]).astype(np.int64),
-            cache_hit_rate=_scalars(stats["cache_hit_rate"]),
-            iterations=_scalars(stats["iterations"]).astype(np.int64), joint_anchors=anchors, _recording=self)
+            label=label, properties={**self.properties.get(schema.PROPERTIES_ENGINE, {}), **props}, tick=tick,
+            time=time, body_uid=body_uid, x=x, theta=theta, V=V, contacts=contacts,
+            residual_tick=res.column(schema.TICK).to_numpy().astype(np.int64) if res is not None
+            else np.zeros(0, np.int64),
+            residual=_flat(res, schema.RESIDUAL_FIELD.name).astype(np.float64) if res is not None else np.zeros(0),
+            kinetic_energy=stats["energy/kinetic"], potential_energy=stats["energy/potential"],
+            linear_momentum=np.stack([stats["momentum/x"], stats["momentum/y"]], axis=1),
+            angular_momentum=stats["angular_momentum"],
+            max_penetration=stats["max_penetration"] / schema.PENETRATION_SCALE,
+            contact_count=stats["contact_count"].astype(np.int64), cache_hit_rate=stats["cache_hit_rate"],
+            iterations=stats["iterations"].astype(np.int64), joint_anchors=anchors, _recording=self)
 
 
 def load(path: str | os.PathLike) -> Recording:
@@ -331,4 +376,4 @@ def load(path: str | os.PathLike) -> Recording:
     return Recording(p, store, entities, properties)
 
 
-__all__ = ["ContactFrames", "Recording", "RecordingError", "Run", "SERIES_FAMILIES", "load"]
+__all__ = ["ContactFrames", "Recording", "RecordingError", "Run", "SERIES_FAMILIES", "SERIES_UNITS", "load"]

@@ -1,0 +1,148 @@
+"""The writing side of a recording: sampled ticks in, a Rerun stream (file, viewer) out.
+
+``Sink`` runs in the recording process, or in a writer process of its own
+(``serve``): a ``Recorder(background=True)`` samples in the simulating process and
+hands whole windows of ticks over a pipe, so that importing rerun, building the
+columns and encoding them happen on another core while the simulation runs.
+"""
+
+from __future__ import annotations
+
+import uuid
+from typing import Any
+
+import rerun as rr
+
+from . import blueprint as bp
+from . import columns, schema
+from .buffer import ContactChoice, RunBuffer
+from .sample import Sample
+
+
+def _send_property(rec: rr.RecordingStream, entity: str, **values: Any) -> None:
+    """Static run metadata at /__properties/<name>; empty values are left out (Rerun drops them)."""
+    kept = {k: v for k, v in values.items() if v is not None and v != ""}
+    rec.send_property(entity, rr.AnyValues(**kept))
+
+
+class Sink:
+    """The stream and the runs' buffers; closed once, by ``Recorder.close`` or a finalizer."""
+
+    def __init__(self, path: str | None, name: str | None, scene: str | None, application_id: str,
+                 recording_id: str | None, contact_series: bool, choice: ContactChoice, flush_every: int,
+                 series_every: int, blueprint: bool, stream_to: str | None) -> None:
+        self.scene = scene
+        self.contact_series = contact_series
+        self.choice = choice
+        self.flush_every = flush_every
+        self.series_every = series_every
+        self.blueprint = blueprint
+        self.runs: dict[str | None, RunBuffer] = {}
+        self.closed = False
+        self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
+        self.rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()))
+        sinks: list[Any] = []
+        if path is not None:
+            sinks.append(rr.FileSink(path))
+        if stream_to is not None:
+            sinks.append(rr.GrpcSink(stream_to))
+        self.rec.set_sinks(*sinks)
+        self.rec.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
+        if name:
+            self.rec.send_recording_name(name)
+        from .. import __version__
+
+        _send_property(self.rec, schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
+
+    def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
+        """One sampled tick of run ``label``; ``info`` (responder, ...) with a run's first tick."""
+        b = self.runs.get(label)
+        if b is None:
+            b = self.runs[label] = RunBuffer(label, schema.run_prefix(label), self.choice)
+            columns.write_start(self.rec, b, schema.PALETTE[(len(self.runs) - 1) % len(schema.PALETTE)])
+        if info is not None:
+            _send_property(self.rec, schema.run_property(label), scene=self.scene, run=label,
+                           plotted=repr(self.choice), **info)
+        b.add(s, self.contact_series)
+        if len(b.samples) >= self.flush_every:
+            if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
+                self.send_blueprint()
+            columns.write_scene(self.rec, b)
+            self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
+        if b.series_ticks >= self.series_every:
+            columns.write_series(self.rec, b)
+
+    def send_blueprint(self) -> None:
+        """The layout for the runs as they are now, unless the file already has that one.
+
+        It is sent before the first window of data (a viewer without it builds a view per entity,
+        slow to draw while the file loads) and again at the end only if the runs changed.
+        """
+        if not self.blueprint:
+            return
+        views = [bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r),
+                            r.has_joints) for r in self.runs.values()]
+        if views != self.sent_views:
+            self.rec.send_blueprint(bp.build(views))
+            self.sent_views = views
+
+    def _will_plot(self, r: RunBuffer) -> bool:
+        return self.contact_series and any(k.size for k in r.contacts.keys)
+
+    def plotted(self) -> dict[str | None, list[str]]:
+        """Per run, the contacts whose series were written (entity names)."""
+        return {label: [schema.contact_entity(k) for k in sorted(r.styled)] for label, r in self.runs.items()}
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            for r in self.runs.values():
+                columns.write_scene(self.rec, r)
+                columns.write_series(self.rec, r)
+            self.send_blueprint()
+            self.rec.flush()
+        finally:
+            self.rec.disconnect()  # writes the footer: the file is complete and readable
+
+
+
+
+def serve(queue, conn, kwargs: dict[str, Any]) -> None:
+    """A writer process: a Sink fed from ``queue`` with ("add", [(label, sample, info), ...]) and
+    ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text). When the
+    simulating process dies, the file is closed too, so every tick sent is readable."""
+    import os
+    import queue as queues
+
+    parent = os.getppid()
+    sink = None
+    try:
+        sink = Sink(**kwargs)
+        while True:
+            try:
+                msg = queue.get(timeout=1.0)
+            except queues.Empty:
+                if os.getppid() != parent:  # orphaned: the simulating process is gone
+                    break
+                continue
+            except (EOFError, OSError):
+                break
+            if msg[0] == "add":
+                for label, sample, info in msg[1]:
+                    sink.add(label, sample, info)
+            else:
+                break
+        sink.close()
+        conn.send(("closed", sink.plotted()))
+    except BaseException as e:  # report it to the recorder: one line
+        if sink is not None:
+            try:
+                sink.close()
+            except Exception:
+                pass
+        try:
+            conn.send(("error", f"{type(e).__name__}: {e}"))
+        except Exception:
+            pass
