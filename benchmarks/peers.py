@@ -140,9 +140,9 @@ def time_scene(scene, names, args, tmpdir):
     """
     adapters, out = {}, {}
     for e in names:
-        a, cell = try_adapter(e, scene, args, tmpdir)
+        a, refused = try_adapter(e, scene, args, tmpdir)
         if a is None:
-            out[e] = cell
+            out[e] = refused
             continue
         adapters[e] = a
         try:
@@ -199,9 +199,9 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
 def stability_run(scene, engine, args, tmpdir):
     """Simulate ``args.seconds``; track overlap, movement, tilt and the fall, and for
     scenes with joints the largest joint gap (which joint, when)."""
-    a, cell = try_adapter(engine, scene, args, tmpdir)
+    a, refused = try_adapter(engine, scene, args, tmpdir)
     if a is None:
-        return cell
+        return refused
     try:
         start = scene.start()
         n = round(args.seconds / DT)
