@@ -363,6 +363,14 @@ def machine() -> dict:
     }
 
 
+def load_average() -> str:
+    """The 1-minute load average, or '?' where the OS does not report it."""
+    try:
+        return f"{os.getloadavg()[0]:.2f}"
+    except (AttributeError, OSError):
+        return "?"
+
+
 def git_rev() -> str:
     try:
         rev = subprocess.run(
@@ -447,6 +455,8 @@ def report(args, names, timing, stab, first, meta) -> str:
         f"- date: {meta['date']}",
         f"- checkout: {meta['git']}",
         f"- machine: {m['cpu']}, {m['cores']} cores ({m['usable cores']} usable), " + m["os"],
+        f"- load average (1 min) at the start and the end of the run: {meta['load'][0]} and {meta['load'][1]} "
+        "(other work on the machine slows the engines unevenly: ratios within a repeat suffer less than times)",
         "- versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()),
         *v3_lines(args, meta),
         (
@@ -896,6 +906,7 @@ DEFAULT_VARIANTS = {
 def main(argv=None) -> int:
     args = parse_args(argv)
     command = "python " + shlex.join([os.path.relpath(sys.argv[0])] + sys.argv[1:])
+    load_start = load_average()
     names = [e for e in ALL_ENGINES if e in args.engines] + list(args.variants)
     v3 = setup_box2d_v3(args)
     if v3 is None and "Box2D-v3" in names:
@@ -951,6 +962,7 @@ def main(argv=None) -> int:
         "command": command,
         "date": dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": machine(),
+        "load": (load_start, load_average()),
         "versions": versions(),
         "git": git_rev(),
         "box2d_v3": v3,

@@ -335,7 +335,14 @@ def pct(part: float, whole: float) -> str:
     return f"{100 * part / whole:.0f}%" if whole > 0 else "-"
 
 
-def report(results: dict, one_box: dict, args, pc_ns: float, command: str) -> str:
+def load_average() -> str:
+    try:
+        return f"{os.getloadavg()[0]:.2f}"
+    except (AttributeError, OSError):
+        return "?"
+
+
+def report(results: dict, one_box: dict, args, pc_ns: float, command: str, load: tuple[str, str]) -> str:
     import numba
 
     L = [
@@ -345,6 +352,7 @@ def report(results: dict, one_box: dict, args, pc_ns: float, command: str) -> st
         f"- date: {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
         f"- checkout: {git_rev()}",
         f"- machine: {cpu()}, {os.cpu_count()} cores, {platform.platform()}",
+        f"- load average (1 min) at the start and the end of the run: {load[0]} and {load[1]}",
         f"- versions: python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}",
         f"- method: {args.warmup} warm-up steps, then {args.repeats} repeats of {args.steps} steps; in each "
         "repeat the plain world is timed, then its twin with the stage functions wrapped; medians over repeats. "
@@ -440,6 +448,7 @@ def parse_args(argv=None):
 def main(argv=None) -> int:
     args = parse_args(argv)
     command = "python " + " ".join([os.path.relpath(sys.argv[0])] + sys.argv[1:])
+    load_start = load_average()
     pc_ns = timer_cost_ns()
     try:
         sink = _sink_factory()
@@ -457,7 +466,7 @@ def main(argv=None) -> int:
                   f"dispatch {res['dispatch']:.1f} us over {res['kernel_calls']} kernel calls", flush=True)
     one_box = {r: one_box_step_us(r, args) for r in args.responders}
     print("one box:", ", ".join(f"{r} {us:.1f} us" for r, us in one_box.items()))
-    text = report(results, one_box, args, pc_ns, command)
+    text = report(results, one_box, args, pc_ns, command, (load_start, load_average()))
     if args.quick:
         print(text)
     else:
