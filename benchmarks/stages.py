@@ -12,16 +12,21 @@ the wrapped one.
 
 - **stage times** (µs per step): the sum of the wrapped calls of each stage, less
   the timer's own cost per call (two ``perf_counter_ns`` calls back to back);
-- **total**: the plain twin's time per step; **Python left over** = total minus
-  the stages: the Python of ``World.step`` between the stage calls (argument
-  checks, the state snapshot, array allocation, the step report, ...);
+- **step**: the wrapped twin's time per step less what the wrappers add (the
+  extra wall time per call of a wrapped empty function, times the calls), so
+  the stages and the step come from the same steps; the plain twin's time per
+  step is shown beside it as a check;
+- **Python left over** = step minus the stages: the Python of ``World.step``
+  between the stage calls (argument checks, the state snapshot, array
+  allocation, the step report, ...);
 - **numba dispatch** (an estimate): each numba kernel called from Python costs a
   dispatch (typing its arguments, finding the compiled version) before any work.
   The script records the arguments of every kernel call of one step and times an
   empty numba function called with the same arguments; the sum is the dispatch
   cost per step, which is inside the stage times;
 - **fixed cost per step** = Python left over + numba dispatch: what a step costs
-  whatever the scene's size. As a check, the step time of a one-box scene.
+  whatever the scene's size. As a check, the step time of a one-box scene, timed
+  in the same repeats.
 
 All figures are medians over repeats. Stages:
 
@@ -102,6 +107,20 @@ def timer_cost_ns(samples: int = 200_000) -> float:
     return float(np.median(costs))
 
 
+def make_timed(original, label: str, ns: dict[str, int], calls: dict[str, int]):
+    """``original`` wrapped so that each call adds its time (ns) to ns[label] and 1 to calls[label]."""
+    pc = time.perf_counter_ns
+
+    def timed(*args, **kwargs):
+        t0 = pc()
+        out = original(*args, **kwargs)
+        ns[label] += pc() - t0
+        calls[label] += 1
+        return out
+
+    return timed
+
+
 class Probe:
     """Wraps the stage functions with timers while ``on``; collects ns and calls per name."""
 
@@ -122,17 +141,8 @@ class Probe:
 
     def _add(self, owner, name: str, label: str, stage: str) -> None:
         original = getattr(owner, name)
-        ns, calls, pc = self.ns, self.calls, time.perf_counter_ns
-
-        def timed(*args, **kwargs):
-            t0 = pc()
-            out = original(*args, **kwargs)
-            ns[label] += pc() - t0
-            calls[label] += 1
-            return out
-
         self.stage_of[label] = stage
-        self._patches.append((owner, name, original, timed))
+        self._patches.append((owner, name, original, make_timed(original, label, self.ns, self.calls)))
 
     def on(self) -> None:
         for owner, name, _, wrapped in self._patches:
@@ -218,18 +228,57 @@ def pymunk_twin(scene: str):
     return engines.PymunkAdapter(engines.SCENES[scene]())
 
 
-def profile(scene: str, responder: str, args, pc_ns: float, sink) -> dict:
+def calibrate(pc_ns: float, samples: int = 100_000, repeats: int = 7) -> float:
+    """The wall time (ns) a timing wrapper adds to one call, beyond the call itself.
+
+    Used to take the wrappers' cost out of the wrapped twin's step time, so that the
+    stages and the Python left over come from the same timed steps.
+    """
+    def noop(*args):
+        return None
+
+    ns: dict[str, int] = defaultdict(int)
+    calls: dict[str, int] = defaultdict(int)
+    timed = make_timed(noop, "noop", ns, calls)
+    added = []
+    for _ in range(repeats):
+        t0 = time.perf_counter_ns()
+        for _ in range(samples):
+            noop(1.0, 2)
+        direct = time.perf_counter_ns() - t0
+        t0 = time.perf_counter_ns()
+        for _ in range(samples):
+            timed(1.0, 2)
+        added.append((time.perf_counter_ns() - t0 - direct) / samples)
+    return statistics.median(added)
+
+
+def timed_loop(step, n: int) -> float:
+    """µs per call of ``n`` calls of step()."""
+    t0 = time.perf_counter_ns()
+    for _ in range(n):
+        step()
+    return (time.perf_counter_ns() - t0) / n / 1e3
+
+
+def profile(scene: str, responder: str, args, pc_ns: float, added_ns: float, sink) -> dict:
+    """Stage times of one scene and responder; see the module docstring."""
     make = SCENES[scene]
     plain = make(RESPONDERS[responder]())
     wrapped = make(RESPONDERS[responder]())
+    one_box = phys2d.scenes.vertical_stack(1, responder=RESPONDERS[responder]())
     peer = pymunk_twin(scene)
     for _ in range(args.warmup):
         plain.step(DT)
         wrapped.step(DT)
+        one_box.step(DT)
         if peer is not None:
             peer.step()
     probe = Probe(type(wrapped.responder))
-    totals: list[float] = []
+    plain_us: list[float] = []
+    step_us: list[float] = []  # the wrapped twin's step less what the wrappers added
+    left_us: list[float] = []
+    box_us: list[float] = []
     ratios: list[float] = []
     per_label: dict[str, list[float]] = defaultdict(list)
     calls_per_step: dict[str, float] = {}
@@ -237,41 +286,43 @@ def profile(scene: str, responder: str, args, pc_ns: float, sink) -> dict:
         gc.collect()
         gc.disable()
         try:
-            t0 = time.perf_counter_ns()
-            for _ in range(args.steps):
-                plain.step(DT)
-            totals.append((time.perf_counter_ns() - t0) / args.steps / 1e3)
+            plain_us.append(timed_loop(lambda: plain.step(DT), args.steps))
             if peer is not None:
-                t0 = time.perf_counter_ns()
-                for _ in range(args.steps):
-                    peer.step()
-                ratios.append(totals[-1] / ((time.perf_counter_ns() - t0) / args.steps / 1e3))
+                ratios.append(plain_us[-1] / timed_loop(peer.step, args.steps))
+            box_us.append(timed_loop(lambda: one_box.step(DT), args.steps))
             probe.reset()
             probe.on()
             try:
-                for _ in range(args.steps):
-                    wrapped.step(DT)
+                wrapped_us = timed_loop(lambda: wrapped.step(DT), args.steps)
             finally:
                 probe.off()
         finally:
             gc.enable()
+        n_calls = sum(probe.calls.values())
+        stages_us = 0.0
         for label in probe.stage_of:
             n = probe.calls.get(label, 0)
-            per_label[label].append((probe.ns.get(label, 0) - n * pc_ns) / args.steps / 1e3)
+            us = (probe.ns.get(label, 0) - n * pc_ns) / args.steps / 1e3
+            per_label[label].append(us)
+            stages_us += us
             calls_per_step[label] = n / args.steps
+        step = wrapped_us - n_calls * added_ns / args.steps / 1e3
+        step_us.append(step)
+        left_us.append(step - stages_us)
     if not np.array_equal(plain.x, wrapped.x):
         raise RuntimeError(f"{scene}/{responder}: the twins diverged, so the stage times are not comparable")
     label_us = {label: statistics.median(v) for label, v in per_label.items()}
     stage_us = {s: 0.0 for s in STAGE_ORDER}
     for label, us in label_us.items():
         stage_us[probe.stage_of[label]] += us
-    total = statistics.median(totals)
     kernels = kernel_calls_of_one_step(plain)
     dispatch = dispatch_cost_us(kernels, sink) if sink is not None and kernels else float("nan")
     return {
-        "total": total,
+        "total": statistics.median(step_us),
+        "plain": statistics.median(plain_us),
+        "one_box": statistics.median(box_us),
         "stages": stage_us,
-        "left_over": total - sum(stage_us.values()),
+        "left_over": statistics.median(left_us),
         "labels": label_us,
         "calls": calls_per_step,
         "stage_of": dict(probe.stage_of),
@@ -281,25 +332,6 @@ def profile(scene: str, responder: str, args, pc_ns: float, sink) -> dict:
         "contacts": len(plain.contacts),
         "ratio": statistics.median(ratios) if ratios else float("nan"),
     }
-
-
-def one_box_step_us(responder: str, args) -> float:
-    """Time per step of a single box resting on the ground: next to nothing to compute."""
-    w = phys2d.scenes.vertical_stack(1, responder=RESPONDERS[responder]())
-    for _ in range(args.warmup):
-        w.step(DT)
-    times = []
-    for _ in range(args.repeats):
-        gc.collect()
-        gc.disable()
-        try:
-            t0 = time.perf_counter_ns()
-            for _ in range(args.steps):
-                w.step(DT)
-            times.append((time.perf_counter_ns() - t0) / args.steps / 1e3)
-        finally:
-            gc.enable()
-    return statistics.median(times)
 
 
 # -- reporting -----------------------------------------------------------------------------------
@@ -342,7 +374,7 @@ def load_average() -> str:
         return "?"
 
 
-def report(results: dict, one_box: dict, args, pc_ns: float, command: str, load: tuple[str, str]) -> str:
+def report(results: dict, args, pc_ns: float, added_ns: float, command: str, load: tuple[str, str]) -> str:
     import numba
 
     L = [
@@ -352,17 +384,20 @@ def report(results: dict, one_box: dict, args, pc_ns: float, command: str, load:
         f"- date: {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
         f"- checkout: {git_rev()}",
         f"- machine: {cpu()}, {os.cpu_count()} cores, {platform.platform()}",
-        f"- load average (1 min) at the start and the end of the run: {load[0]} and {load[1]}",
+        f"- load average (1 min) at the start and the end of the run: {load[0]} and {load[1]} (other work on "
+        "the machine inflates the times; the shares and ratios suffer less)",
         f"- versions: python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}",
         f"- method: {args.warmup} warm-up steps, then {args.repeats} repeats of {args.steps} steps; in each "
-        "repeat the plain world is timed, then its twin with the stage functions wrapped; medians over repeats. "
-        f"The timer's own cost ({pc_ns:.0f} ns per wrapped call) is taken off each call. "
-        "Method and stage list: the docstring of `benchmarks/stages.py`.",
+        "repeat the plain world, pymunk on the same scene, a one-box scene, then the twin with its stage "
+        "functions wrapped; medians over repeats. The timer's own cost "
+        f"({pc_ns:.0f} ns) is taken off each wrapped call, and the wall time a wrapper adds to a call "
+        f"({added_ns:.0f} ns) off the wrapped twin's step, so the stages and the Python left over come from "
+        "the same steps. Method and stage list: the docstring of `benchmarks/stages.py`.",
         "- responders: `PGS(iterations=10, warm_start=True)` (as in peers.py) and `SoftStep(substeps=4)`",
         "",
-        "Times in µs per step; the share of the plain step's time in brackets. The ratio to pymunk "
-        "(benchmarks/engines.py's pymunk adapter on the same scene, timed after the plain twin in each "
-        "repeat) carries over between machines better than the times do.",
+        "Times in µs per step; in brackets the share of the step. The ratio to pymunk "
+        "(benchmarks/engines.py's pymunk adapter on the same scene, in the same repeats) carries over between "
+        "machines better than the times do.",
     ]
     for scene, per in results.items():
         names = list(per)
@@ -373,14 +408,16 @@ def report(results: dict, one_box: dict, args, pc_ns: float, command: str, load:
                                for r in names])
         rows.append(["Python left over"] + [f"{per[r]['left_over']:.1f} ({pct(per[r]['left_over'], per[r]['total'])})"
                                             for r in names])
-        rows.append(["**step (plain twin)**"] + [f"**{per[r]['total']:.1f}**" for r in names])
-        rows.append(["step / pymunk's step, same repeats"] + [f"{per[r]['ratio']:.2f}x" for r in names])
+        rows.append(["**step** (wrapped twin, less the wrappers)"] + [f"**{per[r]['total']:.1f}**" for r in names])
+        rows.append(["step of the plain twin (a check)"] + [f"{per[r]['plain']:.1f}" for r in names])
+        rows.append(["plain step / pymunk's step"] + [f"{per[r]['ratio']:.2f}x" for r in names])
         rows.append(["numba kernels called from Python per step"] + [str(per[r]["kernel_calls"]) for r in names])
         rows.append(["numba dispatch, estimated (inside the stages above)"]
                     + [f"{per[r]['dispatch']:.1f} ({pct(per[r]['dispatch'], per[r]['total'])})" for r in names])
         rows.append(["**fixed cost: Python left over + dispatch**"]
                     + [f"**{per[r]['left_over'] + per[r]['dispatch']:.1f}** "
                        f"({pct(per[r]['left_over'] + per[r]['dispatch'], per[r]['total'])})" for r in names])
+        rows.append(["one-box scene's step, same repeats"] + [f"{per[r]['one_box']:.1f}" for r in names])
         L += table(["stage", *names], rows)
         labels = list(per[names[0]]["labels"])
         for r in names[1:]:
@@ -398,13 +435,11 @@ def report(results: dict, one_box: dict, args, pc_ns: float, command: str, load:
         L += ["", "<details><summary>by function (µs per step; calls per step in brackets)</summary>", ""]
         L += table(["function", "stage", *names], rows)
         L += ["", "</details>"]
-    L += ["", "## A one-box scene (a single box resting on the ground)", ""]
-    L += table(["responder", "µs per step"], [[r, f"{us:.1f}"] for r, us in one_box.items()])
-    L += ["", "## Reading", "", *reading(results, one_box), ""]
+    L += ["", "## Reading", "", *reading(results), ""]
     return "\n".join(L)
 
 
-def reading(results: dict, one_box: dict) -> list[str]:
+def reading(results: dict) -> list[str]:
     """Which stages dominate, and the fixed cost, in words (from the figures above)."""
     out = []
     for scene, per in results.items():
@@ -419,9 +454,9 @@ def reading(results: dict, one_box: dict) -> list[str]:
         fixed = res["left_over"] + res["dispatch"]
         out.append(
             f"- Fixed cost per step on {small}, {r}: {fixed:.0f} µs of {res['total']:.0f} µs "
-            f"({pct(fixed, res['total'])}; the whole step is {res['ratio']:.1f}x pymunk's) "
-            f"(Python left over {res['left_over']:.0f} µs, numba dispatch about {res['dispatch']:.0f} µs "
-            f"over {res['kernel_calls']} kernel calls); a one-box scene steps in {one_box.get(r, float('nan')):.0f} µs."
+            f"({pct(fixed, res['total'])}): Python left over {res['left_over']:.0f} µs and numba dispatch "
+            f"about {res['dispatch']:.0f} µs over {res['kernel_calls']} kernel calls. A one-box scene steps "
+            f"in {res['one_box']:.0f} µs; the whole step is {res['ratio']:.1f}x pymunk's."
         )
     return out
 
@@ -455,18 +490,18 @@ def main(argv=None) -> int:
     except Exception as exc:  # noqa: BLE001  (no estimate rather than no profile)
         print(f"numba dispatch estimate unavailable: {exc}")
         sink = None
+    added_ns = calibrate(pc_ns)
     results: dict[str, dict] = {}
     for scene in args.scenes:
         results[scene] = {}
         for r in args.responders:
-            res = profile(scene, r, args, pc_ns, sink)
+            res = profile(scene, r, args, pc_ns, added_ns, sink)
             results[scene][r] = res
             stages = ", ".join(f"{s} {us:.1f}" for s, us in res["stages"].items())
-            print(f"{scene} {r}: step {res['total']:.1f} us = {stages}, Python left over {res['left_over']:.1f}; "
-                  f"dispatch {res['dispatch']:.1f} us over {res['kernel_calls']} kernel calls", flush=True)
-    one_box = {r: one_box_step_us(r, args) for r in args.responders}
-    print("one box:", ", ".join(f"{r} {us:.1f} us" for r, us in one_box.items()))
-    text = report(results, one_box, args, pc_ns, command, (load_start, load_average()))
+            print(f"{scene} {r}: step {res['total']:.1f} us (plain {res['plain']:.1f}) = {stages}, Python left "
+                  f"over {res['left_over']:.1f}; dispatch {res['dispatch']:.1f} us over {res['kernel_calls']} kernel "
+                  f"calls; one box {res['one_box']:.1f} us", flush=True)
+    text = report(results, args, pc_ns, added_ns, command, (load_start, load_average()))
     if args.quick:
         print(text)
     else:
