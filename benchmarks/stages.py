@@ -24,9 +24,11 @@ the wrapped one.
   The script records the arguments of every kernel call of one step and times an
   empty numba function called with the same arguments; the sum is the dispatch
   cost per step, which is inside the stage times;
-- **fixed cost per step** = Python left over + numba dispatch: what a step costs
-  whatever the scene's size. As a check, the step time of a one-box scene, timed
-  in the same repeats.
+- **fixed cost per step** = Python left over + numba dispatch on the small scene:
+  what a step costs whatever the scene's size. As a check, the step time of a
+  one-box scene, timed in the same repeats. On large scenes the Python left over
+  also holds numpy work that grows with the contacts (arrays allocated per pair,
+  fancy-indexed copies), so there it is not a fixed cost.
 
 All figures are medians over repeats. Stages:
 
@@ -414,7 +416,7 @@ def report(results: dict, args, pc_ns: float, added_ns: float, command: str, loa
         rows.append(["numba kernels called from Python per step"] + [str(per[r]["kernel_calls"]) for r in names])
         rows.append(["numba dispatch, estimated (inside the stages above)"]
                     + [f"{per[r]['dispatch']:.1f} ({pct(per[r]['dispatch'], per[r]['total'])})" for r in names])
-        rows.append(["**fixed cost: Python left over + dispatch**"]
+        rows.append(["**Python left over + dispatch** (the fixed cost, on a small scene)"]
                     + [f"**{per[r]['left_over'] + per[r]['dispatch']:.1f}** "
                        f"({pct(per[r]['left_over'] + per[r]['dispatch'], per[r]['total'])})" for r in names])
         rows.append(["one-box scene's step, same repeats"] + [f"{per[r]['one_box']:.1f}" for r in names])
