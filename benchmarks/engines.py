@@ -9,14 +9,18 @@ object with
 - ``contact_count()``: contact points of the last step;
 - ``max_overlap()``: deepest overlap (>= 0, metres) among those contact points,
   read from the engine's own contact data;
+- ``joint_gaps()``: (J,) distance between the two anchor points of each pin
+  joint, in scene order (m);
 - ``close()``: release anything the adapter holds (recordings).
 
 The scenes are plain data (``Scene``), so each engine builds exactly the same
-bodies in the same order. Units are SI throughout.
+bodies in the same order: the ground, the static pivots, the dynamic boxes,
+then the pin joints. Units are SI throughout.
 """
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field
 
@@ -50,18 +54,48 @@ class Box:
 
 
 @dataclass(frozen=True)
+class Pivot:
+    """A static circle: centre and radius (m), something to hang a chain from."""
+
+    x: float
+    y: float
+    radius: float
+
+
+def pivot_ref(k: int) -> int:
+    """How a Pin names ``Scene.pivots[k]`` (boxes are named by their index >= 0)."""
+    return -1 - k
+
+
+@dataclass(frozen=True)
+class Pin:
+    """A pin (revolute) joint holding body a's and body b's points at (x, y) together.
+
+    a, b: an index into ``Scene.boxes``, or ``pivot_ref(k)`` for ``Scene.pivots[k]``.
+    Joined bodies do not collide with each other.
+    """
+
+    a: int
+    b: int
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     boxes: tuple[Box, ...] = field(default_factory=tuple)
+    pivots: tuple[Pivot, ...] = field(default_factory=tuple)
+    pins: tuple[Pin, ...] = field(default_factory=tuple)
 
     def start(self) -> np.ndarray:
         return np.array([(b.x, b.y) for b in self.boxes], dtype=float)
 
 
-def vertical_stack(n: int) -> Scene:
-    """n touching 1 m boxes at x = 0; box k centred at y = 0.5 + k."""
-    boxes = tuple(Box(0.0, 0.5 + k, 0.5, 0.5) for k in range(n))
-    return Scene(f"vertical_stack_{n}", boxes)
+def vertical_stack(n: int, lean: float = 0.0, name: str | None = None) -> Scene:
+    """n touching 1 m boxes; box k centred at (lean * k, 0.5 + k), lean in m."""
+    boxes = tuple(Box(lean * k, 0.5 + k, 0.5, 0.5) for k in range(n))
+    return Scene(name or f"vertical_stack_{n}", boxes)
 
 
 def pyramid(rows: int) -> Scene:
@@ -86,14 +120,42 @@ def mass_ratio_100() -> Scene:
     return Scene("mass_ratio_100", (small, big))
 
 
+def heavy_chain(links: int = 20, ratio: float = 100.0, link_length: float = 0.5) -> Scene:
+    """``links`` boxes pinned end to end from a static pivot, carrying a box ``ratio``
+    times a link's mass; as ``phys2d.scenes.heavy_chain``.
+
+    Links are link_length x link_length / 4 boxes of density 1; the chain starts
+    straight out to the right of the pivot, at height (links + 1) * link_length + 1 m,
+    and swings down. The heavy box (side link_length) is pinned at its left edge
+    to the free end of the last link.
+    """
+    top = (links + 1) * link_length + 1.0
+    hw, hh = 0.5 * link_length, 0.125 * link_length
+    boxes = [Box((k + 0.5) * link_length, top, hw, hh) for k in range(links)]
+    h = 0.5 * link_length
+    link_mass = 4.0 * hw * hh
+    boxes.append(Box(links * link_length + h, top, h, h, density=ratio * link_mass / (4.0 * h * h)))
+    pins = [Pin(pivot_ref(0) if k == 0 else k - 1, k, k * link_length, top) for k in range(links + 1)]
+    name = f"heavy_chain_{links}" + ("" if ratio == 100.0 else f"_ratio_{ratio:g}")
+    return Scene(name, tuple(boxes), (Pivot(0.0, top, 0.05),), tuple(pins))
+
+
 SCENES = {
     "vertical_stack_10": lambda: vertical_stack(10),
     "vertical_stack_20": lambda: vertical_stack(20),
+    # box k shifted sideways by lean * k: symmetry no longer holds the stack up (issue 11)
+    "vertical_stack_20_lean_0.1mm": lambda: vertical_stack(20, 1e-4, "vertical_stack_20_lean_0.1mm"),
+    "vertical_stack_20_lean_1mm": lambda: vertical_stack(20, 1e-3, "vertical_stack_20_lean_1mm"),
     "pyramid_10": lambda: pyramid(10),
     "pyramid_20": lambda: pyramid(20),
     "pyramid_40": lambda: pyramid(40),
     "mass_ratio_100": mass_ratio_100,
+    "heavy_chain_20": lambda: heavy_chain(20),
 }
+
+
+class Unsupported(Exception):
+    """An engine (or phys2d responder) that cannot build a scene: the cell reads the message."""
 
 
 # --------------------------------------------------------------------------
@@ -128,6 +190,15 @@ class PymunkAdapter:
         gshape.elasticity = RESTITUTION
         space.add(ground, gshape)
 
+        pivots = []
+        for p in scene.pivots:
+            body = pymunk.Body(body_type=pymunk.Body.STATIC)
+            body.position = (p.x, p.y)
+            shape = pymunk.Circle(body, p.radius)
+            shape.friction = mu
+            shape.elasticity = RESTITUTION
+            space.add(body, shape)
+            pivots.append(body)
         self.bodies = []
         for box in scene.boxes:
             body = pymunk.Body()
@@ -138,6 +209,13 @@ class PymunkAdapter:
             shape.elasticity = RESTITUTION
             space.add(body, shape)
             self.bodies.append(body)
+        self.joints = []
+        for pin in scene.pins:
+            a, b = (self.bodies[r] if r >= 0 else pivots[-1 - r] for r in (pin.a, pin.b))
+            joint = pymunk.PivotJoint(a, b, (pin.x, pin.y))
+            joint.collide_bodies = False
+            space.add(joint)
+            self.joints.append(joint)
         self.space = space
         self._step = space.step
 
@@ -175,6 +253,14 @@ class PymunkAdapter:
         d = self._arbiter_distances()
         return max(0.0, -min(d)) if d else 0.0
 
+    def joint_gaps(self) -> np.ndarray:
+        gaps = []
+        for j in self.joints:
+            pa = j.a.local_to_world(j.anchor_a)
+            pb = j.b.local_to_world(j.anchor_b)
+            gaps.append(math.hypot(pb.x - pa.x, pb.y - pa.y))
+        return np.array(gaps, dtype=float)
+
     def close(self) -> None:
         pass
 
@@ -199,6 +285,11 @@ class Box2DAdapter:
         world.SetAllowSleeping(False)
         ground = world.CreateStaticBody(position=GROUND_CENTER)
         ground.CreatePolygonFixture(box=GROUND_HALF, density=0.0, friction=FRICTION, restitution=RESTITUTION)
+        pivots = []
+        for p in scene.pivots:
+            body = world.CreateStaticBody(position=(p.x, p.y))
+            body.CreateCircleFixture(radius=p.radius, density=0.0, friction=FRICTION, restitution=RESTITUTION)
+            pivots.append(body)
         self.bodies = []
         for box in scene.boxes:
             body = world.CreateDynamicBody(position=(box.x, box.y), angle=0.0, allowSleep=False)
@@ -209,6 +300,12 @@ class Box2DAdapter:
                 restitution=RESTITUTION,
             )
             self.bodies.append(body)
+        self.joints = []
+        for pin in scene.pins:
+            a, b = (self.bodies[r] if r >= 0 else pivots[-1 - r] for r in (pin.a, pin.b))
+            self.joints.append(
+                world.CreateRevoluteJoint(bodyA=a, bodyB=b, anchor=(pin.x, pin.y), collideConnected=False)
+            )
         self.world = world
         self._step = world.Step
 
@@ -255,8 +352,142 @@ class Box2DAdapter:
         s = self._separations()
         return max(0.0, -min(s)) if s else 0.0
 
+    def joint_gaps(self) -> np.ndarray:
+        gaps = []
+        for j in self.joints:
+            pa, pb = j.anchorA, j.anchorB  # world points
+            gaps.append(math.hypot(pb[0] - pa[0], pb[1] - pa[1]))
+        return np.array(gaps, dtype=float)
+
     def close(self) -> None:
         pass
+
+
+# --------------------------------------------------------------------------
+# Box2D v3 (built from the user's source tree by box2d_v3.py, through ctypes)
+# --------------------------------------------------------------------------
+
+V3_SUBSTEPS = 4  # Box2D v3's own default
+
+
+def load_box2d_v3(path) -> ctypes.CDLL:
+    """The harness library built by ``box2d_v3.build``, with its argument types declared."""
+    lib = ctypes.CDLL(str(path))
+    h, d, i = ctypes.c_void_p, ctypes.c_double, ctypes.c_int
+    pd, pi = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int)
+    signatures = {
+        "harness_box2d_version": (i, []),
+        "harness_noop": (None, [h]),
+        "harness_create": (h, [d, d, i]),
+        "harness_destroy": (None, [h]),
+        "harness_add_box": (i, [h, d, d, d, d, d, d, d, i]),
+        "harness_add_circle": (i, [h, d, d, d, d, d, d, i]),
+        "harness_add_pin": (i, [h, i, i, d, d]),
+        "harness_step": (None, [h, d]),
+        "harness_read": (None, [h, pi, i, pd, pd]),
+        "harness_contacts": (i, [h, pd]),
+        "harness_joint_gaps": (None, [h, pd]),
+    }
+    for name, (res, args) in signatures.items():
+        f = getattr(lib, name)
+        f.restype = res
+        f.argtypes = args
+    return lib
+
+
+def box2d_v3_version(lib: ctypes.CDLL) -> str:
+    v = lib.harness_box2d_version()
+    return f"{v // 10000}.{v // 100 % 100}.{v % 100}"
+
+
+class Box2DV3Adapter:
+    """Box2D v3: b2World_Step(dt, substeps), sleeping off, one worker, defaults otherwise.
+
+    Box2D v3's defaults: soft step with relaxation, contact hertz 30, damping ratio
+    10, push-out speed 3 m/s, continuous collision, contact recycling. Friction is
+    mixed as sqrt(mu_a * mu_b), so 0.6 per shape gives 0.6. Its polygons have no
+    skin (radius 0). Positions and angles are float32 inside Box2D.
+    """
+
+    name = "Box2D-v3"
+
+    def __init__(self, scene: Scene, lib: ctypes.CDLL, substeps: int = V3_SUBSTEPS):
+        self._lib = lib
+        h = lib.harness_create(GRAVITY[0], GRAVITY[1], substeps)
+        if not h:
+            raise MemoryError("harness_create failed")
+        self._h = h
+
+        def check(index: int) -> int:
+            if index < 0:
+                raise MemoryError("the Box2D v3 harness could not grow its arrays")
+            return index
+
+        check(lib.harness_add_box(h, *GROUND_CENTER, *GROUND_HALF, 1.0, FRICTION, RESTITUTION, 0))
+        pivots = [check(lib.harness_add_circle(h, p.x, p.y, p.radius, 1.0, FRICTION, RESTITUTION, 0))
+                  for p in scene.pivots]
+        bodies = [check(lib.harness_add_box(h, b.x, b.y, b.hw, b.hh, b.density, FRICTION, RESTITUTION, 1))
+                  for b in scene.boxes]
+        for pin in scene.pins:
+            a, b = (bodies[r] if r >= 0 else pivots[-1 - r] for r in (pin.a, pin.b))
+            check(lib.harness_add_pin(h, a, b, pin.x, pin.y))
+        self._n_joints = len(scene.pins)
+        n = len(bodies)
+        self._index = np.array(bodies, dtype=np.int32)
+        self._xy = np.zeros((n, 2))
+        self._angle = np.zeros(n)
+        self._args = (
+            self._index.ctypes.data_as(ctypes.POINTER(ctypes.c_int)),
+            n,
+            self._xy.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            self._angle.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+        )
+        self._step = lib.harness_step
+        self._noop = lib.harness_noop
+
+    def step(self) -> None:
+        self._step(self._h, DT)
+
+    def noop(self) -> None:
+        """The same Python and ctypes path as ``step``, into a C function that does nothing."""
+        self._noop(self._h)
+
+    def _read(self) -> None:
+        self._lib.harness_read(self._h, *self._args)
+
+    def positions(self) -> np.ndarray:
+        self._read()
+        return self._xy.copy()
+
+    def angles(self) -> np.ndarray:
+        self._read()
+        return self._angle.copy()
+
+    def _contacts(self) -> tuple[int, float]:
+        deepest = ctypes.c_double(0.0)
+        count = self._lib.harness_contacts(self._h, ctypes.byref(deepest))
+        if count < 0:
+            raise MemoryError("the Box2D v3 harness could not grow its contact buffer")
+        return count, deepest.value
+
+    def contact_count(self) -> int:
+        return self._contacts()[0]
+
+    def max_overlap(self) -> float:
+        return self._contacts()[1]
+
+    def joint_gaps(self) -> np.ndarray:
+        gaps = np.zeros(self._n_joints)
+        self._lib.harness_joint_gaps(self._h, gaps.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return gaps
+
+    def close(self) -> None:
+        if getattr(self, "_h", None):
+            self._lib.harness_destroy(self._h)
+            self._h = None
+
+    def __del__(self) -> None:
+        self.close()
 
 
 # --------------------------------------------------------------------------
@@ -279,6 +510,8 @@ class Phys2DAdapter:
 
         if responder is None:
             responder = phys2d.PGS(iterations=ITERATIONS, warm_start=True)
+        if scene.pins and not responder.handles_joints:
+            raise Unsupported("no joints")
         w = phys2d.World(gravity=GRAVITY, responder=responder)
         w.add_box(
             position=GROUND_CENTER,
@@ -289,6 +522,10 @@ class Phys2DAdapter:
             restitution=RESTITUTION,
             static=True,
         )
+        pivots = [
+            w.add_circle(position=(p.x, p.y), radius=p.radius, friction=FRICTION, restitution=RESTITUTION, static=True)
+            for p in scene.pivots
+        ]
         first = len(w.bodies)
         self.bodies = []
         for box in scene.boxes:
@@ -306,6 +543,10 @@ class Phys2DAdapter:
                 )
             )
         self._index = np.arange(first, first + len(scene.boxes))
+        self.joints = []
+        for pin in scene.pins:
+            a, b = (self.bodies[r] if r >= 0 else pivots[-1 - r] for r in (pin.a, pin.b))
+            self.joints.append(w.add_pin_joint(a, b, anchor=(pin.x, pin.y)))
         self.world = w
         self._rec = None
         self._recorder = None
@@ -339,6 +580,9 @@ class Phys2DAdapter:
     def max_overlap(self) -> float:
         sep = np.asarray(self.world.contacts.separation, dtype=float)
         return max(0.0, float(-sep.min())) if sep.size else 0.0
+
+    def joint_gaps(self) -> np.ndarray:
+        return np.array([j.gap() for j in self.joints], dtype=float)
 
     def close(self) -> None:
         if self._recorder is not None:

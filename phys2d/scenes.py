@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from .responders.base import Responder
-from .shapes import positive_float
+from .shapes import finite_float, positive_float
 from .world import World
 
 GROUND_HALF_WIDTH = 100.0  # m
@@ -44,14 +44,19 @@ def pyramid(rows: int = 20, responder: Responder | None = None, size: float = 1.
     return w
 
 
-def vertical_stack(n: int = 10, responder: Responder | None = None, size: float = 1.0) -> World:
-    """n touching boxes, one on another, at x = 0."""
+def vertical_stack(n: int = 10, responder: Responder | None = None, size: float = 1.0,
+                   lean: float = 0.0) -> World:
+    """n touching boxes of side ``size`` (m), one on another; box k (0 at the bottom) is
+    centred at x = lean * k (m), so lean != 0 makes a stack that leans to one side
+    (lean < 0: to the left). lean = 0 is the straight stack at x = 0.
+    """
     n = _check_count(n, "n")
+    lean = finite_float(lean, "lean")
     w = World(responder=responder)
     ground(w)
     h = 0.5 * positive_float(size, "size")
     for k in range(n):
-        w.add_box(position=(0.0, h + k * size), half_extents=(h, h))
+        w.add_box(position=(lean * k, h + k * size), half_extents=(h, h))
     return w
 
 
@@ -126,6 +131,40 @@ def pendulum_chain(links: int = 10, responder: Responder | None = None,
     return w
 
 
+def heavy_chain(links: int = 20, ratio: float = 100.0, responder: Responder | None = None,
+                link_length: float = 0.5) -> World:
+    """A chain of ``links`` boxes carrying a box ``ratio`` times as heavy as one link.
+
+    As ``pendulum_chain``: links are link_length x link_length / 4 boxes of density
+    1 kg/m^2, pinned end to end and hung from a static pivot (a circle of radius
+    0.05 m, body 1 after the ground), the chain starting straight out to the right
+    and swinging down. A square box of side link_length is pinned at its left edge
+    to the free end of the last link; its density makes its mass ratio * a link's
+    mass (kg). The pivot is (links + 1) * link_length + 1 m above the ground, so
+    the hanging chain and box clear it by 1 m. Joints: ``links`` + 1 pins, joined
+    bodies do not collide. Needs a responder that solves joints: others raise
+    ValueError.
+    """
+    links = _check_count(links, "links")
+    ratio = positive_float(ratio, "ratio")
+    link_length = positive_float(link_length, "link_length")
+    w = World(responder=responder)
+    ground(w)
+    top = (links + 1) * link_length + 1.0
+    previous = w.add_circle(position=(0.0, top), radius=0.05, static=True)
+    half = (0.5 * link_length, 0.125 * link_length)
+    link_mass = 4.0 * half[0] * half[1]  # kg, at density 1
+    for k in range(links):
+        link = w.add_box(position=((k + 0.5) * link_length, top), half_extents=half)
+        w.add_pin_joint(previous, link, anchor=(k * link_length, top))
+        previous = link
+    h = 0.5 * link_length
+    heavy = w.add_box(position=(links * link_length + h, top), half_extents=(h, h),
+                      density=ratio * link_mass / (4.0 * h * h))
+    w.add_pin_joint(previous, heavy, anchor=(links * link_length, top))
+    return w
+
+
 SCENES = {
     "pyramid": (pyramid, "rows of the pyramid"),
     "vertical_stack": (vertical_stack, "boxes in the stack"),
@@ -133,4 +172,5 @@ SCENES = {
     "dominoes": (dominoes, "dominoes"),
     "mixed_shapes": (mixed_shapes, "bodies dropped"),
     "pendulum_chain": (pendulum_chain, "links in the chain"),
+    "heavy_chain": (heavy_chain, "links in the chain (the box at its end is 100x a link's mass)"),
 }
