@@ -99,7 +99,7 @@ class _Background:
     def __init__(self, kwargs: dict[str, Any], window: int) -> None:
         import multiprocessing as mp
 
-        from .sink import serve
+        from .writer import serve
 
         ctx = mp.get_context("fork")
         self.queue = ctx.Queue()

@@ -1,0 +1,50 @@
+"""The writer process of a ``Recorder(background=True)``.
+
+Kept apart from ``sink`` so that the simulating process, which only forks this,
+never imports rerun: the child imports it (about 0.5-1 s) while the simulation runs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def serve(queue, conn, kwargs: dict[str, Any]) -> None:
+    """A writer process: a Sink fed from ``queue`` with ("add", [(label, sample, info), ...]) and
+    ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text). When the
+    simulating process dies, the file is closed too, so every tick sent is readable."""
+    import os
+    import queue as queues
+
+    parent = os.getppid()
+    sink = None
+    try:
+        from .sink import Sink  # rerun is imported here, in the writer, not in the simulating process
+
+        sink = Sink(**kwargs)
+        while True:
+            try:
+                msg = queue.get(timeout=1.0)
+            except queues.Empty:
+                if os.getppid() != parent:  # orphaned: the simulating process is gone
+                    break
+                continue
+            except (EOFError, OSError):
+                break
+            if msg[0] == "add":
+                for label, sample, info in msg[1]:
+                    sink.add(label, sample, info)
+            else:
+                break
+        sink.close()
+        conn.send(("closed", sink.plotted()))
+    except BaseException as e:  # report it to the recorder: one line
+        if sink is not None:
+            try:
+                sink.close()
+            except Exception:
+                pass
+        try:
+            conn.send(("error", f"{type(e).__name__}: {e}"))
+        except Exception:
+            pass
