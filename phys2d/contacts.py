@@ -18,16 +18,11 @@ import numpy as np
 from numba import njit
 
 
-def contact_keys(uid: np.ndarray, body_a: np.ndarray, body_b: np.ndarray,
-                 feature: np.ndarray) -> np.ndarray:
-    return (uid[body_a] << 39) | (uid[body_b] << 16) | feature.astype(np.int64)
-
-
 @njit(cache=True)
-def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, rank, lam, hit):
+def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit):
     """Contact caching: walk both sorted key lists together (a merge), and for every
-    contact c found in last tick's cache set hit[c] and start its rows (2 rank[c] and
-    2 rank[c] + 1) from the cached impulses lambda_n and lambda_t. Returns the hits.
+    contact c found in last tick's cache set hit[c] and lambda_n[c], lambda_t[c] to the
+    cached impulses (0 for the others). Returns the number of hits.
     """
     hits = 0
     m = 0
@@ -36,11 +31,13 @@ def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, rank
             m += 1
         if m < cache_keys.shape[0] and cache_keys[m] == keys[c]:
             hit[c] = True
-            lam[2 * rank[c]] = cache_lambda_n[m]
-            lam[2 * rank[c] + 1] = cache_lambda_t[m]
+            lambda_n[c] = cache_lambda_n[m]
+            lambda_t[c] = cache_lambda_t[m]
             hits += 1
         else:
             hit[c] = False
+            lambda_n[c] = 0.0
+            lambda_t[c] = 0.0
     return hits
 
 
@@ -112,15 +109,18 @@ class ContactCache:
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def warm_start(self, keys: np.ndarray, rank: np.ndarray, lam: np.ndarray) -> np.ndarray:
-        """For sorted ``keys``: start the rows of cached contacts (contact c's rows are
-        2 rank[c] and 2 rank[c] + 1) from their cached impulses; returns the hit mask."""
-        hit = np.zeros(keys.shape[0], np.bool_)
-        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, rank, lam, hit)
-        return hit
+    def warm_start(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For sorted ``keys``: (hit, lambda_n, lambda_t), the cached impulses (N s) of the
+        contacts found in the cache and 0 for the others, in the order of ``keys``."""
+        k = keys.shape[0]
+        hit = np.zeros(k, np.bool_)
+        lambda_n, lambda_t = np.zeros(k), np.zeros(k)
+        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, lambda_n, lambda_t, hit)
+        return hit, lambda_n, lambda_t
 
     def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
-        """Remember this tick's impulses; ``keys`` must be sorted ascending (kept, not copied)."""
-        self.keys = keys
-        self.lambda_n = lambda_n
-        self.lambda_t = lambda_t
+        """Remember this tick's impulses; ``keys`` must be sorted ascending. The cache keeps
+        copies: the arrays handed to the user never feed the next warm start."""
+        self.keys = keys.copy()
+        self.lambda_n = lambda_n.copy()
+        self.lambda_t = lambda_t.copy()

@@ -13,10 +13,17 @@ A row k couples bodies i and j. Everything the responders need is stored per row
     mu         (R,)    friction coefficient of a friction row
     lam        (R,)    lambda_k, impulses in N s: the warm start going in, the answer coming out
     kind       (R,)    ROW_NORMAL, ROW_FRICTION, ROW_JOINT
-    order      (K,)    which contact each pair of rows belongs to: rows 2q (normal)
-                       and 2q + 1 (friction) are contact order[q]'s. The rows are
-                       stored in the order the responders visit them (graph colouring,
-                       see ``constraints.order``); joint rows follow the contact rows.
+
+and the row map, the one place that says which rows belong to which contact:
+
+    order         (K,)  contact order[q] is the q-th contact the responders visit
+    normal_row    (K,)  the normal row of the q-th visited contact
+    friction_row  (K,)  its friction row
+    first_joint_row     joint rows run from here to the end
+
+Contacts are stored in the order the responders visit them (pair order, or graph
+colouring: see ``constraints.order``); ``contact_impulses()`` gives lambda_n and
+lambda_t back in contact order.
 """
 
 from __future__ import annotations
@@ -32,8 +39,15 @@ FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
 
 
+def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The row map: the q-th visited contact owns rows 2q (normal) and 2q + 1 (friction);
+    joint rows follow the last contact's. Returns (normal_row, friction_row, first_joint_row)."""
+    q = np.arange(n_contacts, dtype=np.int32)
+    return 2 * q, 2 * q + 1, 2 * n_contacts
+
+
 class Rows:
-    """The constraint rows of one step (arrays of length R)."""
+    """The constraint rows of one step (arrays of length R) and the row map."""
 
     def __init__(self, n_rows: int) -> None:
         self.i = np.zeros(n_rows, np.int32)
@@ -48,18 +62,43 @@ class Rows:
         self.mu = np.zeros(n_rows)
         self.lam = np.zeros(n_rows)
         self.kind = np.zeros(n_rows, np.int8)
-        self.order = np.arange(n_rows // 2, dtype=np.int32)  # rows 2q, 2q + 1 are contact order[q]
+        self.map_contacts(np.zeros(0, np.int32))
+
+    _ARRAYS = ("i", "j", "J", "JM", "A_diag", "xi", "lo", "hi", "bound_row", "mu", "lam", "kind")
 
     def __len__(self) -> int:
         return int(self.i.shape[0])
 
+    def map_contacts(self, order: np.ndarray) -> None:
+        """Give the contacts, visited in ``order``, their rows (``contact_row_map``)."""
+        self.order = order
+        self.n_contacts = int(order.shape[0])
+        self.normal_row, self.friction_row, self.first_joint_row = contact_row_map(self.n_contacts)
+
+    def contact_impulses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
+        lambda_n = np.empty(self.n_contacts)
+        lambda_t = np.empty(self.n_contacts)
+        lambda_n[self.order] = self.lam[self.normal_row]
+        lambda_t[self.order] = self.lam[self.friction_row]
+        return lambda_n, lambda_t
+
+    def start_contacts(self, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
+        """Start the contact rows from (lambda_n, lambda_t) given in contact order (warm starting)."""
+        self.lam[self.normal_row] = lambda_n[self.order]
+        self.lam[self.friction_row] = lambda_t[self.order]
+
+    def joint_impulses(self) -> np.ndarray:
+        """lambda of the joint rows, in joint order (a copy)."""
+        return self.lam[self.first_joint_row :].copy()
+
     def head(self, n_rows: int) -> Rows:
-        """The first n_rows rows as views (no copy), with lambda reset to 0."""
+        """The first n_rows rows as views (no copy), with lambda reset to 0 and no contacts mapped."""
         rows = object.__new__(Rows)
-        for name in ("i", "j", "J", "JM", "A_diag", "xi", "lo", "hi", "bound_row", "mu", "lam", "kind"):
+        for name in self._ARRAYS:
             setattr(rows, name, getattr(self, name)[:n_rows])
         rows.lam[:] = 0.0
-        rows.order = np.zeros(0, np.int32)  # the caller sets the contacts' solve order
+        rows.map_contacts(np.zeros(0, np.int32))
         return rows
 
 
@@ -70,14 +109,17 @@ class RowBuffer:
         self._rows = Rows(0)
         self._head = self._rows.head(0)
 
-    def take(self, n_rows: int) -> Rows:
-        """The first n_rows rows, lambda at 0 (the same views as last step when the count holds)."""
+    def take(self, order: np.ndarray, n_joint_rows: int) -> Rows:
+        """Rows for the contacts visited in ``order`` and then the joints, lambda at 0
+        (the same views as last step when the row count holds)."""
+        n_rows = contact_row_map(len(order))[2] + n_joint_rows
         if n_rows > len(self._rows):
             self._rows = Rows(max(n_rows, 2 * len(self._rows)))
-        elif n_rows == len(self._head):
+        if n_rows == len(self._head):
             self._head.lam[:] = 0.0
-            return self._head
-        self._head = self._rows.head(n_rows)
+        else:
+            self._head = self._rows.head(n_rows)
+        self._head.map_contacts(order)
         return self._head
 
 
@@ -114,16 +156,16 @@ def apply_row_impulse(k, i, j, JM, impulse, V):
 
 
 @njit(cache=True)
-def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv, dt, beta,
-                 slop, restitution_threshold, friction_model, gravity, points_in_manifold,
+def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1,
+                 M_inv, dt, beta, slop, restitution_threshold, friction_model, gravity, points_in_manifold,
                  out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu, kind):
-    """Normal row 2q and friction row 2q + 1 for contact point c = order[q] (FORMULATION.md).
+    """The normal and friction rows of contact point c = order[q] (FORMULATION.md).
 
     Normal:   xi = -(beta/dt) min(0, C + slop) when touching (C <= 0); xi = -C/dt for a
               speculative point still C > 0 apart (it may close the gap, no more); the
               bounce -e (J V1) instead when larger and the approach speed exceeds the
               threshold; lambda in [0, inf).
-    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of row 2q, or the
+    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of its normal row, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
     """
@@ -133,7 +175,7 @@ def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1,
         nx, ny = normal[c, 0], normal[c, 1]
         r_ix, r_iy = point[c, 0] - x[i, 0], point[c, 1] - x[i, 1]
         r_jx, r_jy = point[c, 0] - x[j, 0], point[c, 1] - x[j, 1]
-        k = 2 * q
+        k = normal_row[q]
         out_i[k] = i
         out_j[k] = j
         fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
@@ -150,16 +192,16 @@ def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1,
         hi[k] = np.inf
         bound_row[k] = -1
         out_mu[k] = 0.0
-        kind[k] = 0
-        k += 1
+        kind[k] = ROW_NORMAL
+        k = friction_row[q]
         out_i[k] = i
         out_j[k] = j
         fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
         xi[k] = 0.0
         out_mu[k] = mu[c]
-        kind[k] = 1
-        if friction_model == 0:
-            bound_row[k] = k - 1
+        kind[k] = ROW_FRICTION
+        if friction_model == FRICTION_COULOMB:
+            bound_row[k] = normal_row[q]
             lo[k] = -np.inf
             hi[k] = np.inf
         else:

@@ -27,8 +27,8 @@ class StepContext:
     V: np.ndarray  # (N, 3) [vx, vy, omega] after external forces
     V1: np.ndarray  # (N, 3) the velocities the tick began with, before external forces
     M_inv: np.ndarray  # (N, 3) diagonal of M^-1
-    rows: Rows  # contact rows first (2q normal, 2q + 1 friction for the q-th contact below), then joints
-    n_contacts: int  # K: rows [0, 2K) belong to contacts; the contact arrays below are in row order
+    rows: Rows  # the rows and the row map: rows.normal_row[q], rows.friction_row[q] are contact q's below
+    n_contacts: int  # K; the contact arrays below are in row (solve) order, joint rows follow the contacts
     body_a: np.ndarray  # (K,) contact bodies (for responders that work pair by pair)
     body_b: np.ndarray
     point: np.ndarray  # (K, 2) contact points p, m
@@ -73,7 +73,7 @@ class StepReport:
     joint_impulses: np.ndarray = field(default_factory=lambda: np.zeros(0))
     system: object = None
     solve_order: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
-    # rows 2q (normal) and 2q + 1 (friction) of the step's system belong to contact solve_order[q]
+    # the q-th contact visited (and given the q-th pair of rows of the step's system) is solve_order[q]
 
     @property
     def cache_hit_rate(self) -> float:

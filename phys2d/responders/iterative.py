@@ -33,9 +33,9 @@ colliding points.
 
 from __future__ import annotations
 
+from ..validation import Setting, check_int
 from .base import Responder, SolveResult, StepContext
 from .naive import pairwise_response
-from .pgs import _check_int
 
 
 class IterativeImpulse(Responder):
@@ -45,8 +45,10 @@ class IterativeImpulse(Responder):
     warm_start = False
     handles_joints = False
 
+    passes = Setting(lambda v, name: check_int(v, name, 1), "impulse passes per tick")
+
     def __init__(self, passes: int = 10) -> None:
-        self.passes = _check_int(passes, "passes", 1)
+        self.passes = passes
 
     def respond(self, ctx: StepContext) -> SolveResult:
         return pairwise_response(ctx, self.passes)

@@ -55,10 +55,10 @@ def manifold_starts(body_a: np.ndarray, body_b: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def colliding_points(separation, i, j, J, V, dt, out):
+def colliding_points(separation, normal_row, i, j, J, V, dt, out):
     """out[c] = True where point c is a collision: overlapping, or closing its gap this step."""
     for c in range(separation.shape[0]):
-        k = 2 * c
+        k = normal_row[c]
         a, b = i[k], j[k]
         vn = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
               + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
@@ -66,8 +66,8 @@ def colliding_points(separation, i, j, J, V, dt, out):
 
 
 @njit(cache=True)
-def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
-    """The mean of rows 2c + offset over the pair's colliding points c; returns its A_kk."""
+def _mean_row(start, end, row, use, J, M_inv, a, b, out_J, out_JM, p):
+    """The mean of rows row[c] over the pair's colliding points c; returns its A_kk."""
     count = 0
     for c in range(6):
         out_J[p, c] = 0.0
@@ -75,7 +75,7 @@ def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
         if use[c]:
             count += 1
             for m in range(6):
-                out_J[p, m] += J[2 * c + offset, m]
+                out_J[p, m] += J[row[c], m]
     A = 0.0
     for m in range(3):
         out_J[p, m] /= count
@@ -87,14 +87,14 @@ def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
 
 
 @njit(cache=True)
-def pair_rows(starts, use, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
+def pair_rows(starts, use, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
     """Each pair's normal and friction row at P_0, the mean of its colliding points.
 
     A pair without a colliding point gets A_n = 0 and is skipped by the passes.
     """
     for p in range(starts.shape[0] - 1):
         start, end = starts[p], starts[p + 1]
-        a, b = i[2 * start], j[2 * start]
+        a, b = i[normal_row[start]], j[normal_row[start]]
         pa[p] = a
         pb[p] = b
         any_used = False
@@ -104,8 +104,8 @@ def pair_rows(starts, use, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
             An[p] = 0.0
             At[p] = 0.0
             continue
-        An[p] = _mean_row(start, end, 0, use, J, M_inv, a, b, Jn, JMn, p)
-        At[p] = _mean_row(start, end, 1, use, J, M_inv, a, b, Jt, JMt, p)
+        An[p] = _mean_row(start, end, normal_row, use, J, M_inv, a, b, Jn, JMn, p)
+        At[p] = _mean_row(start, end, friction_row, use, J, M_inv, a, b, Jt, JMt, p)
 
 
 @njit(cache=True)
@@ -178,15 +178,15 @@ def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, toleran
 
 
 @njit(cache=True)
-def report_on_points(starts, use, f_n, f_t, lam):
-    """Share each pair's impulses equally among its colliding points (rows 2c, 2c + 1)."""
+def report_on_points(starts, use, normal_row, friction_row, f_n, f_t, lam):
+    """Share each pair's impulses equally among its colliding points."""
     for p in range(starts.shape[0] - 1):
         count = 0
         for c in range(starts[p], starts[p + 1]):
             count += use[c]
         for c in range(starts[p], starts[p + 1]):
-            lam[2 * c] = f_n[p] / count if use[c] else 0.0
-            lam[2 * c + 1] = f_t[p] / count if use[c] else 0.0
+            lam[normal_row[c]] = f_n[p] / count if use[c] else 0.0
+            lam[friction_row[c]] = f_t[p] / count if use[c] else 0.0
 
 
 def pairwise_response(ctx: StepContext, passes: int) -> SolveResult:
@@ -196,21 +196,21 @@ def pairwise_response(ctx: StepContext, passes: int) -> SolveResult:
     starts = manifold_starts(ctx.body_a, ctx.body_b)
     n_pairs = starts.shape[0] - 1
     use = np.zeros(k, np.bool_)
-    colliding_points(ctx.separation, r.i, r.j, r.J, ctx.V, ctx.dt, use)
+    colliding_points(ctx.separation, r.normal_row, r.i, r.j, r.J, ctx.V, ctx.dt, use)
     Jn, JMn, Jt, JMt = (np.zeros((n_pairs, 6)) for _ in range(4))
     An, At = np.zeros(n_pairs), np.zeros(n_pairs)
     pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
-    pair_rows(starts, use, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb)
+    pair_rows(starts, use, r.normal_row, r.friction_row, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb)
     first = starts[:-1]
     e = ctx.restitution[first] if k else np.zeros(0)
-    mu = r.mu[2 * first + 1] if k else np.zeros(0)
+    mu = r.mu[r.friction_row[first]] if k else np.zeros(0)
     f_n, f_t = np.zeros(n_pairs), np.zeros(n_pairs)
     residuals = np.zeros(passes)
     for s in range(passes):
         residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, ctx.V, f_n, f_t)
     push_apart(starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES,
                PUSH_TOLERANCE)
-    report_on_points(starts, use, f_n, f_t, r.lam)
+    report_on_points(starts, use, r.normal_row, r.friction_row, f_n, f_t, r.lam)
     return SolveResult(passes, residuals)
 
 
