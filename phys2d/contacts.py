@@ -73,6 +73,13 @@ class Contacts:
     def __len__(self) -> int:
         return int(self.body_a.shape[0])
 
+    def read_only(self) -> Contacts:
+        """Make every array read-only (the world hands these out: they describe a step taken,
+        and editing them must not look as if it could change the next) and return self."""
+        for name in self.__dataclass_fields__:
+            getattr(self, name).flags.writeable = False
+        return self
+
     def reordered(self, order: np.ndarray) -> Contacts:
         """The same contacts listed in ``order`` (contact order[q] becomes the q-th).
 

@@ -74,8 +74,8 @@ class World:
         self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with
         self._sweep_again = True  # bodies or exclusions changed since: the pairs must be found anew
         self._rows = RowBuffer()
-        self.contacts = Contacts()
-        self.last_step = StepReport()
+        self.contacts = Contacts().read_only()
+        self.last_step = StepReport().read_only()
         self.tick = 0
         self.time = 0.0
 
@@ -233,8 +233,8 @@ class World:
         for h in self._handles[i:]:
             h._index -= 1
         item._index = -1
-        self.contacts = Contacts()  # its indices no longer match w.bodies
-        self.last_step = StepReport()  # nor does the last step's report
+        self.contacts = Contacts().read_only()  # its indices no longer match w.bodies
+        self.last_step = StepReport().read_only()  # nor does the last step's report
         self._joints_changed()
 
     # -- joints --------------------------------------------------------------------
@@ -351,15 +351,15 @@ class World:
         k = len(c)
         c.normal_impulse, c.tangent_impulse = rows.contact_impulses()
         c.warm_started = hit
-        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)
+        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)  # copies: c is the user's now
         self._store_joint_impulses(rows)
-        self.contacts = c
+        self.contacts = c.read_only()
         self.last_step = StepReport(
             responder=responder.name, dt=dt, iterations=result.iterations,
             residuals=result.residuals,
             max_penetration=float(max(0.0, -c.separation.min())) if k else 0.0,
             contact_count=k, cache_hits=int(hit.sum()),
-            joint_impulses=rows.joint_impulses(), system=result.system, solve_order=order)
+            joint_impulses=rows.joint_impulses(), system=result.system, solve_order=order).read_only()
         self.tick += 1
         self.time += dt
         return self.last_step

@@ -75,6 +75,14 @@ class StepReport:
     solve_order: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     # the q-th contact visited (and given the q-th pair of rows of the step's system) is solve_order[q]
 
+    def read_only(self) -> StepReport:
+        """Make the report's arrays (and its system's) read-only, and return self."""
+        for a in (self.residuals, self.joint_impulses, self.solve_order):
+            a.flags.writeable = False
+        if self.system is not None:
+            self.system.read_only()
+        return self
+
     @property
     def cache_hit_rate(self) -> float:
         """Fraction of this step's contacts found in the cache (1.0 when there were none)."""

@@ -130,6 +130,14 @@ class MatrixSystem:
     mu: np.ndarray  # (R,)
     lam: np.ndarray  # (R,) N s
 
+    def read_only(self) -> MatrixSystem:
+        """Make every array of the system read-only, and return self."""
+        for a in (self.J.indptr, self.J.indices, self.J.data, self.A.indptr, self.A.indices, self.A.data,
+                  self.M_inv, self.V1, self.F_ext, self.xi, self.b, self.lo, self.hi, self.bound_row, self.mu,
+                  self.lam):
+            a.flags.writeable = False
+        return self
+
     def velocities(self) -> np.ndarray:
         """V2 = V1 + M^-1 (dt F_ext + J^T lam), (3N,)."""
         return self.V1 + self.M_inv * (self.dt * self.F_ext + self.J.dot_transposed(self.lam))
