@@ -41,6 +41,56 @@ def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lamb
     return hits
 
 
+UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pair of uids
+FEATURE_BITS = 16
+
+
+@njit(cache=True)
+def _root(parent, b):
+    """The representative of body b's island (union-find with path halving)."""
+    while parent[b] != b:
+        parent[b] = parent[parent[b]]
+        b = parent[b]
+    return b
+
+
+@njit(cache=True)
+def unloaded_islands(cache_keys, cache_lambda_n, keys, body_a, body_b, uid, static, cold):
+    """cold[c] = True for every contact c whose island lost a load since last tick.
+
+    A pair of bodies that pushed last tick (lambda_n > 0) and has no contact now (one
+    was removed, or they flew apart) leaves the impulses cached around it sized for a
+    load that is gone. Those stored impulses would launch what was under it, so every
+    contact connected to either body through dynamic bodies starts cold. Static bodies
+    do not connect islands: nothing flows through the ground.
+    """
+    n = uid.shape[0]
+    parent = np.arange(n)
+    for c in range(keys.shape[0]):
+        a, b = body_a[c], body_b[c]
+        if not static[a] and not static[b]:
+            ra, rb = _root(parent, a), _root(parent, b)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+    unloaded = np.zeros(n, np.bool_)
+    any_unloaded = False
+    m = 0
+    for e in range(cache_keys.shape[0]):
+        pair = cache_keys[e] >> FEATURE_BITS
+        while m < keys.shape[0] and (keys[m] >> FEATURE_BITS) < pair:
+            m += 1
+        if cache_lambda_n[e] <= 0.0 or (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
+            continue  # it carried nothing, or the pair still touches
+        for u in (pair >> UID_BITS, pair & ((1 << UID_BITS) - 1)):
+            b = np.searchsorted(uid, u)  # uids are ascending in the body arrays
+            if b < n and uid[b] == u and not static[b]:
+                unloaded[_root(parent, b)] = True
+                any_unloaded = True
+    for c in range(keys.shape[0]):
+        body = body_b[c] if static[body_a[c]] else body_a[c]
+        cold[c] = any_unloaded and unloaded[_root(parent, body)]
+
+
 @dataclass(eq=False)
 class Contacts:
     """The contact points of one step, as arrays of length K.
@@ -116,13 +166,20 @@ class ContactCache:
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def warm_start(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For sorted ``keys``: (hit, lambda_n, lambda_t), the cached impulses (N s) of the
-        contacts found in the cache and 0 for the others, in the order of ``keys``."""
-        k = keys.shape[0]
+    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(hit, lambda_n, lambda_t) for this step's contacts ``c`` (keys sorted), in their order:
+        the cached impulses (N s) of contacts found in the cache, 0 for the others and for
+        every contact of an island that lost a load (``unloaded_islands``)."""
+        k = len(c)
         hit = np.zeros(k, np.bool_)
         lambda_n, lambda_t = np.zeros(k), np.zeros(k)
-        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, lambda_n, lambda_t, hit)
+        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, c.key, lambda_n, lambda_t, hit)
+        cold = np.zeros(k, np.bool_)
+        unloaded_islands(self.keys, self.lambda_n, c.key, c.body_a, c.body_b, uid, static, cold)
+        hit &= ~cold
+        lambda_n[cold] = 0.0
+        lambda_t[cold] = 0.0
         return hit, lambda_n, lambda_t
 
     def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:

@@ -336,7 +336,7 @@ class World:
             V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
             c, order = self._collide(dt)
-            rows, hit = self._build_rows(c, order, V1, dt)
+            rows, hit = self._build_rows(c, order, V1, V, dt)
             # the responders see contacts in row order: contact q of ctx is contact order[q]
             rc = c.reordered(order) if responder.colour_order else c
             ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), rc.body_a, rc.body_b, rc.point,
@@ -351,7 +351,10 @@ class World:
         k = len(c)
         c.normal_impulse, c.tangent_impulse = rows.contact_impulses()
         c.warm_started = hit
-        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)  # copies: c is the user's now
+        # a point that met its partner fast within the step took an impact: an event, not a
+        # load, so its impulse is not carried to the next step
+        load = ~rows.contact_impacts()
+        self._cache.store(c.key, np.where(load, c.normal_impulse, 0.0), np.where(load, c.tangent_impulse, 0.0))
         self._store_joint_impulses(rows)
         self.contacts = c.read_only()
         self.last_step = StepReport(
@@ -400,8 +403,11 @@ class World:
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
                         feature=feature, key=key, friction=mu, restitution=e), order
 
-    def _build_rows(self, c: Contacts, order: np.ndarray, V1: np.ndarray, dt: float) -> tuple[Rows, np.ndarray]:
+    def _build_rows(self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
+                    ) -> tuple[Rows, np.ndarray]:
         """Constraint rows for this step: contacts (visited in ``order``), then the joints' rows.
+
+        V1 is the velocity the tick began with, V the one after external forces.
 
         Returns the rows, lambda started from the contact cache when the responder
         warm starts, and the mask of contacts found in the cache.
@@ -418,13 +424,13 @@ class World:
         else:
             points_in_manifold = np.ones(k)
         contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
-                     c.separation, c.friction, c.restitution, b.x, V1, b.M_inv, dt, r.beta, r.slop,
-                     r.restitution_threshold, r.friction_model,
+                     c.separation, c.friction, c.restitution, b.x, V1, V, b.M_inv, dt, r.beta, r.slop,
+                     r.push_max, r.restitution_threshold, r.friction_model,
                      float(math.hypot(*self._gravity)), points_in_manifold,
-                     rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
-                     rows.bound_row, rows.mu, rows.kind)
+                     rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.push, rows.bounce, rows.impact,
+                     rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
         if r.warm_start:
-            hit, lambda_n, lambda_t = self._cache.warm_start(c.key)
+            hit, lambda_n, lambda_t = self._cache.warm_start(c, b.uid, b.static)
             rows.start_contacts(lambda_n, lambda_t)
         else:
             hit = np.zeros(k, np.bool_)
@@ -432,6 +438,9 @@ class World:
             joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
                        rows.first_joint_row, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J,
                        rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+            rows.push[rows.first_joint_row :] = 0.0  # joints keep their Baumgarte term in xi
+            rows.bounce[rows.first_joint_row :] = 0.0
+            rows.impact[rows.first_joint_row :] = False
             if r.warm_start:  # joints keep their identity: start from last step's reactions
                 for q, joint in enumerate(self._joints):
                     start = rows.first_joint_row + ja.row_offset[q]

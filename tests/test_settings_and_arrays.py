@@ -40,6 +40,7 @@ BAD = [
     ("PGS", "slop", [-1e-3, math.inf] + NOT_A_NUMBER),
     ("PGS", "tolerance", [-1.0, math.nan, "x", True]),
     ("PGS", "restitution_threshold", [-1.0, math.nan] + NOT_A_NUMBER),
+    ("PGS", "push_max", [-1.0, math.inf] + NOT_A_NUMBER),
     ("PGS", "friction", ["Coulomb", "", None, 1]),
     ("PGS", "form", ["sparse", None, 0]),
     ("PGS", "block", [1, "no", None]),
@@ -47,10 +48,13 @@ BAD = [
     ("SoftStep", "relax", [1, None]),
     ("SoftStep", "contact_hertz", [-1.0, math.nan] + NOT_A_NUMBER),
     ("SoftStep", "damping_ratio", [-1.0, math.inf] + NOT_A_NUMBER),
+    ("SoftStep", "push_max", [-1.0, math.nan] + NOT_A_NUMBER),
     ("SoftStep", "restitution_threshold", [-0.5] + NOT_A_NUMBER),
     ("SoftStep", "warm_start", [0, "x"]),
     ("SoftStep", "block", [0, "x"]),
     ("IterativeImpulse", "passes", [0, 2.5, True]),
+    ("IterativeImpulse", "push_max", [-1.0, math.nan] + NOT_A_NUMBER),
+    ("NaiveImpulse", "push_max", [-1.0, math.inf] + NOT_A_NUMBER),
 ]
 
 

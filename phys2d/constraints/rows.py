@@ -6,7 +6,18 @@ A row k couples bodies i and j. Everything the responders need is stored per row
     J          (R, 6)  [J_i | J_j]: the row's only non-zero entries of the lecture's J
     JM         (R, 6)  M^-1 J^T for the same entries: the velocity change per unit lambda
     A_diag     (R,)    A_kk = J_k M^-1 J_k^T, the diagonal of A = J M^-1 J^T
-    xi         (R,)    the velocity J_k V2 must reach (Baumgarte push, bounce, or 0)
+    xi         (R,)    the velocity J_k V2 must reach: -C/dt for a speculative contact point
+                       (close the gap, no more), 0 for a touching one, a joint's Baumgarte term
+    push       (R,)    a touching contact point's Baumgarte push-out speed, capped (0 elsewhere);
+                       PGS moves positions with it without making it velocity (split impulses),
+                       or, as the lecture does, adds it to xi
+    impact     (R,)    True on the normal row of a contact point still apart that meets its
+                       partner within the step faster than the restitution threshold: its
+                       impulse is an event, not a load, and is not carried to the next step
+    bounce     (R,)    the velocity J_k V a speculative contact point bounces to once it has
+                       moved to its partner (the restitution pass), when it approaches faster
+                       than the restitution threshold; 0 elsewhere (a touching point that
+                       bounces has its bounce in xi)
     lo, hi     (R,)    fixed bounds on lambda_k
     bound_row  (R,)    for a Coulomb friction row: its normal row, whose current lambda
                        sets the bounds +-mu * lambda_n; -1 for rows with fixed bounds
@@ -38,6 +49,8 @@ ROW_JOINT = 2
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
 
+MET = 1e-6  # m: a contact point closer than this has met its partner (rounding aside, it touches)
+
 
 def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:
     """The row map: the q-th visited contact owns rows 2q (normal) and 2q + 1 (friction);
@@ -56,6 +69,9 @@ class Rows:
         self.JM = np.zeros((n_rows, 6))
         self.A_diag = np.zeros(n_rows)
         self.xi = np.zeros(n_rows)
+        self.push = np.zeros(n_rows)
+        self.bounce = np.zeros(n_rows)
+        self.impact = np.zeros(n_rows, np.bool_)
         self.lo = np.zeros(n_rows)
         self.hi = np.zeros(n_rows)
         self.bound_row = np.full(n_rows, -1, np.int32)
@@ -64,7 +80,8 @@ class Rows:
         self.kind = np.zeros(n_rows, np.int8)
         self.map_contacts(np.zeros(0, np.int32))
 
-    _ARRAYS = ("i", "j", "J", "JM", "A_diag", "xi", "lo", "hi", "bound_row", "mu", "lam", "kind")
+    _ARRAYS = ("i", "j", "J", "JM", "A_diag", "xi", "push", "bounce", "impact", "lo", "hi", "bound_row", "mu", "lam",
+               "kind")
 
     def __len__(self) -> int:
         return int(self.i.shape[0])
@@ -74,6 +91,12 @@ class Rows:
         self.order = order
         self.n_contacts = int(order.shape[0])
         self.normal_row, self.friction_row, self.first_joint_row = contact_row_map(self.n_contacts)
+
+    def contact_impacts(self) -> np.ndarray:
+        """(K,) True for each contact that met its partner fast within the step, in contact order."""
+        out = np.empty(self.n_contacts, np.bool_)
+        out[self.order] = self.impact[self.normal_row]
+        return out
 
     def contact_impulses(self) -> tuple[np.ndarray, np.ndarray]:
         """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
@@ -156,15 +179,63 @@ def apply_row_impulse(k, i, j, JM, impulse, V):
 
 
 @njit(cache=True)
-def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1,
-                 M_inv, dt, beta, slop, restitution_threshold, friction_model, gravity, points_in_manifold,
-                 out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu, kind):
+def speculative_target(C, dt):
+    """xi of a normal row: a point still C > 0 apart may approach at C/dt (close the gap
+    within the step, no more); a touching one may not approach at all (m/s)."""
+    return -C / dt if C > 0.0 else 0.0
+
+
+@njit(cache=True)
+def baumgarte_push(C, dt, beta, slop, push_max):
+    """The speed (m/s) at which to push out an overlap deeper than slop: (beta/dt) of the
+    excess, never more than push_max (Box2D v3's contactPushMaxVelocity)."""
+    return min((beta / dt) * max(0.0, -(C + slop)), push_max)
+
+
+@njit(cache=True)
+def approach_at_impact(C, vn_start, vn_forced, dt):
+    """The normal velocity (m/s, negative when approaching) a point meets its partner with.
+
+    Semi-implicit Euler's positions at the ends of steps lie on a path whose velocity is
+    V minus half a step of the external forces: p0 = vn_start + dvn/2 as the step begins
+    (dvn = vn_forced - vn_start, the forces' share of the step). A touching point met its
+    partner before the step: p0. A point C > 0 apart meets it after closing C along the
+    path under the forces' constant acceleration a = dvn/dt: -sqrt(p0^2 - 2 a C); 0 if the
+    path never closes the gap.
+    """
+    dvn = vn_forced - vn_start
+    p0 = vn_start + 0.5 * dvn
+    if C <= 0.0:
+        return p0
+    a = dvn / dt
+    closes = p0 < 0.0 or a < 0.0
+    disc = p0 * p0 - 2.0 * a * C
+    return -np.sqrt(disc) if closes and disc >= 0.0 else 0.0
+
+
+@njit(cache=True)
+def bounce_target(e, vn_impact, dvn):
+    """The J V a point of restitution e leaves with when it met its partner at vn_impact (m/s):
+    the path's velocity reversed e times, turned back into V (plus half the forces' share dvn).
+    Then a ball dropped from h rises to e^2 h with no error of order dt; e = 0 does not bounce."""
+    if e == 0.0:
+        return 0.0
+    return -e * vn_impact - 0.5 * dvn
+
+
+@njit(cache=True)
+def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1, V,
+                 M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity,
+                 points_in_manifold, out_i, out_j, J, JM, A_diag, xi, push, bounce, impact, lo, hi, bound_row,
+                 out_mu, kind):
     """The normal and friction rows of contact point c = order[q] (FORMULATION.md).
 
-    Normal:   xi = -(beta/dt) min(0, C + slop) when touching (C <= 0); xi = -C/dt for a
-              speculative point still C > 0 apart (it may close the gap, no more); the
-              bounce -e (J V1) instead when larger and the approach speed exceeds the
-              threshold; lambda in [0, inf).
+    Normal:   xi = -C/dt for a speculative point still C > 0 apart (it may close the gap
+              within the step, no more), 0 when touching; push = min(-(beta/dt) min(0, C + slop),
+              push_max) when touching. A point whose approach speed at impact -vn exceeds the
+              threshold bounces (``bounce_target``): a touching one at once, xi = max(xi, bounce),
+              one still apart after the move to its partner (bounce, for the responder's
+              restitution pass). lambda in [0, inf).
     Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of its normal row, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
@@ -179,15 +250,18 @@ def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal,
         out_i[k] = i
         out_j[k] = j
         fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
-        if separation[c] > 0.0:
-            push = -separation[c] / dt  # speculative: close the gap within the step, no more
-        else:
-            push = -(beta / dt) * min(0.0, separation[c] + slop)  # Baumgarte
-        vn = row_velocity(k, i, j, J, V1)
-        # bounce only a point that approaches fast and will touch within this step
-        if vn < -restitution_threshold and separation[c] + dt * vn <= 0.0:
-            push = max(push, -e[c] * vn)
-        xi[k] = push
+        xi[k] = speculative_target(separation[c], dt)
+        push[k] = baumgarte_push(separation[c], dt, beta, slop, push_max)
+        vn_start, vn_forced = row_velocity(k, i, j, J, V1), row_velocity(k, i, j, J, V)
+        vn = approach_at_impact(separation[c], vn_start, vn_forced, dt)
+        bounce[k] = 0.0
+        impact[k] = separation[c] > MET and vn < -restitution_threshold
+        if vn < -restitution_threshold:
+            target = bounce_target(e[c], vn, vn_forced - vn_start)
+            if separation[c] > 0.0:
+                bounce[k] = target  # it meets its partner within the step: bounce once it has moved there
+            else:
+                xi[k] = max(xi[k], target)  # touching already: bounce now, as the lecture does
         lo[k] = 0.0
         hi[k] = np.inf
         bound_row[k] = -1
@@ -198,6 +272,9 @@ def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal,
         out_j[k] = j
         fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
         xi[k] = 0.0
+        push[k] = 0.0
+        bounce[k] = 0.0
+        impact[k] = False
         out_mu[k] = mu[c]
         kind[k] = ROW_FRICTION
         if friction_model == FRICTION_COULOMB:

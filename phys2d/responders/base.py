@@ -98,8 +98,9 @@ class StepReport:
 class Responder:
     """Base of the collision responders: the parameters the world needs to build rows.
 
-    beta    Baumgarte push factor (xi = -(beta/dt) min(0, C + slop)), in [0, 1]
+    beta    Baumgarte push factor (push = -(beta/dt) min(0, C + slop)), in [0, 1]
     slop    penetration allowed without push, m
+    push_max  the largest push-out speed, m/s (Box2D v3's contactPushMaxVelocity)
     restitution_threshold  approach speed (m/s) above which contacts bounce
     warm_start  whether the world should start lambda from the contact cache
     handles_joints  whether joint rows may be given to this responder
@@ -110,6 +111,7 @@ class Responder:
     name = "responder"
     beta = 0.2
     slop = 0.005
+    push_max = 3.0
     restitution_threshold = 1.0
     warm_start = False
     handles_joints = False

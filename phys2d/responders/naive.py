@@ -10,7 +10,8 @@ For each contact pair once per tick (FORMULATION.md symbols, n from a to b):
 The last line is the lecture's "push away from interpenetration as long as
 interpenetration exists": it is swept over the pairs again while any overlap
 remains (``push_apart``), since pushing one pair apart can push a body into its
-other neighbour.
+other neighbour. Each pair's overlap shrinks by at most push_max dt per tick (the
+push-out speed bound every responder has).
 
 J_n V = (v_b + omega_b x r_b - v_a - omega_a x r_a) . n is the lecture's relative
 normal velocity and the denominator is A_nn = J_n M^-1 J_n^T, so f is the lecture's
@@ -19,6 +20,13 @@ P_0 per pair; a manifold here has up to two, so P_0 is the mean of the pair's
 colliding points (its row is the mean of their rows: J is linear in r). A point
 is colliding when it overlaps (separation <= 0) or is a speculative point that
 approaches fast enough to close its gap within the step (separation + dt J_n V <= 0).
+
+The lecture's pairs are always touching. A pair whose colliding points are all
+still apart (by a gap s > 0) only meets its partner within this step, so it gets
+the impulse that closes the gap and no more, f = -(J_n V + s/dt) / A_nn; the
+positions move up to the surface, and only then is it bounced, from its approach
+speed at impact (``bounce_landed``, ``constraints.rows.bounce_target``). So a body
+turns round where it meets the other, never in the air.
 
 Nothing is remembered between ticks and nothing accumulates: there is no
 warm start, no bound on the total impulse, no Baumgarte term, restitution e is
@@ -38,7 +46,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import apply_row_impulse, row_velocity
+from ..constraints.rows import apply_row_impulse, approach_at_impact, bounce_target, row_velocity
+from ..integrate import integrate_positions
+from ..validation import Setting, non_negative_float
 from .base import Responder, SolveResult, StepContext
 
 PUSH_PASSES = 50  # sweeps of the push-apart at most
@@ -87,8 +97,10 @@ def _mean_row(start, end, row, use, J, M_inv, a, b, out_J, out_JM, p):
 
 
 @njit(cache=True)
-def pair_rows(starts, use, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
-    """Each pair's normal and friction row at P_0, the mean of its colliding points.
+def pair_rows(starts, use, separation, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb,
+              gap):
+    """Each pair's normal and friction row at P_0, the mean of its colliding points, and its
+    gap: the smallest separation of those points when all are still apart (m), else 0.
 
     A pair without a colliding point gets A_n = 0 and is skipped by the passes.
     """
@@ -104,14 +116,19 @@ def pair_rows(starts, use, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An
             An[p] = 0.0
             At[p] = 0.0
             continue
+        gap[p] = np.inf
+        for c in range(start, end):
+            if use[c]:
+                gap[p] = min(gap[p], max(separation[c], 0.0))
         An[p] = _mean_row(start, end, normal_row, use, J, M_inv, a, b, Jn, JMn, p)
         At[p] = _mean_row(start, end, friction_row, use, J, M_inv, a, b, Jt, JMt, p)
 
 
 @njit(cache=True)
-def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
+def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, V, dt, f_n, f_t):
     """One pass over the pairs: the lecture's impulse where they approach, then friction.
 
+    A pair still apart by gap[p] > 0 only closes it: f = -(J_n V + gap/dt) / A_nn.
     Each increment stands on its own: f >= 0 and |f_t| <= mu f of this same pass.
     f_n, f_t add up what was applied (N s). Returns the largest |f| A (m/s) of the pass.
     """
@@ -121,9 +138,12 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
             continue
         a, b = pa[p], pb[p]
         vn = row_velocity(p, a, b, Jn, V)  # relative normal velocity, m/s
-        if vn >= 0.0:
-            continue  # not approaching: no collision response
-        f = -(1.0 + e[p]) * vn / An[p]
+        if gap[p] > 0.0:
+            f = -(vn + gap[p] / dt) / An[p]  # meets its partner within the step: close the gap, no more
+        else:
+            f = -(1.0 + e[p]) * vn / An[p] if vn < 0.0 else 0.0  # the lecture's, where they approach
+        if f <= 0.0:
+            continue  # no collision response
         apply_row_impulse(p, a, b, JMn, f, V)
         f_n[p] += f
         worst = max(worst, f * An[p])
@@ -136,16 +156,39 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
 
 
 @njit(cache=True)
-def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, tolerance):
+def bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, dt, f_n, V):
+    """After the positions moved: bounce each pair that met its partner within the step (gap > 0,
+    pushed) from its approach speed at impact, f = (bounce - J_n V) / A_nn when it is > 0. With
+    the landing impulse this adds up to the lecture's -(1 + e) J_n V / A_nn (no external forces)."""
+    for p in range(pa.shape[0]):
+        if An[p] <= 0.0 or gap[p] <= 0.0 or f_n[p] <= 0.0:
+            continue
+        a, b = pa[p], pb[p]
+        vn = approach_at_impact(gap[p], vn_start[p], vn_forced[p], dt)
+        f = (bounce_target(e[p], vn, vn_forced[p] - vn_start[p]) - row_velocity(p, a, b, Jn, V)) / An[p]
+        if f > 0.0:
+            apply_row_impulse(p, a, b, JMn, f, V)
+            f_n[p] += f
+
+
+@njit(cache=True)
+def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, tolerance, max_move):
     """Move overlapping pairs apart along n, split by 1/m, as long as overlap remains.
 
     A pair's overlap is its deepest point's, -separation, updated for how far the
     pushes have moved its bodies so far: separation + (dx_b - dx_a) . n (rotation
     is left alone). Pushing one pair apart can push a body into its other
     neighbour, so the pairs are swept again until no overlap exceeds
-    ``tolerance`` (m) or after ``max_passes`` sweeps. Returns the sweeps made.
+    ``tolerance`` (m) or after ``max_passes`` sweeps. No pair's overlap shrinks by
+    more than ``max_move`` (m, push_max dt) in one call. Returns the sweeps made.
     """
     dx = np.zeros((x.shape[0], 2))
+    floor = np.zeros(starts.shape[0] - 1)  # the overlap each pair may keep after this tick
+    for p in range(starts.shape[0] - 1):
+        depth = 0.0
+        for c in range(starts[p], starts[p + 1]):
+            depth = max(depth, -separation[c])
+        floor[p] = max(depth - max_move, 0.0)
     sweeps = 0
     while sweeps < max_passes:
         sweeps += 1
@@ -160,11 +203,11 @@ def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, toleran
             depth = 0.0
             for c in range(starts[p], starts[p + 1]):
                 depth = max(depth, -(separation[c] + moved))
-            if depth <= tolerance:
+            if depth - floor[p] <= tolerance:
                 continue
-            worst = max(worst, depth)
-            sa = depth * M_inv[a, 0] / w
-            sb = depth * M_inv[b, 0] / w
+            worst = max(worst, depth - floor[p])
+            sa = (depth - floor[p]) * M_inv[a, 0] / w
+            sb = (depth - floor[p]) * M_inv[b, 0] / w
             dx[a, 0] -= nx * sa
             dx[a, 1] -= ny * sa
             dx[b, 0] += nx * sb
@@ -189,8 +232,9 @@ def report_on_points(starts, use, normal_row, friction_row, f_n, f_t, lam):
             lam[friction_row[c]] = f_t[p] / count if use[c] else 0.0
 
 
-def pairwise_response(ctx: StepContext, passes: int) -> SolveResult:
-    """``passes`` impulse passes over the contact pairs, then the push-apart (both naive takes)."""
+def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveResult:
+    """``passes`` impulse passes over the contact pairs, the push-apart, the positions, then the
+    bounce of the pairs that met within the step (both naive takes)."""
     r = ctx.rows
     k = ctx.n_contacts
     starts = manifold_starts(ctx.body_a, ctx.body_b)
@@ -200,37 +244,51 @@ def pairwise_response(ctx: StepContext, passes: int) -> SolveResult:
     Jn, JMn, Jt, JMt = (np.zeros((n_pairs, 6)) for _ in range(4))
     An, At = np.zeros(n_pairs), np.zeros(n_pairs)
     pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
-    pair_rows(starts, use, r.normal_row, r.friction_row, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb)
+    gap = np.zeros(n_pairs)
+    pair_rows(starts, use, ctx.separation, r.normal_row, r.friction_row, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt,
+              JMt, At, pa, pb, gap)
+    vn_start, vn_forced = pair_velocities(pa, pb, Jn, ctx.V1), pair_velocities(pa, pb, Jn, ctx.V)
     first = starts[:-1]
     e = ctx.restitution[first] if k else np.zeros(0)
     mu = r.mu[r.friction_row[first]] if k else np.zeros(0)
     f_n, f_t = np.zeros(n_pairs), np.zeros(n_pairs)
     residuals = np.zeros(passes)
     for s in range(passes):
-        residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, ctx.V, f_n, f_t)
+        residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, ctx.V, ctx.dt, f_n, f_t)
     push_apart(starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES,
-               PUSH_TOLERANCE)
+               PUSH_TOLERANCE, push_max * ctx.dt)
+    integrate_positions(ctx.x, ctx.theta, ctx.V, ctx.dt)
+    bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, ctx.dt, f_n, ctx.V)
     report_on_points(starts, use, r.normal_row, r.friction_row, f_n, f_t, r.lam)
-    return SolveResult(passes, residuals)
+    return SolveResult(passes, residuals, integrated=True)
+
+
+def pair_velocities(pa: np.ndarray, pb: np.ndarray, Jn: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """J_n V of each pair's row at P_0 (m/s)."""
+    return np.einsum("pc,pc->p", Jn[:, :3], V[pa]) + np.einsum("pc,pc->p", Jn[:, 3:], V[pb])
 
 
 class NaiveImpulse(Responder):
     """The lecture's naive take: each colliding pair once per tick, then push apart.
 
-    See the module docstring for the formula. No parameters: no caching, no
-    accumulation, no joints. ``w.last_step.residuals`` holds the one pass's
-    largest velocity change |f| A (m/s).
+    See the module docstring for the formula. push_max (m/s) bounds how fast the
+    push-apart may remove an overlap. No caching, no accumulation, no joints.
+    ``w.last_step.residuals`` holds the one pass's largest velocity change |f| A (m/s).
     """
 
     name = "naive"
     warm_start = False
     handles_joints = False
+    push_max = Setting(non_negative_float, "largest push-out speed, m/s")
+
+    def __init__(self, push_max: float = 3.0) -> None:
+        self.push_max = push_max
 
     def respond(self, ctx: StepContext) -> SolveResult:
-        return pairwise_response(ctx, 1)
+        return pairwise_response(ctx, 1, self.push_max)
 
     def __repr__(self) -> str:
-        return "NaiveImpulse()"
+        return f"NaiveImpulse(push_max={self.push_max:g})"
 
 
 __all__ = ["NaiveImpulse", "pairwise_response"]

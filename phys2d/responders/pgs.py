@@ -22,6 +22,7 @@ from ..validation import (
 )
 from .base import Responder, SolveResult, StepContext
 from .pgs_matrix import solve_matrix_form
+from .restitution import bounce_after_moving
 
 
 @njit(cache=True)
@@ -177,6 +178,46 @@ def pgs_solve(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, xi
     return iterations
 
 
+@njit(cache=True)
+def push_out(normal_row, i, j, J, JM, A_diag, push, lo, hi, bound_row, mu, lam_push, V_push, iterations,
+             tolerance, block):
+    """Split impulses: sweep the contact normal rows for pseudo-velocities V_push that reach
+    J_k V_push >= push_k (the capped Baumgarte push), lam_push >= 0, from V_push = 0.
+
+    Positions then move with V + V_push, and V_push is dropped: the push removes overlap
+    without ever becoming velocity, so a stack pushed out of a deep overlap is not thrown.
+    Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
+    """
+    n_contacts = normal_row.shape[0]
+    pushing = False
+    for q in range(n_contacts):
+        pushing = pushing or push[normal_row[q]] > 0.0
+    if not pushing:
+        return 0
+    inv_A = np.zeros(A_diag.shape[0])
+    for q in range(n_contacts):
+        k = normal_row[q]
+        if A_diag[k] > 0.0:
+            inv_A[k] = 1.0 / A_diag[k]
+    for s in range(iterations):
+        worst = 0.0
+        q = 0
+        while q < n_contacts:
+            k = normal_row[q]
+            if block and q + 1 < n_contacts and same_pair(k, normal_row[q + 1], i, j):
+                err = solve_block(k, normal_row[q + 1], i, j, J, JM, A_diag, push, lam_push, V_push)
+                if err >= 0.0:
+                    worst = max(worst, err)
+                    q += 2
+                    continue
+            worst = max(worst, solve_row(k, i, j, J, JM, A_diag, inv_A, push, lo, hi, bound_row, mu, lam_push,
+                                         V_push))
+            q += 1
+        if worst <= tolerance:
+            return s + 1
+    return iterations
+
+
 FORMS = ("impulse", "matrix")
 FRICTION_MODELS = {"coulomb": FRICTION_COULOMB, "lecture": FRICTION_LECTURE}
 
@@ -192,10 +233,14 @@ class PGS(Responder):
 
     iterations   sweeps per step (>= 1)
     warm_start   start each contact's lambda from last tick's (contact caching)
-    beta         Baumgarte push factor in [0, 1]: xi = -(beta/dt) min(0, C + slop)
+    beta         Baumgarte push factor in [0, 1]: push = -(beta/dt) min(0, C + slop)
     slop         overlap (m) left alone, so resting contacts stay touching
+    push_max     the largest push-out speed (m/s; Box2D v3's contactPushMaxVelocity)
+    split        split impulses: the push moves positions through pseudo-velocities of
+                 its own (``push_out``) and never becomes velocity. False: the lecture's
+                 xi = push, so the push stays in V and a deep overlap throws bodies apart
     tolerance    stop early once a sweep's residual (m/s) is at most this; None: never
-    restitution_threshold  approach speed (m/s) above which e applies
+    restitution_threshold  approach speed (m/s) at impact above which e applies
     friction     'coulomb' (|lambda_t| <= mu lambda_n) or 'lecture' (|lambda_t| <= mu m_c g dt)
                  with m_c the pair's reduced mass m_a m_b / (m_a + m_b) (m_a on a static
                  partner) shared equally by the manifold's points: exactly Coulomb's bound
@@ -209,6 +254,10 @@ class PGS(Responder):
                  not rock a resting box from corner to corner. Off by default: the
                  lecture's PGS visits one row at a time.
 
+    One step: warm start; ``iterations`` sweeps on A lambda = b (b from xi: contacts
+    close a speculative gap and no more); the push pass (split) or none; positions move;
+    then the restitution pass bounces the points that pushed and approached fast.
+
     Every setting can be changed between steps; a bad value is refused with the
     constructor's message.
     """
@@ -219,17 +268,22 @@ class PGS(Responder):
     warm_start = Setting(check_bool, "start from last tick's impulses")
     beta = Setting(lambda v, name: float_in(v, name, 0.0, 1.0), "Baumgarte push factor")
     slop = Setting(non_negative_float, "overlap left alone, m")
+    push_max = Setting(non_negative_float, "largest push-out speed, m/s")
+    split = Setting(check_bool, "push through pseudo-velocities that never become velocity")
     tolerance = Setting(optional_non_negative_float, "residual (m/s) that stops the sweeps, or None")
     restitution_threshold = Setting(non_negative_float, "approach speed (m/s) above which e applies")
 
     def __init__(self, iterations: int = 10, warm_start: bool = True, beta: float = 0.2,
                  slop: float = 0.005, tolerance: float | None = None,
                  restitution_threshold: float = 1.0, friction: str = "coulomb",
-                 form: str = "impulse", block: bool = False) -> None:
+                 form: str = "impulse", block: bool = False, push_max: float = 3.0,
+                 split: bool = True) -> None:
         self.iterations = iterations
         self.warm_start = warm_start
         self.beta = beta
         self.slop = slop
+        self.push_max = push_max
+        self.split = split
         self.tolerance = tolerance
         self.restitution_threshold = restitution_threshold
         self.friction = friction
@@ -280,19 +334,27 @@ class PGS(Responder):
 
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
-        residuals = np.zeros(self.iterations)
         tol = -1.0 if self.tolerance is None else self.tolerance
+        xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
         if self.form == "matrix":
-            return solve_matrix_form(ctx, self.iterations, tol)
-        n = pgs_solve(r.normal_row, r.friction_row, r.first_joint_row, r.i, r.j, r.J, r.JM, r.A_diag, r.xi,
+            return solve_matrix_form(ctx, xi, self.iterations, tol, self.split)
+        residuals = np.zeros(self.iterations)
+        n = pgs_solve(r.normal_row, r.friction_row, r.first_joint_row, r.i, r.j, r.J, r.JM, r.A_diag, xi,
                       r.lo, r.hi, r.bound_row, r.mu, r.lam, ctx.V, self.iterations, tol, residuals, self.block)
-        return SolveResult(n, residuals[:n])
+        V_move = ctx.V
+        if self.split:
+            V_push = np.zeros_like(ctx.V)
+            push_out(r.normal_row, r.i, r.j, r.J, r.JM, r.A_diag, r.push, r.lo, r.hi, r.bound_row, r.mu,
+                     np.zeros(len(r)), V_push, self.iterations, tol, self.block)
+            V_move = ctx.V + V_push  # what the positions move with; V_push is then dropped
+        bounce_after_moving(ctx, V_move, self.iterations, tol)
+        return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
         tol = "None" if self.tolerance is None else f"{self.tolerance:g}"
         return (f"PGS(iterations={self.iterations}, warm_start={self.warm_start}, beta={self.beta:g}, "
                 f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r}, "
-                f"block={self.block})")
+                f"block={self.block}, push_max={self.push_max:g}, split={self.split})")
 
 
 __all__ = ["PGS", "apply_impulses", "lcp2", "pgs_solve", "sweep"]

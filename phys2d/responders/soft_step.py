@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import apply_row_impulse, row_velocity
+from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .pgs import block_is_well_conditioned, lcp2, same_pair
@@ -74,7 +74,7 @@ def _push(s, h, use_bias, soft):
     if s > 0.0:
         return s / h, 1.0, 0.0  # speculative: close the gap, no more
     if use_bias:
-        return max(soft[0] * s, -soft[3]), soft[1], soft[2]
+        return max(soft[0] * s, -soft[3]), soft[1], soft[2]  # the soft push, at most push_max
     return 0.0, 1.0, 0.0
 
 
@@ -95,15 +95,17 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
         k = normal_row[c]
         a, b = i[k], j[k]
         soft = soft_static if static_pair[c] else soft_dyn
+        s1 = _separation(c, a, b, C0, r, normal, moved)
         if block and c + 1 < n_contacts and same_pair(k, normal_row[c + 1], i, j):
             k2 = normal_row[c + 1]
+            s2 = _separation(c + 1, a, b, C0, r, normal, moved)
             K11, K22 = A_diag[k], A_diag[k2]
             K12 = 0.0
             for q in range(6):
                 K12 += J[k, q] * JM[k2, q]
-            if block_is_well_conditioned(K11, K12, K22):
-                bias1, ms1, is1 = _push(_separation(c, a, b, C0, r, normal, moved), h, use_bias, soft)
-                bias2, ms2, is2 = _push(_separation(c + 1, a, b, C0, r, normal, moved), h, use_bias, soft)
+            if block_is_well_conditioned(K11, K12, K22) and (use_bias or (s1 <= MET and s2 <= MET)):
+                bias1, ms1, is1 = _push(s1, h, use_bias, soft)
+                bias2, ms2, is2 = _push(s2, h, use_bias, soft)
                 a1, a2 = lam[k], lam[k2]
                 b1 = ms1 * (row_velocity(k, a, b, J, V) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12 * a2)
                 b2 = ms2 * (row_velocity(k2, a, b, J, V) + bias2) + is2 * K22 * a2 - (K12 * a1 + K22 * a2)
@@ -115,8 +117,10 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
                 worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
                 c += 2
                 continue
-        if A_diag[k] > 0.0:
-            bias, mass_scale, impulse_scale = _push(_separation(c, a, b, C0, r, normal, moved), h, use_bias, soft)
+        # relax leaves a point still apart alone: the next sweep with the push limits its
+        # approach to closing the gap (cutting it here would bounce it off the air)
+        if A_diag[k] > 0.0 and (use_bias or s1 <= MET):
+            bias, mass_scale, impulse_scale = _push(s1, h, use_bias, soft)
             d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
             new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
             d = new - lam[k]
@@ -140,6 +144,33 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
 
 
 @njit(cache=True)
+def _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn):
+    """Before a sweep: each point not yet met, its separation (m) and J V (m/s) now."""
+    for c in range(normal_row.shape[0]):
+        if not impacted[c]:
+            k = normal_row[c]
+            sub_C[c] = _separation(c, i[k], j[k], C0, r, normal, moved)
+            sub_vn[c] = row_velocity(k, i[k], j[k], J, V)
+
+
+@njit(cache=True)
+def _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, threshold, impacted, vn_impact, dvn_impact,
+                  landed):
+    """After a sweep: a point that pushed for the first time meets its partner in this
+    sub-step's motion (gap sub_C, J V sub_vn before a sub-step of forces dv): its approach
+    at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
+    landed[c]: it was still apart and met its partner faster than the threshold."""
+    for c in range(normal_row.shape[0]):
+        k = normal_row[c]
+        if not impacted[c] and lam[k] > 0.0:
+            impacted[c] = True
+            dvn = row_velocity(k, i[k], j[k], J, dv)
+            vn_impact[c] = approach_at_impact(sub_C[c], sub_vn[c], sub_vn[c] + dvn, h)
+            dvn_impact[c] = dvn
+            landed[c] = sub_C[c] > MET and vn_impact[c] < -threshold
+
+
+@njit(cache=True)
 def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restitution, C0, point, normal, static_pair,
                     x, theta, V, V1, dt, substeps, relax, contact_hertz, damping_ratio, push_max,
                     restitution_threshold, block, lam, total, residuals):
@@ -159,9 +190,8 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     moved[:, 2] = 1.0
-    # lever arms at the start of the tick, and the approach speed before forces (for bouncing)
+    # lever arms at the start of the tick
     r = np.empty((n_contacts, 4))
-    vn0 = np.empty(n_contacts)
     for c in range(n_contacts):
         k = normal_row[c]
         a, b = i[k], j[k]
@@ -169,19 +199,28 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
         r[c, 1] = point[c, 1] - x[a, 1]
         r[c, 2] = point[c, 0] - x[b, 0]
         r[c, 3] = point[c, 1] - x[b, 1]
-        vn0[c] = row_velocity(k, a, b, J, V1)
+    # each point's approach at impact: taken in the sub-step where it first pushes
+    impacted = np.zeros(n_contacts, np.bool_)
+    vn_impact = np.zeros(n_contacts)
+    dvn_impact = np.zeros(n_contacts)
+    sub_C = np.zeros(n_contacts)
+    sub_vn = np.zeros(n_contacts)
+    landed = np.zeros(n_contacts, np.bool_)  # met its partner fast in this sub-step
     dv = (V - V1) / substeps  # a sub-step's share of the external forces
     V[:, :] = V1
     for k in range(n_rows):
         total[k] = 0.0
     n_sweeps = 0
     for _ in range(substeps):
+        _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
         V += dv
         for k in range(n_rows):  # warm start: last sub-step's impulses
             if lam[k] != 0.0:
                 apply_row_impulse(k, i[k], j[k], JM, lam[k], V)
         soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V,
                    h, True, soft_dyn, soft_static, block)
+        _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
+                      dvn_impact, landed)
         for b in range(x.shape[0]):
             x[b, 0] += h * V[b, 0]
             x[b, 1] += h * V[b, 1]
@@ -190,21 +229,31 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
             moved[b, 1] = x[b, 1] - x0[b, 1]
             moved[b, 2] = np.cos(theta[b] - theta0[b])
             moved[b, 3] = np.sin(theta[b] - theta0[b])
-        if relax:
+        if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
+            _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
             residuals[n_sweeps] = soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
                                               static_pair, moved, lam, V, h, False, soft_dyn, soft_static, block)
+            _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
+                          dvn_impact, landed)
         else:
             residuals[n_sweeps] = 0.0
         n_sweeps += 1
         for k in range(n_rows):
             total[k] += lam[k]
-    # restitution: bounce points that approached fast, against their pre-tick speed
+        for c in range(n_contacts):  # an impact is an event, not a load: not warm started again
+            if landed[c]:
+                lam[normal_row[c]] = 0.0
+                lam[friction_row[c]] = 0.0
+                landed[c] = False
+    # restitution: bounce the points that met their partner fast (``constraints.rows.bounce_target``)
     for c in range(n_contacts):
         k, kt = normal_row[c], friction_row[c]
-        if restitution[c] == 0.0 or vn0[c] > -restitution_threshold or total[k] == 0.0 or A_diag[k] <= 0.0:
+        if (restitution[c] == 0.0 or not impacted[c] or vn_impact[c] >= -restitution_threshold
+                or total[k] == 0.0 or A_diag[k] <= 0.0):
             continue
         a, b = i[k], j[k]
-        d = -(row_velocity(k, a, b, J, V) + restitution[c] * vn0[c]) / A_diag[k]
+        target = bounce_target(restitution[c], vn_impact[c], dvn_impact[c])
+        d = (target - row_velocity(k, a, b, J, V)) / A_diag[k]
         new = max(total[k] + d, 0.0)
         d = new - total[k]
         total[k] = new
