@@ -4,6 +4,8 @@
                     -> responder -> integration
 
 Each stage lives in its own module; ``World.step`` is the pipeline in one screen.
+Responders that move positions themselves (the split push, sub-steps, a bounce
+after the move) say so, and the world does not integrate again.
 """
 
 from __future__ import annotations
@@ -54,6 +56,9 @@ class World:
                 at the surface instead of sinking into it
     max_speed   a step that leaves any body faster than this (m/s, or rad/s for
                 spin) raises SimulationError and is undone
+
+    gravity, contact_margin, max_speed and responder can be set between steps; a bad
+    value is refused with the constructor's message and changes nothing.
     """
 
     def __init__(self, gravity=(0.0, -10.0), responder: Responder | None = None, *,

@@ -1,11 +1,11 @@
 """What every responder follows, and the report a step leaves behind.
 
 A responder turns the constraint rows of a step into impulses: it changes the
-velocities V in place (and, for the lecture's naive takes, may push positions
-apart). The world builds the rows with the responder's own Baumgarte factor,
-slop, bounce threshold and friction model, fills ``rows.lam`` with the cached
-impulses when the responder asks for warm starting, calls ``respond`` and reads
-the impulses back from ``rows.lam``.
+velocities V in place, and may move positions itself (push-apart, split push,
+sub-steps, the restitution pass after the move). The world builds the rows with
+the responder's own Baumgarte factor, slop, push cap, bounce threshold and friction
+model, fills ``rows.lam`` with the cached impulses when the responder asks for warm
+starting, calls ``respond`` and reads the impulses back from ``rows.lam``.
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ class SolveResult:
     iterations: int
     residuals: np.ndarray  # (iterations,) largest velocity correction of each sweep, m/s
     system: object = None  # the assembled matrix system, for responders that build one
-    integrated: bool = False  # True if the responder already moved the positions (sub-stepping)
+    integrated: bool = False  # True if the responder moved the positions itself (sub-steps, or a pass after)
 
 
 @dataclass(eq=False)

@@ -3,6 +3,16 @@
 The lecture's PGS on A lambda = b, with A = J M^-1 J^T never formed: the term
 sum_l A_kl lambda_l - b_k is J_k V - xi_k, read off the velocities that every
 impulse applied so far has produced (FORMULATION.md, "Projected Gauss-Seidel").
+
+One step (``PGS.respond``):
+
+    V += M^-1 J^T lambda              warm start (contact caching)
+    sweeps on A lambda = b            xi: a point still apart may close its gap, no more
+    sweeps on A lambda_p >= push      split impulses (``push_out``): pseudo-velocities V_p
+    x += dt (V + V_p)                 V_p is dropped: the push never becomes velocity
+    restitution pass                  points that met their partner fast bounce (restitution.py)
+
+With split=False the push is part of xi, as the lecture has it, and stays in V.
 """
 
 from __future__ import annotations

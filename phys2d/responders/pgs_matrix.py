@@ -20,7 +20,10 @@ and runs the lecture's pseudocode on them, skipping the zero entries of A:
 then V2 = V1 + M^-1 (dt F_ext + J^T x). Row order, warm start (x starts at the
 cached lambdas), bounds and the residual (the largest |delta_k| A_kk of a sweep,
 m/s) are those of the impulse form, so the two forms make the same iterates: the
-test that the lecture's equations and the fast solver are one method.
+test that the lecture's equations and the fast solver are one method. The split
+push is a second system on the same A, A x_p >= push over the contact normal rows
+from x_p = 0; positions move with V2 + M^-1 J^T x_p; then the restitution pass
+(shared with the impulse form) adds lam_bounce.
 
 The sparse matrices are plain CSR arrays (``SparseMatrix``): no scipy. Everything
 assembled stays on ``w.last_step.system`` (a ``MatrixSystem``) for lessons;

@@ -9,9 +9,13 @@ The tick of length dt is split into n sub-steps of h = dt/n. Each sub-step:
     x += h v, theta += h omega               positions move within the tick
     one PGS sweep without the push           "relax": remove the push's velocity
 
-then one restitution pass. Between sweeps the separation of each contact point is
-updated from how far its bodies have moved (x - x0 and the rotated lever arms), so
-no new collision detection is needed within the tick.
+then one restitution pass: the points that met their partner faster than the
+threshold bounce from their approach at impact, taken in the sub-step where they
+first pushed. Between sweeps the separation of each contact point is updated from
+how far its bodies have moved (x - x0 and the rotated lever arms), so no new
+collision detection is needed within the tick. The relax sweep leaves points still
+apart alone (the next sweep with the push limits their approach), and an impact's
+impulse is not warm started into the next sub-step: it was an event, not a load.
 
 The soft push replaces Baumgarte's beta with a spring of stiffness ``contact_hertz``
 and damping ratio ``damping_ratio`` (Catto, "Solver2D", 2024): for a row with
