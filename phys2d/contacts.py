@@ -55,10 +55,10 @@ def _root(parent, b):
 
 
 @njit(cache=True)
-def unloaded_islands(cache_keys, cache_lambda_n, keys, body_a, body_b, uid, static, cold):
+def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold):
     """cold[c] = True for every contact c whose island lost a load since last tick.
 
-    A pair of bodies that pushed last tick (lambda_n > 0) and has no contact now (one
+    A pair of bodies that pushed last tick (cache_pushed) and has no contact now (one
     was removed, or they flew apart) leaves the impulses cached around it sized for a
     load that is gone. Those stored impulses would launch what was under it, so every
     contact connected to either body through dynamic bodies starts cold. Static bodies
@@ -79,7 +79,7 @@ def unloaded_islands(cache_keys, cache_lambda_n, keys, body_a, body_b, uid, stat
         pair = cache_keys[e] >> FEATURE_BITS
         while m < keys.shape[0] and (keys[m] >> FEATURE_BITS) < pair:
             m += 1
-        if cache_lambda_n[e] <= 0.0 or (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
+        if not cache_pushed[e] or (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
             continue  # it carried nothing, or the pair still touches
         for u in (pair >> UID_BITS, pair & ((1 << UID_BITS) - 1)):
             b = np.searchsorted(uid, u)  # uids are ascending in the body arrays
@@ -162,6 +162,7 @@ class ContactCache:
         self.keys = np.zeros(0, np.int64)
         self.lambda_n = np.zeros(0)
         self.lambda_t = np.zeros(0)
+        self.pushed = np.zeros(0, np.bool_)
 
     def __len__(self) -> int:
         return int(self.keys.shape[0])
@@ -176,15 +177,18 @@ class ContactCache:
         lambda_n, lambda_t = np.zeros(k), np.zeros(k)
         warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, c.key, lambda_n, lambda_t, hit)
         cold = np.zeros(k, np.bool_)
-        unloaded_islands(self.keys, self.lambda_n, c.key, c.body_a, c.body_b, uid, static, cold)
+        unloaded_islands(self.keys, self.pushed, c.key, c.body_a, c.body_b, uid, static, cold)
         hit &= ~cold
         lambda_n[cold] = 0.0
         lambda_t[cold] = 0.0
         return hit, lambda_n, lambda_t
 
-    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
-        """Remember this tick's impulses; ``keys`` must be sorted ascending. The cache keeps
-        copies: the arrays handed to the user never feed the next warm start."""
+    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, impact: np.ndarray) -> None:
+        """Remember this tick's impulses (N s) for warm starting; ``keys`` must be sorted ascending.
+        A contact that met its partner fast within the tick (``impact``) took an event, not a
+        load: 0 is cached for it. Which contacts pushed at all is kept too (``unloaded_islands``).
+        The arrays are new: the ones handed to the user never feed the next warm start."""
         self.keys = keys.copy()
-        self.lambda_n = lambda_n.copy()
-        self.lambda_t = lambda_t.copy()
+        self.lambda_n = np.where(impact, 0.0, lambda_n)
+        self.lambda_t = np.where(impact, 0.0, lambda_t)
+        self.pushed = lambda_n > 0.0

@@ -356,10 +356,7 @@ class World:
         k = len(c)
         c.normal_impulse, c.tangent_impulse = rows.contact_impulses()
         c.warm_started = hit
-        # a point that met its partner fast within the step took an impact: an event, not a
-        # load, so its impulse is not carried to the next step
-        load = ~rows.contact_impacts()
-        self._cache.store(c.key, np.where(load, c.normal_impulse, 0.0), np.where(load, c.tangent_impulse, 0.0))
+        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse, rows.contact_impacts())
         self._store_joint_impulses(rows)
         self.contacts = c.read_only()
         self.last_step = StepReport(

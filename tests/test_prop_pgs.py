@@ -58,16 +58,17 @@ def normal_targets(c: phys2d.Contacts, vn1: np.ndarray, vn_ext: np.ndarray, pgs:
 
     Semi-implicit Euler's step-end positions follow a path whose velocity is V minus half a
     step of the external forces: p0 = vn1 + dvn/2 as the step begins (dvn = vn_ext - vn1). A
-    touching point meets its partner at p0; a point C apart at -sqrt(p0^2 - 2 (dvn/dt) C).
+    touching point meets its partner at p0; a point C apart, if the path closes C within the
+    step (C + dt vn_ext <= 0), at -sqrt(p0^2 - 2 (dvn/dt) C).
     It leaves with the path's velocity reversed e times: J V = -e approach - dvn/2."""
     C, e = c.separation, c.restitution
     push = np.minimum((pgs.beta / dt) * np.maximum(0.0, -(C + pgs.slop)), pgs.push_max)
     xi = np.where(C > 0.0, -C / dt, 0.0) + (0.0 if pgs.split else push)
     dvn = vn_ext - vn1
     p0 = vn1 + dvn / 2
-    disc = p0 * p0 - 2.0 * (dvn / dt) * C
-    closes = ((p0 < 0.0) | (dvn < 0.0)) & (disc >= 0.0)
-    approach = np.where(C > 0.0, np.where(closes, -np.sqrt(np.maximum(disc, 0.0)), 0.0), p0)
+    closes = C + dt * vn_ext <= 0.0  # the path's end, within this step
+    meet = -np.sqrt(np.maximum(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
+    approach = np.where(C > 0.0, np.where(closes, meet, 0.0), p0)
     target = np.where(e == 0.0, 0.0, -e * approach - dvn / 2)
     fast = approach < -pgs.restitution_threshold
     xi = np.where(fast & (C <= 0.0), np.maximum(xi, target), xi)

@@ -199,18 +199,17 @@ def approach_at_impact(C, vn_start, vn_forced, dt):
     Semi-implicit Euler's positions at the ends of steps lie on a path whose velocity is
     V minus half a step of the external forces: p0 = vn_start + dvn/2 as the step begins
     (dvn = vn_forced - vn_start, the forces' share of the step). A touching point met its
-    partner before the step: p0. A point C > 0 apart meets it after closing C along the
-    path under the forces' constant acceleration a = dvn/dt: -sqrt(p0^2 - 2 a C); 0 if the
-    path never closes the gap.
+    partner before the step: p0. A point C > 0 apart meets it if the path closes C within
+    the step (its end, C + dt vn_forced, is <= 0), under the forces' constant acceleration
+    a = dvn/dt, at -sqrt(p0^2 - 2 a C); else it does not meet it in this step: 0.
     """
     dvn = vn_forced - vn_start
     p0 = vn_start + 0.5 * dvn
     if C <= 0.0:
         return p0
-    a = dvn / dt
-    closes = p0 < 0.0 or a < 0.0
-    disc = p0 * p0 - 2.0 * a * C
-    return -np.sqrt(disc) if closes and disc >= 0.0 else 0.0
+    if C + dt * vn_forced > 0.0:
+        return 0.0
+    return -np.sqrt(max(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
 
 
 @njit(cache=True)

@@ -73,70 +73,6 @@ def block_is_well_conditioned(K11, K12, K22):
     return K11 * K11 < 1000.0 * (K11 * K22 - K12 * K12)
 
 
-@njit(cache=True, inline="always")
-def same_pair(k, l, i, j):
-    """Rows k and l couple the same two bodies."""
-    return i[k] == i[l] and j[k] == j[l]
-
-
-@njit(cache=True, inline="always")
-def solve_row(k, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V):
-    """The lecture's PGS update of row k; returns |delta lambda_k| A_kk (m/s)."""
-    if A_diag[k] <= 0.0:
-        return 0.0  # both bodies static: nothing can move
-    if bound_row[k] >= 0 and lam[bound_row[k]] == 0.0 and lam[k] == 0.0:
-        return 0.0  # friction of a point that does not push: its cone is [0, 0], nothing to do
-    a, b = i[k], j[k]
-    jv = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-          + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-    delta = (xi[k] - jv) * inv_A[k]  # (b_k - sum_l A_kl lambda_l) / A_kk
-    if bound_row[k] >= 0:  # Coulomb: the cone follows the current normal impulse
-        top = mu[k] * lam[bound_row[k]]
-        low = -top
-    else:
-        low = lo[k]
-        top = hi[k]
-    # clamp the accumulated impulse, not the increment
-    new = min(max(lam[k] + delta, low), top)
-    delta = new - lam[k]
-    lam[k] = new
-    for c in range(3):
-        V[a, c] += JM[k, c] * delta
-        V[b, c] += JM[k, 3 + c] * delta
-    return abs(delta) * A_diag[k]
-
-
-@njit(cache=True)
-def solve_block(n1, n2, i, j, J, JM, A_diag, xi, lam, V):
-    """Normal rows n1, n2 of one manifold together as an exact 2x2 LCP (Box2D's block solver).
-
-    Returns the larger |delta lambda| A_kk (m/s), or -1.0 when the rows are too close to
-    parallel for the block (the caller then solves them one by one).
-    """
-    a, b = i[n1], j[n1]
-    K11, K22 = A_diag[n1], A_diag[n2]
-    K12 = 0.0
-    for c in range(6):
-        K12 += J[n1, c] * JM[n2, c]
-    if not block_is_well_conditioned(K11, K12, K22):
-        return -1.0
-    a1, a2 = lam[n1], lam[n2]
-    vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
-           + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
-    vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
-           + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
-    # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
-    x1, x2 = lcp2(K11, K12, K22, vn1 - xi[n1] - (K11 * a1 + K12 * a2),
-                  vn2 - xi[n2] - (K12 * a1 + K22 * a2))
-    d1, d2 = x1 - a1, x2 - a2
-    lam[n1] = x1
-    lam[n2] = x2
-    for c in range(3):
-        V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
-        V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
-    return max(abs(d1) * K11, abs(d2) * K22)
-
-
 @njit(cache=True)
 def sweep(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu,
           lam, V, block):
@@ -145,27 +81,82 @@ def sweep(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, inv_A,
     Contacts in solve order: each one's normal row then its friction row (the
     lecture's PGS, row by row), or with ``block`` each two-point manifold's normal
     rows together as a 2x2 LCP (Box2D's block solver), then its two friction rows.
-    Joint rows come last.
+    Joint rows (first_joint_row on) come last. A friction row of -1 is skipped (the
+    push pass sweeps normal rows only). The row update is written out here, not
+    called: a call per row costs more than the row.
     """
     worst = 0.0
     n_contacts = normal_row.shape[0]
+    n_steps = n_contacts + lam.shape[0] - first_joint_row
     q = 0
-    while q < n_contacts:
-        n1 = normal_row[q]
-        if block and q + 1 < n_contacts and same_pair(n1, normal_row[q + 1], i, j):
-            err = solve_block(n1, normal_row[q + 1], i, j, J, JM, A_diag, xi, lam, V)
-            if err >= 0.0:
-                worst = max(worst, err)
-                for f in (friction_row[q], friction_row[q + 1]):  # then the two friction rows
-                    worst = max(worst, solve_row(f, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V))
-                q += 2
-                continue
-        for k in (n1, friction_row[q]):
-            worst = max(worst, solve_row(k, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V))
-        q += 1
-    for k in range(first_joint_row, lam.shape[0]):
-        worst = max(worst, solve_row(k, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu, lam, V))
+    while q < n_steps:
+        if q >= n_contacts:
+            k = first_joint_row + (q - n_contacts)
+            first, second, step = k, -1, 1  # a joint row
+        else:
+            k = normal_row[q]
+            first, second, step = k, friction_row[q], 1  # a contact's normal and friction rows
+        a, b = i[k], j[k]
+        if block and q + 1 < n_contacts and i[normal_row[q + 1]] == a and j[normal_row[q + 1]] == b:
+            n1, n2 = k, normal_row[q + 1]
+            K11, K22 = A_diag[n1], A_diag[n2]
+            K12 = 0.0
+            for c in range(6):
+                K12 += J[n1, c] * JM[n2, c]
+            if block_is_well_conditioned(K11, K12, K22):
+                a1, a2 = lam[n1], lam[n2]
+                vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
+                       + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
+                vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
+                       + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
+                # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
+                x1, x2 = lcp2(K11, K12, K22, vn1 - xi[n1] - (K11 * a1 + K12 * a2),
+                              vn2 - xi[n2] - (K12 * a1 + K22 * a2))
+                d1, d2 = x1 - a1, x2 - a2
+                lam[n1] = x1
+                lam[n2] = x2
+                for c in range(3):
+                    V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
+                    V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
+                worst = max(worst, abs(d1) * K11, abs(d2) * K22)
+                first, second, step = friction_row[q], friction_row[q + 1], 2  # then the two friction rows
+        for r in range(2):
+            kk = first if r == 0 else second
+            if kk < 0 or A_diag[kk] <= 0.0:
+                continue  # no row, or both bodies static: nothing can move
+            if bound_row[kk] >= 0 and lam[bound_row[kk]] == 0.0 and lam[kk] == 0.0:
+                continue  # friction of a point that does not push: its cone is [0, 0], nothing to do
+            jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
+                  + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
+            delta = (xi[kk] - jv) * inv_A[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
+            if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
+                top = mu[kk] * lam[bound_row[kk]]
+                low = -top
+            else:
+                low = lo[kk]
+                top = hi[kk]
+            # clamp the accumulated impulse, not the increment
+            new = min(max(lam[kk] + delta, low), top)
+            delta = new - lam[kk]
+            lam[kk] = new
+            for c in range(3):
+                V[a, c] += JM[kk, c] * delta
+                V[b, c] += JM[kk, 3 + c] * delta
+            err = abs(delta) * A_diag[kk]
+            if err > worst:
+                worst = err
+        q += step
     return worst
+
+
+@njit(cache=True)
+def inverse_diagonal(A_diag):
+    """1 / A_kk (0 where A_kk = 0), once per step: sweeps multiply, never divide."""
+    inv_A = np.zeros(A_diag.shape[0])
+    for k in range(A_diag.shape[0]):
+        if A_diag[k] > 0.0:
+            inv_A[k] = 1.0 / A_diag[k]
+    return inv_A
 
 
 @njit(cache=True)
@@ -176,10 +167,7 @@ def pgs_solve(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, xi
     Returns the number of sweeps made; residuals[s] is the residual after sweep s.
     """
     apply_impulses(i, j, JM, lam, V)
-    inv_A = np.zeros(A_diag.shape[0])  # 1 / A_kk, once per step: sweeps multiply, never divide
-    for k in range(A_diag.shape[0]):
-        if A_diag[k] > 0.0:
-            inv_A[k] = 1.0 / A_diag[k]
+    inv_A = inverse_diagonal(A_diag)
     for s in range(iterations):
         residuals[s] = sweep(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, inv_A, xi, lo, hi,
                              bound_row, mu, lam, V, block)
@@ -198,31 +186,17 @@ def push_out(normal_row, i, j, J, JM, A_diag, push, lo, hi, bound_row, mu, lam_p
     without ever becoming velocity, so a stack pushed out of a deep overlap is not thrown.
     Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
     """
-    n_contacts = normal_row.shape[0]
     pushing = False
-    for q in range(n_contacts):
+    for q in range(normal_row.shape[0]):
         pushing = pushing or push[normal_row[q]] > 0.0
     if not pushing:
         return 0
-    inv_A = np.zeros(A_diag.shape[0])
-    for q in range(n_contacts):
-        k = normal_row[q]
-        if A_diag[k] > 0.0:
-            inv_A[k] = 1.0 / A_diag[k]
+    inv_A = inverse_diagonal(A_diag)
+    no_friction = np.full(normal_row.shape[0], -1, np.int32)
     for s in range(iterations):
-        worst = 0.0
-        q = 0
-        while q < n_contacts:
-            k = normal_row[q]
-            if block and q + 1 < n_contacts and same_pair(k, normal_row[q + 1], i, j):
-                err = solve_block(k, normal_row[q + 1], i, j, J, JM, A_diag, push, lam_push, V_push)
-                if err >= 0.0:
-                    worst = max(worst, err)
-                    q += 2
-                    continue
-            worst = max(worst, solve_row(k, i, j, J, JM, A_diag, inv_A, push, lo, hi, bound_row, mu, lam_push,
-                                         V_push))
-            q += 1
+        # first_joint_row = the row count: no joint rows, normal rows only
+        worst = sweep(normal_row, no_friction, lam_push.shape[0], i, j, J, JM, A_diag, inv_A, push, lo, hi,
+                      bound_row, mu, lam_push, V_push, block)
         if worst <= tolerance:
             return s + 1
     return iterations

@@ -39,7 +39,7 @@ from numba import njit
 from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
-from .pgs import block_is_well_conditioned, lcp2, same_pair
+from .pgs import block_is_well_conditioned, lcp2
 
 
 @njit(cache=True)
@@ -83,9 +83,10 @@ def _push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V, h,
-               use_bias, soft_dyn, soft_static, block):
+def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C, static_pair, lam, V, h, use_bias, soft_dyn,
+               soft_static, block):
     """One sweep over the contacts: normal rows (soft push if use_bias), then friction.
+    C[c] is contact c's separation now (m).
 
     With ``block`` the two normal rows of a two-point manifold are solved together
     (lcp2), each row scaled by its own softness:
@@ -99,10 +100,10 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
         k = normal_row[c]
         a, b = i[k], j[k]
         soft = soft_static if static_pair[c] else soft_dyn
-        s1 = _separation(c, a, b, C0, r, normal, moved)
-        if block and c + 1 < n_contacts and same_pair(k, normal_row[c + 1], i, j):
+        s1 = C[c]
+        if block and c + 1 < n_contacts and i[normal_row[c + 1]] == a and j[normal_row[c + 1]] == b:
             k2 = normal_row[c + 1]
-            s2 = _separation(c + 1, a, b, C0, r, normal, moved)
+            s2 = C[c + 1]
             K11, K22 = A_diag[k], A_diag[k2]
             K12 = 0.0
             for q in range(6):
@@ -149,11 +150,11 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
 
 @njit(cache=True)
 def _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn):
-    """Before a sweep: each point not yet met, its separation (m) and J V (m/s) now."""
+    """Before a sweep: every point's separation now (m), and J V (m/s) of those not yet met."""
     for c in range(normal_row.shape[0]):
+        k = normal_row[c]
+        sub_C[c] = _separation(c, i[k], j[k], C0, r, normal, moved)
         if not impacted[c]:
-            k = normal_row[c]
-            sub_C[c] = _separation(c, i[k], j[k], C0, r, normal, moved)
             sub_vn[c] = row_velocity(k, i[k], j[k], J, V)
 
 
@@ -221,8 +222,8 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
         for k in range(n_rows):  # warm start: last sub-step's impulses
             if lam[k] != 0.0:
                 apply_row_impulse(k, i[k], j[k], JM, lam[k], V)
-        soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal, static_pair, moved, lam, V,
-                   h, True, soft_dyn, soft_static, block)
+        soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, sub_C, static_pair, lam, V, h, True, soft_dyn,
+                   soft_static, block)
         _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
                       dvn_impact, landed)
         for b in range(x.shape[0]):
@@ -235,8 +236,8 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
             moved[b, 3] = np.sin(theta[b] - theta0[b])
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
             _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
-            residuals[n_sweeps] = soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C0, r, normal,
-                                              static_pair, moved, lam, V, h, False, soft_dyn, soft_static, block)
+            residuals[n_sweeps] = soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, sub_C, static_pair, lam,
+                                              V, h, False, soft_dyn, soft_static, block)
             _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
                           dvn_impact, landed)
         else:
