@@ -128,7 +128,8 @@ split, lecture = unload
 print(f"TAKEAWAY: warm starting needs {cold[1] / warm[1]:.0f}x fewer sweeps ({warm[1]:.1f} against {cold[1]:.1f}), "
       f"leaves {warm[2]:.2g} m/s of residual after 10 sweeps (cold: {cold[2]:.2g} m/s), "
       f"and the stack keeps {warm[3]} of 8 boxes up (cold: {cold[3]}); but the impulses under a 30 kg box would "
-      f"throw box 3 up at {kick:.1f} m/s once it is gone, so that island starts cold and no box rises more than "
-      f"{split[2]:.1f} mm; with the lecture's push, which stays in V, the loaded column never came to rest: it "
+      f"throw box 3 up at {kick:.1f} m/s once it is gone, so that island starts cold and the column stays at its "
+      f"unloaded resting height (highest box {split[2]:+.1f} mm); with the lecture's push, which stays in V, the "
+      f"loaded column never came to rest: it "
       f"bounced at up to {lecture[1]:.2f} m/s")
 c.done(rec)
