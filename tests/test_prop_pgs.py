@@ -66,7 +66,7 @@ def normal_targets(c: phys2d.Contacts, vn1: np.ndarray, vn_ext: np.ndarray, pgs:
     xi = np.where(C > 0.0, -C / dt, 0.0) + (0.0 if pgs.split else push)
     dvn = vn_ext - vn1
     p0 = vn1 + dvn / 2
-    closes = C + dt * vn_ext <= 0.0  # the path's end, within this step
+    closes = C + dt * vn_ext <= 1e-6  # the path's end, within this step (to within phys2d's MET)
     meet = -np.sqrt(np.maximum(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
     approach = np.where(C > 0.0, np.where(closes, meet, 0.0), p0)
     target = np.where(e == 0.0, 0.0, -e * approach - dvn / 2)

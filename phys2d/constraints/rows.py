@@ -200,14 +200,15 @@ def approach_at_impact(C, vn_start, vn_forced, dt):
     V minus half a step of the external forces: p0 = vn_start + dvn/2 as the step begins
     (dvn = vn_forced - vn_start, the forces' share of the step). A touching point met its
     partner before the step: p0. A point C > 0 apart meets it if the path closes C within
-    the step (its end, C + dt vn_forced, is <= 0), under the forces' constant acceleration
-    a = dvn/dt, at -sqrt(p0^2 - 2 a C); else it does not meet it in this step: 0.
+    the step (its end, C + dt vn_forced, is <= MET: a path that ends on the surface, as a
+    symmetric flight does, meets it whatever the rounding), under the forces' constant
+    acceleration a = dvn/dt, at -sqrt(p0^2 - 2 a C); else it does not meet it now: 0.
     """
     dvn = vn_forced - vn_start
     p0 = vn_start + 0.5 * dvn
     if C <= 0.0:
         return p0
-    if C + dt * vn_forced > 0.0:
+    if C + dt * vn_forced > MET:
         return 0.0
     return -np.sqrt(max(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
 

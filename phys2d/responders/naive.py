@@ -46,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import apply_row_impulse, approach_at_impact, bounce_target, row_velocity
+from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 from ..integrate import integrate_positions
 from ..validation import Setting, non_negative_float
 from .base import Responder, SolveResult, StepContext
@@ -66,13 +66,14 @@ def manifold_starts(body_a: np.ndarray, body_b: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def colliding_points(separation, normal_row, i, j, J, V, dt, out):
-    """out[c] = True where point c is a collision: overlapping, or closing its gap this step."""
+    """out[c] = True where point c is a collision: overlapping, or closing its gap this step
+    (to within MET: a path that ends exactly on the surface, as symmetric flights do, meets it)."""
     for c in range(separation.shape[0]):
         k = normal_row[c]
         a, b = i[k], j[k]
         vn = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
               + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-        out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= 0.0
+        out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= MET
 
 
 @njit(cache=True)
@@ -158,12 +159,15 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, V, dt, f_n, f_t):
 @njit(cache=True)
 def bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, dt, f_n, V):
     """After the positions moved: bounce each pair that met its partner within the step (gap > 0,
-    pushed) from its approach speed at impact, f = (bounce - J_n V) / A_nn when it is > 0. With
+    and it pushed or its gap closed to within MET) from its approach speed at impact,
+    f = (bounce - J_n V) / A_nn when it is > 0. With
     the landing impulse this adds up to the lecture's -(1 + e) J_n V / A_nn (no external forces)."""
     for p in range(pa.shape[0]):
-        if An[p] <= 0.0 or gap[p] <= 0.0 or f_n[p] <= 0.0:
+        if An[p] <= 0.0 or gap[p] <= 0.0:
             continue
         a, b = pa[p], pb[p]
+        if f_n[p] <= 0.0 and gap[p] + dt * row_velocity(p, a, b, Jn, V) > MET:
+            continue  # it did not meet its partner: no impulse, and its gap stays open
         vn = approach_at_impact(gap[p], vn_start[p], vn_forced[p], dt)
         f = (bounce_target(e[p], vn, vn_forced[p] - vn_start[p]) - row_velocity(p, a, b, Jn, V)) / An[p]
         if f > 0.0:
