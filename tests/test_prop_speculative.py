@@ -122,11 +122,11 @@ def test_a_point_still_apart_does_nothing_and_the_body_turns_round_at_the_surfac
     above the ground, no impulse acts and it moves exactly as in free flight. In the step
     in which an impulse first acts it turns round within slop + 1 mm of the surface: the
     lowest point of its path (positions move in straight lines within a step) is that
-    close, so it neither stops short in the air nor sinks; and it never sinks deeper."""
-    kind, shape, speed, sideways, e, mu = data.draw(falling_bodies(("circle",) if name in PAIRWISE else
-                                                                   ("circle", "box", "polygon")))
-    if name in ROW_BY_ROW and kind != "circle":
-        assume(speed * dt <= 0.5)
+    close, so it neither stops short in the air nor sinks; and it never sinks deeper.
+    The turn-round is not checked where the responder is not that exact (PAIRWISE,
+    ROW_BY_ROW beyond half a metre a step); the rest is, for every body and responder."""
+    kind, shape, speed, sideways, e, mu = data.draw(falling_bodies())
+    exact = kind == "circle" or not (name in PAIRWISE or (name in ROW_BY_ROW and speed * dt > 0.5))
     responder = RESPONDERS[name]()
     w = phys2d.World(gravity=(0.0, gravity), responder=responder)
     w.add_box(position=(0.0, -0.5), half_extents=(1e4, 0.5), static=True, friction=0.6)
@@ -144,13 +144,13 @@ def test_a_point_still_apart_does_nothing_and_the_body_turns_round_at_the_surfac
         gap = lowest_point(w, b)
         pushed = bool(np.any(w.contacts.normal_impulse != 0.0))
         note(f"free gap {free_gap:.6g} m, gap {gap:.6g} m, pushed {pushed}")
-        assert gap >= -(slop + MM), "it sank into the ground"
+        assert not exact or gap >= -(slop + MM), "it sank into the ground"
         if free_gap > slop:
             assert not pushed and not np.any(w.contacts.tangent_impulse != 0.0)
             np.testing.assert_allclose(b.position, twin.position, rtol=0, atol=1e-9 * (1 + speed))
             np.testing.assert_allclose(b.velocity, twin.velocity, rtol=0, atol=1e-9 * (1 + speed))
         if pushed:
-            assert min(before, gap) <= slop + MM, "it turned round in the air"
+            assert not exact or min(before, gap) <= slop + MM, "it turned round in the air"
             return
     raise AssertionError("it never reached the ground")  # pragma: no cover
 
