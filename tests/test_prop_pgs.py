@@ -68,11 +68,12 @@ def normal_targets(c: phys2d.Contacts, vn1: np.ndarray, vn_ext: np.ndarray, pgs:
     p0 = vn1 + dvn / 2
     closes = C + dt * vn_ext <= 1e-6  # the path's end, within this step (to within phys2d's MET)
     meet = -np.sqrt(np.maximum(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
-    approach = np.where(C > 0.0, np.where(closes, meet, 0.0), p0)
+    apart = C > 1e-6  # phys2d's MET: closer than this counts as touching
+    approach = np.where(apart, np.where(closes, meet, 0.0), p0)
     target = np.where(e == 0.0, 0.0, -e * approach - dvn / 2)
     fast = approach < -pgs.restitution_threshold
-    xi = np.where(fast & (C <= 0.0), np.maximum(xi, target), xi)
-    return xi, np.where(fast & (C > 0.0), target, 0.0)
+    xi = np.where(fast & ~apart, np.maximum(xi, target), xi)
+    return xi, np.where(fast & apart, target, 0.0)
 
 
 def solve_lcp_by_active_sets(A: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> np.ndarray:

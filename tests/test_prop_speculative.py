@@ -145,7 +145,7 @@ def test_a_point_still_apart_does_nothing_and_the_body_turns_round_at_the_surfac
         pushed = bool(np.any(w.contacts.normal_impulse != 0.0))
         note(f"free gap {free_gap:.6g} m, gap {gap:.6g} m, pushed {pushed}")
         assert not exact or gap >= -(slop + MM), "it sank into the ground"
-        if free_gap > slop:
+        if free_gap > slop + 1e-6:  # phys2d's MET: a path ending within it of the surface meets it
             assert not pushed and not np.any(w.contacts.tangent_impulse != 0.0)
             np.testing.assert_allclose(b.position, twin.position, rtol=0, atol=1e-9 * (1 + speed))
             np.testing.assert_allclose(b.velocity, twin.velocity, rtol=0, atol=1e-9 * (1 + speed))

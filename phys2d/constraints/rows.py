@@ -49,7 +49,8 @@ ROW_JOINT = 2
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
 
-MET = 1e-6  # m: a contact point closer than this has met its partner (rounding aside, it touches)
+MET = 1e-6  # m: a contact point closer than this has met its partner (it touches, rounding aside:
+# so the choice between "touching" and "still apart" never hangs on the last bit of a separation)
 
 
 def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:
@@ -198,15 +199,15 @@ def approach_at_impact(C, vn_start, vn_forced, dt):
 
     Semi-implicit Euler's positions at the ends of steps lie on a path whose velocity is
     V minus half a step of the external forces: p0 = vn_start + dvn/2 as the step begins
-    (dvn = vn_forced - vn_start, the forces' share of the step). A touching point met its
-    partner before the step: p0. A point C > 0 apart meets it if the path closes C within
-    the step (its end, C + dt vn_forced, is <= MET: a path that ends on the surface, as a
-    symmetric flight does, meets it whatever the rounding), under the forces' constant
+    (dvn = vn_forced - vn_start, the forces' share of the step). A touching point (C <= MET)
+    met its partner before the step: p0. A point C > MET apart meets it if the path closes C
+    within the step (its end, C + dt vn_forced, is <= MET: a path that ends on the surface,
+    as a symmetric flight does, meets it whatever the rounding), under the forces' constant
     acceleration a = dvn/dt, at -sqrt(p0^2 - 2 a C); else it does not meet it now: 0.
     """
     dvn = vn_forced - vn_start
     p0 = vn_start + 0.5 * dvn
-    if C <= 0.0:
+    if C <= MET:
         return p0
     if C + dt * vn_forced > MET:
         return 0.0
@@ -258,7 +259,7 @@ def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal,
         impact[k] = separation[c] > MET and vn < -restitution_threshold
         if vn < -restitution_threshold:
             target = bounce_target(e[c], vn, vn_forced - vn_start)
-            if separation[c] > 0.0:
+            if separation[c] > MET:
                 bounce[k] = target  # it meets its partner within the step: bounce once it has moved there
             else:
                 xi[k] = max(xi[k], target)  # touching already: bounce now, as the lecture does

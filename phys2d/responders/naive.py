@@ -120,7 +120,7 @@ def pair_rows(starts, use, separation, normal_row, friction_row, i, j, J, M_inv,
         gap[p] = np.inf
         for c in range(start, end):
             if use[c]:
-                gap[p] = min(gap[p], max(separation[c], 0.0))
+                gap[p] = min(gap[p], separation[c] if separation[c] > MET else 0.0)  # touching within MET
         An[p] = _mean_row(start, end, normal_row, use, J, M_inv, a, b, Jn, JMn, p)
         At[p] = _mean_row(start, end, friction_row, use, J, M_inv, a, b, Jt, JMt, p)
 
