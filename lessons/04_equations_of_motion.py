@@ -11,8 +11,10 @@ with lambda an impulse (N s) and every term of b a velocity (m/s). A is sparse:
 rows k and l couple only through a dynamic body they share.
 
 A small scene (two boxes stacked on the ground, each 2 cm into the one below)
-takes one step with PGS(form="matrix"), which assembles M^-1, F_ext, J, A and b
-exactly as above and sweeps them. They are printed (zeros as '.'), b is split
+takes one step with PGS(form="matrix", split=False), which assembles M^-1, F_ext,
+J, A and b exactly as above and sweeps them (split=False: xi holds the Baumgarte
+push, as in the lecture; by default phys2d moves positions with the push and keeps
+it out of V, see lesson 6). They are printed (zeros as '.'), b is split
 into its three terms, the lecture's eps/dt slip is measured, and the solution is
 checked: V2 = V1 + M^-1 (dt F_ext + J^T lambda) is what the world moves with.
 
@@ -45,7 +47,7 @@ def make(responder):
 args = c.options(__doc__)
 c.claim("M, M^-1, F_ext, J give A = J M^-1 J^T and b = xi - J V1 - dt J M^-1 F_ext, all of b in m/s; "
         "PGS solves A lambda = b and V2 follows")
-w = make(phys2d.PGS(form="matrix", iterations=30, warm_start=False))
+w = make(phys2d.PGS(form="matrix", iterations=30, warm_start=False, split=False))
 w.step(c.DT)
 system = w.last_step.system
 d = system.dense()
@@ -93,7 +95,7 @@ print(f"sparsity: a 10-row pyramid has R = {A.shape[0]} rows; A stores {A.nnz} e
 
 seconds = 1.0 if args.quick else 3.0
 with c.recorder(args, __file__, "lesson 4: equations of motion") as rec:
-    w = make(phys2d.PGS(form="matrix", iterations=30))
+    w = make(phys2d.PGS(form="matrix", iterations=30, split=False))
     pen = c.simulate(w, seconds, rec, probe=lambda w: w.last_step.max_penetration)
 print(f"TAKEAWAY: one system, one solve: the 2 cm overlaps shrink to {pen[-1] * 1000:.1f} mm "
       f"in {seconds:g} s (slop 5 mm), pushed out at the Baumgarte rate beta/dt")

@@ -10,10 +10,21 @@ two boxes made it; the ids of a resting and of a sliding box are shown tick by
 tick. Then warm start on and off: sweeps needed to reach a tolerance, the
 residual left after a fixed 10 sweeps, and whether lesson 1's 8-box stack stands.
 
+Caching has a price too (Catto, "Understanding Constraints", GDC 2014): a
+stored impulse is sized for the load it carried. Take a 30 kg box off a column of
+three 1 kg boxes, and last tick's impulses under it would throw the column up.
+phys2d starts cold every contact of an island that lost a pair which pushed (the
+removed box's), so only the island that changed pays the cold start. The load also
+pressed the boxes into each other: the lecture's Baumgarte push out of that overlap
+is velocity, and a heavy column bounces on it; phys2d's PGS moves positions with
+the push and keeps it out of V (split impulses, ``PGS(split=True)``).
+
 In the viewer: world/sim/contacts are green when warm-started (found in the
 cache) and red when new; on the resting box they are red for one tick only.
 Compare runs stack-warm and stack-cold: the cold stack sags and falls. Plot
-stats/iterations for pyramid-warm against pyramid-cold.
+stats/iterations for pyramid-warm against pyramid-cold. In unload-split the column
+stays put when the heavy box goes (its contacts red for one tick); in
+unload-lecture-push it bounces before, and after.
 """
 
 import _common as c
@@ -31,7 +42,8 @@ def feature(f):
 args = c.options(__doc__)
 seconds = 3.0 if args.quick else 10.0
 c.claim("with contact identities that survive from tick to tick, warm-started PGS reaches a tolerance in "
-        "fewer sweeps, leaves less residual at a fixed count, and keeps stacks up")
+        "fewer sweeps, leaves less residual at a fixed count, and keeps stacks up; but a stored impulse outlives "
+        "its load, so an island that lost a load starts cold")
 
 rec = c.recorder(args, __file__, "lesson 6: contact caching")
 for name, v in (("resting box", 0.0), ("sliding box (3 m/s)", 3.0)):
@@ -62,12 +74,62 @@ for warm in (True, False):
     y0 = w.x[:, 1].copy()
     pen = c.simulate(w, seconds, rec, f"stack-{label}", lambda w: w.last_step.max_penetration)
     rows.append([label, sweeps[60:].mean(), res[60:].mean(), c.standing(w, y0), pen.max()])
-rec.close()
 print(f"warm start on and off, {seconds:g} s each (after the first second for the pyramid figures):")
 c.table(["start", "pyramid: sweeps to 1e-3 m/s", "pyramid: residual after 10 sweeps (m/s)",
          "8-box stack: standing", "stack: max penetration (m)"], rows)
 warm, cold = rows
+
+
+# -- the price: stored impulses outlive their load ------------------------------------------
+def loaded_column(responder, heavy=True):
+    """Three 1 m, 1 kg boxes on the ground and (heavy) a 30 kg box of the same size on top."""
+    w = phys2d.World(responder=responder)
+    phys2d.scenes.ground(w)
+    column = [w.add_box(position=(0, 0.5 + k)) for k in range(3)]
+    return w, column, w.add_box(position=(0, 3.5), density=30.0) if heavy else None
+
+
+def pair_impulse(w, a, b):
+    """lambda_n of pair (a, b), summed over its points (N s)."""
+    ct = w.contacts
+    return float(ct.normal_impulse[(ct.body_a == a) & (ct.body_b == b)].sum())
+
+
+settle, after = (1.0, 1.0) if args.quick else (2.0, 3.0)
+rest = loaded_column(phys2d.PGS(), heavy=False)[0]  # the unloaded column's resting heights, for the rise
+c.simulate(rest, settle + after)
+rest_y = rest.x[1:, 1].copy()
+unload = []
+for label, pgs in (("split", phys2d.PGS()), ("lecture-push", phys2d.PGS(split=False))):
+    w, column, top = loaded_column(pgs)
+    speed = c.simulate(w, settle, rec, f"unload-{label}", lambda w: np.abs(w.V).max())
+    if label == "split":
+        g_dt = float(np.hypot(*w.gravity)) * c.DT
+        stored = [pair_impulse(w, k, k + 1) for k in range(4)]  # ground-1, 1-2, 2-3, 3-top
+        carried = [(4 - k + 29) * g_dt for k in range(4)]  # the weight above each pair, m g dt
+        kick = stored[2] / column[2].mass - g_dt  # box 3 warm-started from them, nothing above it now
+    w.remove(top)
+    w.step(c.DT)
+    rec.log(w, run=f"unload-{label}")
+    started_cold = not w.contacts.warm_started.any()
+    rise = c.simulate(w, after, rec, f"unload-{label}", lambda w: (w.x[1:, 1] - rest_y).max())
+    unload.append([label, speed[-30:].max(), 1000 * max(rise.max(), float((w.x[1:, 1] - rest_y).max())),
+                   "cold" if started_cold else "warm"])
+rec.close()
+print(f"the price: a 30 kg box on three 1 kg boxes, PGS(), {settle:g} s; lambda_n under each pair (N s) against "
+      f"the weight it carries, m g dt:")
+c.table(["pair", "stored lambda_n (N s)", "weight above, m g dt (N s)"],
+        [[f"{k}-{k + 1}", stored[k], carried[k]] for k in range(4)])
+print(f"take the 30 kg box away: warm-started from its stored {stored[2]:.3g} N s, box 3 (it carries only its own "
+      f"{g_dt:.3g} N s now) would start the step at {kick:.2f} m/s up")
+print(f"so the island that lost the pair (3, top) starts cold; then {after:g} s:")
+c.table(["PGS push", "speed, last 0.5 s before (m/s)", "rise above rest after (mm)", "column at removal"], unload)
+split, lecture = unload
 print(f"TAKEAWAY: warm starting needs {cold[1] / warm[1]:.0f}x fewer sweeps ({warm[1]:.1f} against {cold[1]:.1f}), "
       f"leaves {warm[2]:.2g} m/s of residual after 10 sweeps (cold: {cold[2]:.2g} m/s), "
-      f"and the stack keeps {warm[3]} of 8 boxes up (cold: {cold[3]})")
+      f"and the stack keeps {warm[3]} of 8 boxes up (cold: {cold[3]}); but the impulses under a 30 kg box would "
+      f"throw box 3 up at {kick:.1f} m/s once it is gone, so that island starts cold and the column stays at its "
+      f"unloaded resting height (highest box {split[2]:+.1f} mm); with the lecture's push, which stays in V, the "
+      f"loaded column never came to rest: it "
+      f"bounced at up to {lecture[1]:.2f} m/s")
 c.done(rec)

@@ -19,7 +19,8 @@ import math
 
 import numpy as np
 
-from .shapes import CIRCLE, ShapeSpec, finite_float, vec2
+from .shapes import CIRCLE, ShapeSpec
+from .validation import finite_float, float_in, non_negative_float, vec2
 
 MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
 
@@ -222,9 +223,7 @@ class Body:
 
     @friction.setter
     def friction(self, value) -> None:
-        v = finite_float(value, "friction")
-        if v < 0.0:
-            raise ValueError(f"friction must be >= 0, got {v}")
+        v = non_negative_float(value, "friction")
         self._arrays().friction[self._index] = v
 
     @property
@@ -234,9 +233,7 @@ class Body:
 
     @restitution.setter
     def restitution(self, value) -> None:
-        v = finite_float(value, "restitution")
-        if not 0.0 <= v <= 1.0:
-            raise ValueError(f"restitution must be in [0, 1], got {v}")
+        v = float_in(value, "restitution", 0.0, 1.0)
         self._arrays().restitution[self._index] = v
 
     # -- shape ------------------------------------------------------------

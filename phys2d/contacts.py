@@ -18,16 +18,11 @@ import numpy as np
 from numba import njit
 
 
-def contact_keys(uid: np.ndarray, body_a: np.ndarray, body_b: np.ndarray,
-                 feature: np.ndarray) -> np.ndarray:
-    return (uid[body_a] << 39) | (uid[body_b] << 16) | feature.astype(np.int64)
-
-
 @njit(cache=True)
-def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, rank, lam, hit):
+def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit):
     """Contact caching: walk both sorted key lists together (a merge), and for every
-    contact c found in last tick's cache set hit[c] and start its rows (2 rank[c] and
-    2 rank[c] + 1) from the cached impulses lambda_n and lambda_t. Returns the hits.
+    contact c found in last tick's cache set hit[c] and lambda_n[c], lambda_t[c] to the
+    cached impulses (0 for the others). Returns the number of hits.
     """
     hits = 0
     m = 0
@@ -36,12 +31,64 @@ def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, rank
             m += 1
         if m < cache_keys.shape[0] and cache_keys[m] == keys[c]:
             hit[c] = True
-            lam[2 * rank[c]] = cache_lambda_n[m]
-            lam[2 * rank[c] + 1] = cache_lambda_t[m]
+            lambda_n[c] = cache_lambda_n[m]
+            lambda_t[c] = cache_lambda_t[m]
             hits += 1
         else:
             hit[c] = False
+            lambda_n[c] = 0.0
+            lambda_t[c] = 0.0
     return hits
+
+
+UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pair of uids
+FEATURE_BITS = 16
+
+
+@njit(cache=True)
+def _root(parent, b):
+    """The representative of body b's island (union-find with path halving)."""
+    while parent[b] != b:
+        parent[b] = parent[parent[b]]
+        b = parent[b]
+    return b
+
+
+@njit(cache=True)
+def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold):
+    """cold[c] = True for every contact c whose island lost a load since last tick.
+
+    A pair of bodies that pushed last tick (cache_pushed) and has no contact now (one
+    was removed, or they flew apart) leaves the impulses cached around it sized for a
+    load that is gone. Those stored impulses would launch what was under it, so every
+    contact connected to either body through dynamic bodies starts cold. Static bodies
+    do not connect islands: nothing flows through the ground.
+    """
+    n = uid.shape[0]
+    parent = np.arange(n)
+    for c in range(keys.shape[0]):
+        a, b = body_a[c], body_b[c]
+        if not static[a] and not static[b]:
+            ra, rb = _root(parent, a), _root(parent, b)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+    unloaded = np.zeros(n, np.bool_)
+    any_unloaded = False
+    m = 0
+    for e in range(cache_keys.shape[0]):
+        pair = cache_keys[e] >> FEATURE_BITS
+        while m < keys.shape[0] and (keys[m] >> FEATURE_BITS) < pair:
+            m += 1
+        if not cache_pushed[e] or (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
+            continue  # it carried nothing, or the pair still touches
+        for u in (pair >> UID_BITS, pair & ((1 << UID_BITS) - 1)):
+            b = np.searchsorted(uid, u)  # uids are ascending in the body arrays
+            if b < n and uid[b] == u and not static[b]:
+                unloaded[_root(parent, b)] = True
+                any_unloaded = True
+    for c in range(keys.shape[0]):
+        body = body_b[c] if static[body_a[c]] else body_a[c]
+        cold[c] = any_unloaded and unloaded[_root(parent, body)]
 
 
 @dataclass(eq=False)
@@ -76,6 +123,13 @@ class Contacts:
     def __len__(self) -> int:
         return int(self.body_a.shape[0])
 
+    def read_only(self) -> Contacts:
+        """Make every array read-only (the world hands these out: they describe a step taken,
+        and editing them must not look as if it could change the next) and return self."""
+        for name in self.__dataclass_fields__:
+            getattr(self, name).flags.writeable = False
+        return self
+
     def reordered(self, order: np.ndarray) -> Contacts:
         """The same contacts listed in ``order`` (contact order[q] becomes the q-th).
 
@@ -108,19 +162,33 @@ class ContactCache:
         self.keys = np.zeros(0, np.int64)
         self.lambda_n = np.zeros(0)
         self.lambda_t = np.zeros(0)
+        self.pushed = np.zeros(0, np.bool_)
 
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def warm_start(self, keys: np.ndarray, rank: np.ndarray, lam: np.ndarray) -> np.ndarray:
-        """For sorted ``keys``: start the rows of cached contacts (contact c's rows are
-        2 rank[c] and 2 rank[c] + 1) from their cached impulses; returns the hit mask."""
-        hit = np.zeros(keys.shape[0], np.bool_)
-        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, keys, rank, lam, hit)
-        return hit
+    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(hit, lambda_n, lambda_t) for this step's contacts ``c`` (keys sorted), in their order:
+        the cached impulses (N s) of contacts found in the cache, 0 for the others and for
+        every contact of an island that lost a load (``unloaded_islands``)."""
+        k = len(c)
+        hit = np.zeros(k, np.bool_)
+        lambda_n, lambda_t = np.zeros(k), np.zeros(k)
+        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, c.key, lambda_n, lambda_t, hit)
+        cold = np.zeros(k, np.bool_)
+        unloaded_islands(self.keys, self.pushed, c.key, c.body_a, c.body_b, uid, static, cold)
+        hit &= ~cold
+        lambda_n[cold] = 0.0
+        lambda_t[cold] = 0.0
+        return hit, lambda_n, lambda_t
 
-    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
-        """Remember this tick's impulses; ``keys`` must be sorted ascending (kept, not copied)."""
-        self.keys = keys
-        self.lambda_n = lambda_n
-        self.lambda_t = lambda_t
+    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, impact: np.ndarray) -> None:
+        """Remember this tick's impulses (N s) for warm starting; ``keys`` must be sorted ascending.
+        A contact that met its partner fast within the tick (``impact``) took an event, not a
+        load: 0 is cached for it. Which contacts pushed at all is kept too (``unloaded_islands``).
+        The arrays are new: the ones handed to the user never feed the next warm start."""
+        self.keys = keys.copy()
+        self.lambda_n = np.where(impact, 0.0, lambda_n)
+        self.lambda_t = np.where(impact, 0.0, lambda_t)
+        self.pushed = lambda_n > 0.0

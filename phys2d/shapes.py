@@ -15,6 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .validation import positive_float, vec2
+
+# positive_float is re-exported: scenes.py imports it from here
+__all__ = ["CIRCLE", "POLYGON", "ShapeSpec", "box", "circle", "mass_properties", "polygon", "positive_float"]
+
 CIRCLE = 0
 POLYGON = 1
 
@@ -34,41 +39,6 @@ class ShapeSpec:
     centroid: np.ndarray  # (2,) where the given vertices' centroid was, in the given frame
     area: float  # m^2
     unit_inertia: float  # m^4: polar second moment of area about the centroid
-
-
-def finite_float(value, name: str) -> float:
-    """``value`` as a finite float, or a ValueError/TypeError that names it."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {v}")
-    return v
-
-
-def positive_float(value, name: str) -> float:
-    v = finite_float(value, name)
-    if v <= 0.0:
-        raise ValueError(f"{name} must be > 0, got {v}")
-    return v
-
-
-def vec2(value, name: str) -> np.ndarray:
-    """``value`` as a finite float64 (2,) array, or a ValueError/TypeError that names it."""
-    if isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be a pair of numbers (x, y), got {type(value).__name__}")
-    try:
-        a = np.asarray(value)
-    except Exception as exc:  # ragged input and the like
-        raise TypeError(f"{name} must be a pair of numbers (x, y): {exc}") from None
-    if a.dtype == object or a.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must be a pair of numbers (x, y), got {value!r}")
-    if a.shape != (2,):
-        raise ValueError(f"{name} must have shape (2,), got shape {a.shape}")
-    a = a.astype(np.float64)
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite, got {a.tolist()}")
-    return a
 
 
 def circle(radius) -> ShapeSpec:

@@ -4,6 +4,8 @@
                     -> responder -> integration
 
 Each stage lives in its own module; ``World.step`` is the pipeline in one screen.
+Responders that move positions themselves (the split push, sub-steps, a bounce
+after the move) say so, and the world does not integrate again.
 """
 
 from __future__ import annotations
@@ -33,19 +35,13 @@ from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
 from .responders.base import Responder, StepContext, StepReport
 from .responders.pgs import PGS
-from .shapes import finite_float, positive_float, vec2
+from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
 
 
 class SimulationError(RuntimeError):
     """A step produced velocities past the world's limits; the world was left as before it."""
-
-
-def _check_bool(value, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
 
 
 class World:
@@ -60,16 +56,17 @@ class World:
                 at the surface instead of sinking into it
     max_speed   a step that leaves any body faster than this (m/s, or rad/s for
                 spin) raises SimulationError and is undone
+
+    gravity, contact_margin, max_speed and responder can be set between steps; a bad
+    value is refused with the constructor's message and changes nothing.
     """
 
     def __init__(self, gravity=(0.0, -10.0), responder: Responder | None = None, *,
                  contact_margin: float = 0.02, max_speed: float = 1e4) -> None:
         self._gravity = vec2(gravity, "gravity")
         self._responder = self._check_responder(PGS() if responder is None else responder)
-        self.contact_margin = finite_float(contact_margin, "contact_margin")
-        if self.contact_margin < 0.0:
-            raise ValueError(f"contact_margin must be >= 0, got {self.contact_margin}")
-        self._max_speed = positive_float(max_speed, "max_speed")
+        self.contact_margin = contact_margin
+        self.max_speed = max_speed
         self._bodies = BodyArrays()
         self._handles: list[Body] = []
         self._cache = ContactCache()
@@ -79,11 +76,11 @@ class World:
         self._pairs = np.zeros((64, 2), np.int32)
         self._n_pairs = 0
         self._pair_order = np.zeros(0, np.int32)  # pair indices in solve order (graph colouring)
-        self._solve_order = np.zeros(0, np.int32)  # this step's contacts in solve order
-        self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with; empty: sweep again
+        self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with
+        self._sweep_again = True  # bodies or exclusions changed since: the pairs must be found anew
         self._rows = RowBuffer()
-        self.contacts = Contacts()
-        self.last_step = StepReport()
+        self.contacts = Contacts().read_only()
+        self.last_step = StepReport().read_only()
         self.tick = 0
         self.time = 0.0
 
@@ -119,6 +116,25 @@ class World:
     @gravity.setter
     def gravity(self, value) -> None:
         self._gravity = vec2(value, "gravity")
+
+    @property
+    def contact_margin(self) -> float:
+        """Surfaces closer than this (m) make speculative contact points."""
+        return self._contact_margin
+
+    @contact_margin.setter
+    def contact_margin(self, value: float) -> None:
+        self._contact_margin = non_negative_float(value, "contact_margin")
+        self._sweep_again = True  # the fat boxes were grown by the old margin
+
+    @property
+    def max_speed(self) -> float:
+        """A step leaving any body faster than this (m/s, or rad/s for spin) is undone."""
+        return self._max_speed
+
+    @max_speed.setter
+    def max_speed(self, value: float) -> None:
+        self._max_speed = positive_float(value, "max_speed")
 
     # -- the lecture's arrays (views: the first N rows) ------------------------
     @property
@@ -181,13 +197,9 @@ class World:
         x = vec2(position, "position")
         theta = finite_float(angle, "angle")
         density = positive_float(density, "density")
-        friction = finite_float(friction, "friction")
-        if friction < 0.0:
-            raise ValueError(f"friction must be >= 0, got {friction}")
-        restitution = finite_float(restitution, "restitution")
-        if not 0.0 <= restitution <= 1.0:
-            raise ValueError(f"restitution must be in [0, 1], got {restitution}")
-        static = _check_bool(static, "static")
+        friction = non_negative_float(friction, "friction")
+        restitution = float_in(restitution, "restitution", 0.0, 1.0)
+        static = check_bool(static, "static")
         v = vec2(velocity, "velocity")
         omega = finite_float(angular_velocity, "angular_velocity")
         mass, inertia = shapes.mass_properties(spec, density)
@@ -195,7 +207,7 @@ class World:
                                     restitution, static)
         handle = Body(self, index, int(self._bodies.uid[index]))
         self._handles.append(handle)
-        self._fat = np.zeros((0, 4))  # a new body: sweep again
+        self._sweep_again = True  # a new body
         return handle
 
     def _own(self, body, name: str = "body") -> int:
@@ -226,8 +238,8 @@ class World:
         for h in self._handles[i:]:
             h._index -= 1
         item._index = -1
-        self.contacts = Contacts()  # its indices no longer match w.bodies
-        self.last_step = StepReport()  # nor does the last step's report
+        self.contacts = Contacts().read_only()  # its indices no longer match w.bodies
+        self.last_step = StepReport().read_only()  # nor does the last step's report
         self._joints_changed()
 
     # -- joints --------------------------------------------------------------------
@@ -264,7 +276,7 @@ class World:
                                  "use add_pin_joint to hold two points together")
         else:
             length = positive_float(length, "length")
-        collide = _check_bool(collide_connected, "collide_connected")
+        collide = check_bool(collide_connected, "collide_connected")
         self._check_joints_supported(self._responder, adding=True)
         return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length,
                                              collide))
@@ -276,7 +288,7 @@ class World:
             raise TypeError("anchor must be a pair of numbers (x, y), got None")
         local_a = local_anchor(body_a, anchor, "anchor")
         local_b = local_anchor(body_b, anchor, "anchor")
-        collide = _check_bool(collide_connected, "collide_connected")
+        collide = check_bool(collide_connected, "collide_connected")
         self._check_joints_supported(self._responder, adding=True)
         return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide))
 
@@ -288,7 +300,7 @@ class World:
         lower = optional_limit(lower, "lower")
         upper = optional_limit(upper, "upper")
         check_limits(lower, upper)
-        collide = _check_bool(collide_connected, "collide_connected")
+        collide = check_bool(collide_connected, "collide_connected")
         self._check_joints_supported(self._responder, adding=True)
         theta_0 = body_b.angle - body_a.angle
         return self._add_joint(AngleJoint(self, body_a, body_b, theta_0, lower, upper, collide))
@@ -314,7 +326,7 @@ class World:
         keys = [(min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
                 for q in self._joints if not q.collide_connected]
         self._excluded = np.unique(np.asarray(keys, np.int64))
-        self._fat = np.zeros((0, 4))
+        self._sweep_again = True
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:
@@ -328,10 +340,10 @@ class World:
         try:
             V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
-            c = self._collide(dt)
-            rows, hit = self._build_rows(c, V1, dt)
-            # the responders see contacts in row order: rows 2q, 2q + 1 are contact order[q]'s
-            rc = c if not responder.colour_order else c.reordered(rows.order)
+            c, order = self._collide(dt)
+            rows, hit = self._build_rows(c, order, V1, V, dt)
+            # the responders see contacts in row order: contact q of ctx is contact order[q]
+            rc = c.reordered(order) if responder.colour_order else c
             ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), rc.body_a, rc.body_b, rc.point,
                               rc.normal, rc.separation, rc.restitution, gravity=self._gravity)
             result = responder.respond(ctx)
@@ -342,26 +354,24 @@ class World:
             b.restore(before)
             raise
         k = len(c)
-        c.normal_impulse = np.empty(k)
-        c.tangent_impulse = np.empty(k)
-        c.normal_impulse[rows.order] = rows.lam[0 : 2 * k : 2]
-        c.tangent_impulse[rows.order] = rows.lam[1 : 2 * k : 2]
+        c.normal_impulse, c.tangent_impulse = rows.contact_impulses()
         c.warm_started = hit
-        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse)
-        self._store_joint_impulses(rows, 2 * k)
-        self.contacts = c
+        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse, rows.contact_impacts())
+        self._store_joint_impulses(rows)
+        self.contacts = c.read_only()
         self.last_step = StepReport(
             responder=responder.name, dt=dt, iterations=result.iterations,
             residuals=result.residuals,
             max_penetration=float(max(0.0, -c.separation.min())) if k else 0.0,
             contact_count=k, cache_hits=int(hit.sum()),
-            joint_impulses=rows.lam[2 * k :].copy(), system=result.system, solve_order=rows.order)
+            joint_impulses=rows.joint_impulses(), system=result.system, solve_order=order).read_only()
         self.tick += 1
         self.time += dt
         return self.last_step
 
-    def _collide(self, dt: float = 0.0) -> Contacts:
-        """Broadphase and narrowphase at the current positions: this step's contacts.
+    def _collide(self, dt: float = 0.0) -> tuple[Contacts, np.ndarray]:
+        """Broadphase and narrowphase at the current positions: this step's contacts, and
+        the order the responder visits them in (contact order[q] is the q-th visited).
 
         Bodies are looked for as far apart as contact_margin plus what their current
         velocities could close within dt (speculative contacts).
@@ -373,13 +383,13 @@ class World:
         travel = np.empty(b.n)
         update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
                         self.contact_margin, world_v, world_n, aabb, travel)
-        if not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
+        if self._sweep_again or not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
             fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
             n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
             if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
                 self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
                 n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
-            self._fat, self._n_pairs = fat, n_pairs
+            self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
             self._pair_order = colour_pairs(self._pairs, n_pairs, b.static, b.n)
         cap = 2 * self._n_pairs
         out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
@@ -389,12 +399,17 @@ class World:
                           world_n, self.contact_margin, travel, b.uid, b.friction, b.restitution, *out, pair_start)
         body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
         if self._responder.colour_order:
-            self._solve_order = solve_order(self._pair_order, pair_start)
+            order = solve_order(self._pair_order, pair_start)
+        else:
+            order = np.arange(k, dtype=np.int32)
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
-                        feature=feature, key=key, friction=mu, restitution=e)
+                        feature=feature, key=key, friction=mu, restitution=e), order
 
-    def _build_rows(self, c: Contacts, V1: np.ndarray, dt: float) -> tuple[Rows, np.ndarray]:
-        """Constraint rows for this step: contacts (2 per point), then the joints' rows.
+    def _build_rows(self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
+                    ) -> tuple[Rows, np.ndarray]:
+        """Constraint rows for this step: contacts (visited in ``order``), then the joints' rows.
+
+        V1 is the velocity the tick began with, V the one after external forces.
 
         Returns the rows, lambda started from the contact cache when the responder
         warm starts, and the mask of contacts found in the cache.
@@ -403,43 +418,42 @@ class World:
         r = self._responder
         k = len(c)
         ja = self._joint_arrays
-        rows = self._rows.take(2 * k + ja.n_rows)
-        rows.order = self._solve_order if r.colour_order else np.arange(k, dtype=np.int32)
+        rows = self._rows.take(order, ja.n_rows)
         if r.friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = np.ones(k)
-        contact_rows(rows.order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.friction,
-                     c.restitution, b.x, V1, b.M_inv, dt, r.beta, r.slop,
-                     r.restitution_threshold, r.friction_model,
+        contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
+                     c.separation, c.friction, c.restitution, b.x, V1, V, b.M_inv, dt, r.beta, r.slop,
+                     r.push_max, r.restitution_threshold, r.friction_model,
                      float(math.hypot(*self._gravity)), points_in_manifold,
-                     rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi,
-                     rows.bound_row, rows.mu, rows.kind)
+                     rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.push, rows.bounce, rows.impact,
+                     rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
         if r.warm_start:
-            rank = rows.order  # pair order: contact c's rows are 2c, 2c + 1
-            if r.colour_order:
-                rank = np.empty(k, np.int32)
-                rank[rows.order] = np.arange(k, dtype=np.int32)
-            hit = self._cache.warm_start(c.key, rank, rows.lam)
+            hit, lambda_n, lambda_t = self._cache.warm_start(c, b.uid, b.static)
+            rows.start_contacts(lambda_n, lambda_t)
         else:
             hit = np.zeros(k, np.bool_)
         if ja.n_rows:
             joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
-                       2 * k, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J, rows.JM,
-                       rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+                       rows.first_joint_row, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J,
+                       rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+            rows.push[rows.first_joint_row :] = 0.0  # joints keep their Baumgarte term in xi
+            rows.bounce[rows.first_joint_row :] = 0.0
+            rows.impact[rows.first_joint_row :] = False
             if r.warm_start:  # joints keep their identity: start from last step's reactions
                 for q, joint in enumerate(self._joints):
-                    start = 2 * k + ja.row_offset[q]
+                    start = rows.first_joint_row + ja.row_offset[q]
                     rows.lam[start : start + joint.row_count] = joint._impulse
         return rows, hit
 
-    def _store_joint_impulses(self, rows: Rows, first: int) -> None:
+    def _store_joint_impulses(self, rows: Rows) -> None:
         """Hand each joint its rows and reactions of the step just taken."""
         ja = self._joint_arrays
         for q, joint in enumerate(self._joints):
-            start = first + int(ja.row_offset[q])
+            start = rows.first_joint_row + int(ja.row_offset[q])
             joint._row_start = start
             joint._has_rows = True
             joint._impulse = rows.lam[start : start + joint.row_count].copy()

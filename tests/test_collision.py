@@ -12,7 +12,7 @@ import phys2d
 
 def collide(w: phys2d.World) -> phys2d.Contacts:
     """This step's contacts, without moving anything (zero gravity, zero velocities, dt tiny)."""
-    return w._collide()
+    return w._collide()[0]
 
 
 def zero_g(margin: float = 0.0) -> phys2d.World:

@@ -56,12 +56,17 @@ def test_angular_momentum_is_conserved(scene: SceneSpec, responder: phys2d.PGS, 
     """No gravity, no static bodies: impulses act at one point on both bodies, so
     sum I omega + (x - o) x m v about any point o is unchanged by each step.
 
-    PGS only: SoftStep moves the bodies between its sub-steps but keeps the tick's
-    lever arms, so its impulses act at points that have drifted apart by the bodies'
-    motion within the tick, and angular momentum is kept only to O(dt) (as in Box2D v3);
-    the naive takes push overlapping bodies apart by moving x without changing v, which
-    keeps the centre of mass (and linear momentum) but not (x - o) x m v.
+    PGS only, with the lecture's push (split=False) and no restitution: what moves
+    positions with a velocity the bodies do not keep, keeps the centre of mass (and
+    linear momentum) but not (x - o) x m v. That is the split push, and the bounce of
+    a point that was still apart (it moves to its partner, then bounces); likewise the
+    naive takes' push-apart. SoftStep moves the bodies between its sub-steps but keeps
+    the tick's lever arms, so its impulses act at points that have drifted apart by the
+    bodies' motion within the tick, and angular momentum is kept only to O(dt) (as in
+    Box2D v3).
     """
+    responder.split = False
+    scene = replace(scene, bodies=tuple(replace(b, restitution=0.0) for b in scene.bodies))
     w = build(free_scene(scene), responder)
     for _ in range(30):
         scale = momentum_scale(w) * (1.0 + math.hypot(*about))

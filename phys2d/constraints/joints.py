@@ -37,7 +37,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..shapes import finite_float, vec2
+from ..validation import finite_float, vec2
 from .rows import ROW_JOINT, fill_row
 
 JOINT_DISTANCE = 0
@@ -280,14 +280,14 @@ def joint_rows(kind, body_i, body_j, local_i, local_j, params, row_offset, first
         dy = x[j, 1] + r_jy - x[i, 1] - r_iy
         k = first_row + row_offset[q]
         n_rows = 1
-        if kind[q] == 0:  # distance, normalised by L
+        if kind[q] == JOINT_DISTANCE:  # normalised by L
             L = params[q, 0]
             fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_diag)
             C = 0.5 * (dx * dx + dy * dy - L * L) / L
             xi[k] = -(beta / dt) * C
             lo[k] = -np.inf
             hi[k] = np.inf
-        elif kind[q] == 1:  # pin: x row, then y row
+        elif kind[q] == JOINT_PIN:  # x row, then y row
             fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_diag)
             fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_diag)
             xi[k] = -(beta / dt) * dx

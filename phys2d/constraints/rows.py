@@ -6,17 +6,35 @@ A row k couples bodies i and j. Everything the responders need is stored per row
     J          (R, 6)  [J_i | J_j]: the row's only non-zero entries of the lecture's J
     JM         (R, 6)  M^-1 J^T for the same entries: the velocity change per unit lambda
     A_diag     (R,)    A_kk = J_k M^-1 J_k^T, the diagonal of A = J M^-1 J^T
-    xi         (R,)    the velocity J_k V2 must reach (Baumgarte push, bounce, or 0)
+    xi         (R,)    the velocity J_k V2 must reach: -C/dt for a speculative contact point
+                       (close the gap, no more), 0 for a touching one, a joint's Baumgarte term
+    push       (R,)    a touching contact point's Baumgarte push-out speed, capped (0 elsewhere);
+                       PGS moves positions with it without making it velocity (split impulses),
+                       or, as the lecture does, adds it to xi
+    impact     (R,)    True on the normal row of a contact point still apart that meets its
+                       partner within the step faster than the restitution threshold: its
+                       impulse is an event, not a load, and is not carried to the next step
+    bounce     (R,)    the velocity J_k V a speculative contact point bounces to once it has
+                       moved to its partner (the restitution pass), when it approaches faster
+                       than the restitution threshold; 0 elsewhere (a touching point that
+                       bounces has its bounce in xi)
     lo, hi     (R,)    fixed bounds on lambda_k
     bound_row  (R,)    for a Coulomb friction row: its normal row, whose current lambda
                        sets the bounds +-mu * lambda_n; -1 for rows with fixed bounds
     mu         (R,)    friction coefficient of a friction row
     lam        (R,)    lambda_k, impulses in N s: the warm start going in, the answer coming out
     kind       (R,)    ROW_NORMAL, ROW_FRICTION, ROW_JOINT
-    order      (K,)    which contact each pair of rows belongs to: rows 2q (normal)
-                       and 2q + 1 (friction) are contact order[q]'s. The rows are
-                       stored in the order the responders visit them (graph colouring,
-                       see ``constraints.order``); joint rows follow the contact rows.
+
+and the row map, the one place that says which rows belong to which contact:
+
+    order         (K,)  contact order[q] is the q-th contact the responders visit
+    normal_row    (K,)  the normal row of the q-th visited contact
+    friction_row  (K,)  its friction row
+    first_joint_row     joint rows run from here to the end
+
+Contacts are stored in the order the responders visit them (pair order, or graph
+colouring: see ``constraints.order``); ``contact_impulses()`` gives lambda_n and
+lambda_t back in contact order.
 """
 
 from __future__ import annotations
@@ -31,9 +49,19 @@ ROW_JOINT = 2
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
 
+MET = 1e-6  # m: a contact point closer than this has met its partner (it touches, rounding aside:
+# so the choice between "touching" and "still apart" never hangs on the last bit of a separation)
+
+
+def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The row map: the q-th visited contact owns rows 2q (normal) and 2q + 1 (friction);
+    joint rows follow the last contact's. Returns (normal_row, friction_row, first_joint_row)."""
+    q = np.arange(n_contacts, dtype=np.int32)
+    return 2 * q, 2 * q + 1, 2 * n_contacts
+
 
 class Rows:
-    """The constraint rows of one step (arrays of length R)."""
+    """The constraint rows of one step (arrays of length R) and the row map."""
 
     def __init__(self, n_rows: int) -> None:
         self.i = np.zeros(n_rows, np.int32)
@@ -42,24 +70,59 @@ class Rows:
         self.JM = np.zeros((n_rows, 6))
         self.A_diag = np.zeros(n_rows)
         self.xi = np.zeros(n_rows)
+        self.push = np.zeros(n_rows)
+        self.bounce = np.zeros(n_rows)
+        self.impact = np.zeros(n_rows, np.bool_)
         self.lo = np.zeros(n_rows)
         self.hi = np.zeros(n_rows)
         self.bound_row = np.full(n_rows, -1, np.int32)
         self.mu = np.zeros(n_rows)
         self.lam = np.zeros(n_rows)
         self.kind = np.zeros(n_rows, np.int8)
-        self.order = np.arange(n_rows // 2, dtype=np.int32)  # rows 2q, 2q + 1 are contact order[q]
+        self.map_contacts(np.zeros(0, np.int32))
+
+    _ARRAYS = ("i", "j", "J", "JM", "A_diag", "xi", "push", "bounce", "impact", "lo", "hi", "bound_row", "mu", "lam",
+               "kind")
 
     def __len__(self) -> int:
         return int(self.i.shape[0])
 
+    def map_contacts(self, order: np.ndarray) -> None:
+        """Give the contacts, visited in ``order``, their rows (``contact_row_map``)."""
+        self.order = order
+        self.n_contacts = int(order.shape[0])
+        self.normal_row, self.friction_row, self.first_joint_row = contact_row_map(self.n_contacts)
+
+    def contact_impacts(self) -> np.ndarray:
+        """(K,) True for each contact that met its partner fast within the step, in contact order."""
+        out = np.empty(self.n_contacts, np.bool_)
+        out[self.order] = self.impact[self.normal_row]
+        return out
+
+    def contact_impulses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
+        lambda_n = np.empty(self.n_contacts)
+        lambda_t = np.empty(self.n_contacts)
+        lambda_n[self.order] = self.lam[self.normal_row]
+        lambda_t[self.order] = self.lam[self.friction_row]
+        return lambda_n, lambda_t
+
+    def start_contacts(self, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
+        """Start the contact rows from (lambda_n, lambda_t) given in contact order (warm starting)."""
+        self.lam[self.normal_row] = lambda_n[self.order]
+        self.lam[self.friction_row] = lambda_t[self.order]
+
+    def joint_impulses(self) -> np.ndarray:
+        """lambda of the joint rows, in joint order (a copy)."""
+        return self.lam[self.first_joint_row :].copy()
+
     def head(self, n_rows: int) -> Rows:
-        """The first n_rows rows as views (no copy), with lambda reset to 0."""
+        """The first n_rows rows as views (no copy), with lambda reset to 0 and no contacts mapped."""
         rows = object.__new__(Rows)
-        for name in ("i", "j", "J", "JM", "A_diag", "xi", "lo", "hi", "bound_row", "mu", "lam", "kind"):
+        for name in self._ARRAYS:
             setattr(rows, name, getattr(self, name)[:n_rows])
         rows.lam[:] = 0.0
-        rows.order = np.zeros(0, np.int32)  # the caller sets the contacts' solve order
+        rows.map_contacts(np.zeros(0, np.int32))
         return rows
 
 
@@ -70,14 +133,17 @@ class RowBuffer:
         self._rows = Rows(0)
         self._head = self._rows.head(0)
 
-    def take(self, n_rows: int) -> Rows:
-        """The first n_rows rows, lambda at 0 (the same views as last step when the count holds)."""
+    def take(self, order: np.ndarray, n_joint_rows: int) -> Rows:
+        """Rows for the contacts visited in ``order`` and then the joints, lambda at 0
+        (the same views as last step when the row count holds)."""
+        n_rows = contact_row_map(len(order))[2] + n_joint_rows
         if n_rows > len(self._rows):
             self._rows = Rows(max(n_rows, 2 * len(self._rows)))
-        elif n_rows == len(self._head):
+        if n_rows == len(self._head):
             self._head.lam[:] = 0.0
-            return self._head
-        self._head = self._rows.head(n_rows)
+        else:
+            self._head = self._rows.head(n_rows)
+        self._head.map_contacts(order)
         return self._head
 
 
@@ -114,16 +180,64 @@ def apply_row_impulse(k, i, j, JM, impulse, V):
 
 
 @njit(cache=True)
-def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1, M_inv, dt, beta,
-                 slop, restitution_threshold, friction_model, gravity, points_in_manifold,
-                 out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu, kind):
-    """Normal row 2q and friction row 2q + 1 for contact point c = order[q] (FORMULATION.md).
+def speculative_target(C, dt):
+    """xi of a normal row: a point still C > 0 apart may approach at C/dt (close the gap
+    within the step, no more); a touching one may not approach at all (m/s)."""
+    return -C / dt if C > 0.0 else 0.0
 
-    Normal:   xi = -(beta/dt) min(0, C + slop) when touching (C <= 0); xi = -C/dt for a
-              speculative point still C > 0 apart (it may close the gap, no more); the
-              bounce -e (J V1) instead when larger and the approach speed exceeds the
-              threshold; lambda in [0, inf).
-    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of row 2q, or the
+
+@njit(cache=True)
+def baumgarte_push(C, dt, beta, slop, push_max):
+    """The speed (m/s) at which to push out an overlap deeper than slop: (beta/dt) of the
+    excess, never more than push_max (Box2D v3's contactPushMaxVelocity)."""
+    return min((beta / dt) * max(0.0, -(C + slop)), push_max)
+
+
+@njit(cache=True)
+def approach_at_impact(C, vn_start, vn_forced, dt):
+    """The normal velocity (m/s, negative when approaching) a point meets its partner with.
+
+    Semi-implicit Euler's positions at the ends of steps lie on a path whose velocity is
+    V minus half a step of the external forces: p0 = vn_start + dvn/2 as the step begins
+    (dvn = vn_forced - vn_start, the forces' share of the step). A touching point (C <= MET)
+    met its partner before the step: p0. A point C > MET apart meets it if the path closes C
+    within the step (its end, C + dt vn_forced, is <= MET: a path that ends on the surface,
+    as a symmetric flight does, meets it whatever the rounding), under the forces' constant
+    acceleration a = dvn/dt, at -sqrt(p0^2 - 2 a C); else it does not meet it now: 0.
+    """
+    dvn = vn_forced - vn_start
+    p0 = vn_start + 0.5 * dvn
+    if C <= MET:
+        return p0
+    if C + dt * vn_forced > MET:
+        return 0.0
+    return -np.sqrt(max(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
+
+
+@njit(cache=True)
+def bounce_target(e, vn_impact, dvn):
+    """The J V a point of restitution e leaves with when it met its partner at vn_impact (m/s):
+    the path's velocity reversed e times, turned back into V (plus half the forces' share dvn).
+    Then a ball dropped from h rises to e^2 h with no error of order dt; e = 0 does not bounce."""
+    if e == 0.0:
+        return 0.0
+    return -e * vn_impact - 0.5 * dvn
+
+
+@njit(cache=True)
+def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1, V,
+                 M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity,
+                 points_in_manifold, out_i, out_j, J, JM, A_diag, xi, push, bounce, impact, lo, hi, bound_row,
+                 out_mu, kind):
+    """The normal and friction rows of contact point c = order[q] (FORMULATION.md).
+
+    Normal:   xi = -C/dt for a speculative point still C > 0 apart (it may close the gap
+              within the step, no more), 0 when touching; push = min(-(beta/dt) min(0, C + slop),
+              push_max) when touching. A point whose approach speed at impact -vn exceeds the
+              threshold bounces (``bounce_target``): a touching one at once, xi = max(xi, bounce),
+              one still apart after the move to its partner (bounce, for the responder's
+              restitution pass). lambda in [0, inf).
+    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of its normal row, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
     """
@@ -133,33 +247,39 @@ def contact_rows(order, body_a, body_b, point, normal, separation, mu, e, x, V1,
         nx, ny = normal[c, 0], normal[c, 1]
         r_ix, r_iy = point[c, 0] - x[i, 0], point[c, 1] - x[i, 1]
         r_jx, r_jy = point[c, 0] - x[j, 0], point[c, 1] - x[j, 1]
-        k = 2 * q
+        k = normal_row[q]
         out_i[k] = i
         out_j[k] = j
         fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
-        if separation[c] > 0.0:
-            push = -separation[c] / dt  # speculative: close the gap within the step, no more
-        else:
-            push = -(beta / dt) * min(0.0, separation[c] + slop)  # Baumgarte
-        vn = row_velocity(k, i, j, J, V1)
-        # bounce only a point that approaches fast and will touch within this step
-        if vn < -restitution_threshold and separation[c] + dt * vn <= 0.0:
-            push = max(push, -e[c] * vn)
-        xi[k] = push
+        xi[k] = speculative_target(separation[c], dt)
+        push[k] = baumgarte_push(separation[c], dt, beta, slop, push_max)
+        vn_start, vn_forced = row_velocity(k, i, j, J, V1), row_velocity(k, i, j, J, V)
+        vn = approach_at_impact(separation[c], vn_start, vn_forced, dt)
+        bounce[k] = 0.0
+        impact[k] = separation[c] > MET and vn < -restitution_threshold
+        if vn < -restitution_threshold:
+            target = bounce_target(e[c], vn, vn_forced - vn_start)
+            if separation[c] > MET:
+                bounce[k] = target  # it meets its partner within the step: bounce once it has moved there
+            else:
+                xi[k] = max(xi[k], target)  # touching already: bounce now, as the lecture does
         lo[k] = 0.0
         hi[k] = np.inf
         bound_row[k] = -1
         out_mu[k] = 0.0
-        kind[k] = 0
-        k += 1
+        kind[k] = ROW_NORMAL
+        k = friction_row[q]
         out_i[k] = i
         out_j[k] = j
         fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
         xi[k] = 0.0
+        push[k] = 0.0
+        bounce[k] = 0.0
+        impact[k] = False
         out_mu[k] = mu[c]
-        kind[k] = 1
-        if friction_model == 0:
-            bound_row[k] = k - 1
+        kind[k] = ROW_FRICTION
+        if friction_model == FRICTION_COULOMB:
+            bound_row[k] = normal_row[q]
             lo[k] = -np.inf
             hi[k] = np.inf
         else:

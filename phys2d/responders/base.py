@@ -1,11 +1,11 @@
 """What every responder follows, and the report a step leaves behind.
 
 A responder turns the constraint rows of a step into impulses: it changes the
-velocities V in place (and, for the lecture's naive takes, may push positions
-apart). The world builds the rows with the responder's own Baumgarte factor,
-slop, bounce threshold and friction model, fills ``rows.lam`` with the cached
-impulses when the responder asks for warm starting, calls ``respond`` and reads
-the impulses back from ``rows.lam``.
+velocities V in place, and may move positions itself (push-apart, split push,
+sub-steps, the restitution pass after the move). The world builds the rows with
+the responder's own Baumgarte factor, slop, push cap, bounce threshold and friction
+model, fills ``rows.lam`` with the cached impulses when the responder asks for warm
+starting, calls ``respond`` and reads the impulses back from ``rows.lam``.
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ class StepContext:
     V: np.ndarray  # (N, 3) [vx, vy, omega] after external forces
     V1: np.ndarray  # (N, 3) the velocities the tick began with, before external forces
     M_inv: np.ndarray  # (N, 3) diagonal of M^-1
-    rows: Rows  # contact rows first (2q normal, 2q + 1 friction for the q-th contact below), then joints
-    n_contacts: int  # K: rows [0, 2K) belong to contacts; the contact arrays below are in row order
+    rows: Rows  # the rows and the row map: rows.normal_row[q], rows.friction_row[q] are contact q's below
+    n_contacts: int  # K; the contact arrays below are in row (solve) order, joint rows follow the contacts
     body_a: np.ndarray  # (K,) contact bodies (for responders that work pair by pair)
     body_b: np.ndarray
     point: np.ndarray  # (K, 2) contact points p, m
@@ -52,7 +52,7 @@ class SolveResult:
     iterations: int
     residuals: np.ndarray  # (iterations,) largest velocity correction of each sweep, m/s
     system: object = None  # the assembled matrix system, for responders that build one
-    integrated: bool = False  # True if the responder already moved the positions (sub-stepping)
+    integrated: bool = False  # True if the responder moved the positions itself (sub-steps, or a pass after)
 
 
 @dataclass(eq=False)
@@ -73,7 +73,15 @@ class StepReport:
     joint_impulses: np.ndarray = field(default_factory=lambda: np.zeros(0))
     system: object = None
     solve_order: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
-    # rows 2q (normal) and 2q + 1 (friction) of the step's system belong to contact solve_order[q]
+    # the q-th contact visited (and given the q-th pair of rows of the step's system) is solve_order[q]
+
+    def read_only(self) -> StepReport:
+        """Make the report's arrays (and its system's) read-only, and return self."""
+        for a in (self.residuals, self.joint_impulses, self.solve_order):
+            a.flags.writeable = False
+        if self.system is not None:
+            self.system.read_only()
+        return self
 
     @property
     def cache_hit_rate(self) -> float:
@@ -90,8 +98,9 @@ class StepReport:
 class Responder:
     """Base of the collision responders: the parameters the world needs to build rows.
 
-    beta    Baumgarte push factor (xi = -(beta/dt) min(0, C + slop)), in [0, 1]
+    beta    Baumgarte push factor (push = -(beta/dt) min(0, C + slop)), in [0, 1]
     slop    penetration allowed without push, m
+    push_max  the largest push-out speed, m/s (Box2D v3's contactPushMaxVelocity)
     restitution_threshold  approach speed (m/s) above which contacts bounce
     warm_start  whether the world should start lambda from the contact cache
     handles_joints  whether joint rows may be given to this responder
@@ -102,6 +111,7 @@ class Responder:
     name = "responder"
     beta = 0.2
     slop = 0.005
+    push_max = 3.0
     restitution_threshold = 1.0
     warm_start = False
     handles_joints = False

@@ -33,26 +33,31 @@ colliding points.
 
 from __future__ import annotations
 
+from ..validation import Setting, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .naive import pairwise_response
-from .pgs import _check_int
 
 
 class IterativeImpulse(Responder):
-    """The lecture's naive take number 2: ``passes`` pairwise impulse passes per tick."""
+    """The lecture's naive take number 2: ``passes`` pairwise impulse passes per tick;
+    push_max (m/s) bounds how fast the push-apart may remove an overlap."""
 
     name = "iterative"
     warm_start = False
     handles_joints = False
 
-    def __init__(self, passes: int = 10) -> None:
-        self.passes = _check_int(passes, "passes", 1)
+    passes = Setting(lambda v, name: check_int(v, name, 1), "impulse passes per tick")
+    push_max = Setting(non_negative_float, "largest push-out speed, m/s")
+
+    def __init__(self, passes: int = 10, push_max: float = 3.0) -> None:
+        self.passes = passes
+        self.push_max = push_max
 
     def respond(self, ctx: StepContext) -> SolveResult:
-        return pairwise_response(ctx, self.passes)
+        return pairwise_response(ctx, self.passes, self.push_max)
 
     def __repr__(self) -> str:
-        return f"IterativeImpulse(passes={self.passes})"
+        return f"IterativeImpulse(passes={self.passes}, push_max={self.push_max:g})"
 
 
 __all__ = ["IterativeImpulse"]

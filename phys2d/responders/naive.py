@@ -10,7 +10,8 @@ For each contact pair once per tick (FORMULATION.md symbols, n from a to b):
 The last line is the lecture's "push away from interpenetration as long as
 interpenetration exists": it is swept over the pairs again while any overlap
 remains (``push_apart``), since pushing one pair apart can push a body into its
-other neighbour.
+other neighbour. Each pair's overlap shrinks by at most push_max dt per tick (the
+push-out speed bound every responder has).
 
 J_n V = (v_b + omega_b x r_b - v_a - omega_a x r_a) . n is the lecture's relative
 normal velocity and the denominator is A_nn = J_n M^-1 J_n^T, so f is the lecture's
@@ -19,6 +20,13 @@ P_0 per pair; a manifold here has up to two, so P_0 is the mean of the pair's
 colliding points (its row is the mean of their rows: J is linear in r). A point
 is colliding when it overlaps (separation <= 0) or is a speculative point that
 approaches fast enough to close its gap within the step (separation + dt J_n V <= 0).
+
+The lecture's pairs are always touching. A pair whose colliding points are all
+still apart (by a gap s > 0) only meets its partner within this step, so it gets
+the impulse that closes the gap and no more, f = -(J_n V + s/dt) / A_nn; the
+positions move up to the surface, and only then is it bounced, from its approach
+speed at impact (``bounce_landed``, ``constraints.rows.bounce_target``). So a body
+turns round where it meets the other, never in the air.
 
 Nothing is remembered between ticks and nothing accumulates: there is no
 warm start, no bound on the total impulse, no Baumgarte term, restitution e is
@@ -38,7 +46,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import apply_row_impulse, row_velocity
+from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
+from ..integrate import integrate_positions
+from ..validation import Setting, non_negative_float
 from .base import Responder, SolveResult, StepContext
 
 PUSH_PASSES = 50  # sweeps of the push-apart at most
@@ -55,19 +65,20 @@ def manifold_starts(body_a: np.ndarray, body_b: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def colliding_points(separation, i, j, J, V, dt, out):
-    """out[c] = True where point c is a collision: overlapping, or closing its gap this step."""
+def colliding_points(separation, normal_row, i, j, J, V, dt, out):
+    """out[c] = True where point c is a collision: overlapping, or closing its gap this step
+    (to within MET: a path that ends exactly on the surface, as symmetric flights do, meets it)."""
     for c in range(separation.shape[0]):
-        k = 2 * c
+        k = normal_row[c]
         a, b = i[k], j[k]
         vn = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
               + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
-        out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= 0.0
+        out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= MET
 
 
 @njit(cache=True)
-def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
-    """The mean of rows 2c + offset over the pair's colliding points c; returns its A_kk."""
+def _mean_row(start, end, row, use, J, M_inv, a, b, out_J, out_JM, p):
+    """The mean of rows row[c] over the pair's colliding points c; returns its A_kk."""
     count = 0
     for c in range(6):
         out_J[p, c] = 0.0
@@ -75,7 +86,7 @@ def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
         if use[c]:
             count += 1
             for m in range(6):
-                out_J[p, m] += J[2 * c + offset, m]
+                out_J[p, m] += J[row[c], m]
     A = 0.0
     for m in range(3):
         out_J[p, m] /= count
@@ -87,14 +98,16 @@ def _mean_row(start, end, offset, use, J, M_inv, a, b, out_J, out_JM, p):
 
 
 @njit(cache=True)
-def pair_rows(starts, use, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
-    """Each pair's normal and friction row at P_0, the mean of its colliding points.
+def pair_rows(starts, use, separation, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb,
+              gap):
+    """Each pair's normal and friction row at P_0, the mean of its colliding points, and its
+    gap: the smallest separation of those points when all are still apart (m), else 0.
 
     A pair without a colliding point gets A_n = 0 and is skipped by the passes.
     """
     for p in range(starts.shape[0] - 1):
         start, end = starts[p], starts[p + 1]
-        a, b = i[2 * start], j[2 * start]
+        a, b = i[normal_row[start]], j[normal_row[start]]
         pa[p] = a
         pb[p] = b
         any_used = False
@@ -104,14 +117,19 @@ def pair_rows(starts, use, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb):
             An[p] = 0.0
             At[p] = 0.0
             continue
-        An[p] = _mean_row(start, end, 0, use, J, M_inv, a, b, Jn, JMn, p)
-        At[p] = _mean_row(start, end, 1, use, J, M_inv, a, b, Jt, JMt, p)
+        gap[p] = np.inf
+        for c in range(start, end):
+            if use[c]:
+                gap[p] = min(gap[p], separation[c] if separation[c] > MET else 0.0)  # touching within MET
+        An[p] = _mean_row(start, end, normal_row, use, J, M_inv, a, b, Jn, JMn, p)
+        At[p] = _mean_row(start, end, friction_row, use, J, M_inv, a, b, Jt, JMt, p)
 
 
 @njit(cache=True)
-def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
+def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, V, dt, f_n, f_t):
     """One pass over the pairs: the lecture's impulse where they approach, then friction.
 
+    A pair still apart by gap[p] > 0 only closes it: f = -(J_n V + gap/dt) / A_nn.
     Each increment stands on its own: f >= 0 and |f_t| <= mu f of this same pass.
     f_n, f_t add up what was applied (N s). Returns the largest |f| A (m/s) of the pass.
     """
@@ -121,9 +139,12 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
             continue
         a, b = pa[p], pb[p]
         vn = row_velocity(p, a, b, Jn, V)  # relative normal velocity, m/s
-        if vn >= 0.0:
-            continue  # not approaching: no collision response
-        f = -(1.0 + e[p]) * vn / An[p]
+        if gap[p] > 0.0:
+            f = -(vn + gap[p] / dt) / An[p]  # meets its partner within the step: close the gap, no more
+        else:
+            f = -(1.0 + e[p]) * vn / An[p] if vn < 0.0 else 0.0  # the lecture's, where they approach
+        if f <= 0.0:
+            continue  # no collision response
         apply_row_impulse(p, a, b, JMn, f, V)
         f_n[p] += f
         worst = max(worst, f * An[p])
@@ -136,16 +157,42 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, V, f_n, f_t):
 
 
 @njit(cache=True)
-def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, tolerance):
+def bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, dt, f_n, V):
+    """After the positions moved: bounce each pair that met its partner within the step (gap > 0,
+    and it pushed or its gap closed to within MET) from its approach speed at impact,
+    f = (bounce - J_n V) / A_nn when it is > 0. With
+    the landing impulse this adds up to the lecture's -(1 + e) J_n V / A_nn (no external forces)."""
+    for p in range(pa.shape[0]):
+        if An[p] <= 0.0 or gap[p] <= 0.0:
+            continue
+        a, b = pa[p], pb[p]
+        if f_n[p] <= 0.0 and gap[p] + dt * row_velocity(p, a, b, Jn, V) > MET:
+            continue  # it did not meet its partner: no impulse, and its gap stays open
+        vn = approach_at_impact(gap[p], vn_start[p], vn_forced[p], dt)
+        f = (bounce_target(e[p], vn, vn_forced[p] - vn_start[p]) - row_velocity(p, a, b, Jn, V)) / An[p]
+        if f > 0.0:
+            apply_row_impulse(p, a, b, JMn, f, V)
+            f_n[p] += f
+
+
+@njit(cache=True)
+def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, tolerance, max_move):
     """Move overlapping pairs apart along n, split by 1/m, as long as overlap remains.
 
     A pair's overlap is its deepest point's, -separation, updated for how far the
     pushes have moved its bodies so far: separation + (dx_b - dx_a) . n (rotation
     is left alone). Pushing one pair apart can push a body into its other
     neighbour, so the pairs are swept again until no overlap exceeds
-    ``tolerance`` (m) or after ``max_passes`` sweeps. Returns the sweeps made.
+    ``tolerance`` (m) or after ``max_passes`` sweeps. No pair's overlap shrinks by
+    more than ``max_move`` (m, push_max dt) in one call. Returns the sweeps made.
     """
     dx = np.zeros((x.shape[0], 2))
+    floor = np.zeros(starts.shape[0] - 1)  # the overlap each pair may keep after this tick
+    for p in range(starts.shape[0] - 1):
+        depth = 0.0
+        for c in range(starts[p], starts[p + 1]):
+            depth = max(depth, -separation[c])
+        floor[p] = max(depth - max_move, 0.0)
     sweeps = 0
     while sweeps < max_passes:
         sweeps += 1
@@ -160,11 +207,11 @@ def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, toleran
             depth = 0.0
             for c in range(starts[p], starts[p + 1]):
                 depth = max(depth, -(separation[c] + moved))
-            if depth <= tolerance:
+            if depth - floor[p] <= tolerance:
                 continue
-            worst = max(worst, depth)
-            sa = depth * M_inv[a, 0] / w
-            sb = depth * M_inv[b, 0] / w
+            worst = max(worst, depth - floor[p])
+            sa = (depth - floor[p]) * M_inv[a, 0] / w
+            sb = (depth - floor[p]) * M_inv[b, 0] / w
             dx[a, 0] -= nx * sa
             dx[a, 1] -= ny * sa
             dx[b, 0] += nx * sb
@@ -178,59 +225,74 @@ def push_apart(starts, separation, normal, pa, pb, M_inv, x, max_passes, toleran
 
 
 @njit(cache=True)
-def report_on_points(starts, use, f_n, f_t, lam):
-    """Share each pair's impulses equally among its colliding points (rows 2c, 2c + 1)."""
+def report_on_points(starts, use, normal_row, friction_row, f_n, f_t, lam):
+    """Share each pair's impulses equally among its colliding points."""
     for p in range(starts.shape[0] - 1):
         count = 0
         for c in range(starts[p], starts[p + 1]):
             count += use[c]
         for c in range(starts[p], starts[p + 1]):
-            lam[2 * c] = f_n[p] / count if use[c] else 0.0
-            lam[2 * c + 1] = f_t[p] / count if use[c] else 0.0
+            lam[normal_row[c]] = f_n[p] / count if use[c] else 0.0
+            lam[friction_row[c]] = f_t[p] / count if use[c] else 0.0
 
 
-def pairwise_response(ctx: StepContext, passes: int) -> SolveResult:
-    """``passes`` impulse passes over the contact pairs, then the push-apart (both naive takes)."""
+def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveResult:
+    """``passes`` impulse passes over the contact pairs, the push-apart, the positions, then the
+    bounce of the pairs that met within the step (both naive takes)."""
     r = ctx.rows
     k = ctx.n_contacts
     starts = manifold_starts(ctx.body_a, ctx.body_b)
     n_pairs = starts.shape[0] - 1
     use = np.zeros(k, np.bool_)
-    colliding_points(ctx.separation, r.i, r.j, r.J, ctx.V, ctx.dt, use)
+    colliding_points(ctx.separation, r.normal_row, r.i, r.j, r.J, ctx.V, ctx.dt, use)
     Jn, JMn, Jt, JMt = (np.zeros((n_pairs, 6)) for _ in range(4))
     An, At = np.zeros(n_pairs), np.zeros(n_pairs)
     pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
-    pair_rows(starts, use, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb)
+    gap = np.zeros(n_pairs)
+    pair_rows(starts, use, ctx.separation, r.normal_row, r.friction_row, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt,
+              JMt, At, pa, pb, gap)
+    vn_start, vn_forced = pair_velocities(pa, pb, Jn, ctx.V1), pair_velocities(pa, pb, Jn, ctx.V)
     first = starts[:-1]
     e = ctx.restitution[first] if k else np.zeros(0)
-    mu = r.mu[2 * first + 1] if k else np.zeros(0)
+    mu = r.mu[r.friction_row[first]] if k else np.zeros(0)
     f_n, f_t = np.zeros(n_pairs), np.zeros(n_pairs)
     residuals = np.zeros(passes)
     for s in range(passes):
-        residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, e, mu, ctx.V, f_n, f_t)
+        residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, ctx.V, ctx.dt, f_n, f_t)
     push_apart(starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES,
-               PUSH_TOLERANCE)
-    report_on_points(starts, use, f_n, f_t, r.lam)
-    return SolveResult(passes, residuals)
+               PUSH_TOLERANCE, push_max * ctx.dt)
+    integrate_positions(ctx.x, ctx.theta, ctx.V, ctx.dt)
+    bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, ctx.dt, f_n, ctx.V)
+    report_on_points(starts, use, r.normal_row, r.friction_row, f_n, f_t, r.lam)
+    return SolveResult(passes, residuals, integrated=True)
+
+
+def pair_velocities(pa: np.ndarray, pb: np.ndarray, Jn: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """J_n V of each pair's row at P_0 (m/s)."""
+    return np.einsum("pc,pc->p", Jn[:, :3], V[pa]) + np.einsum("pc,pc->p", Jn[:, 3:], V[pb])
 
 
 class NaiveImpulse(Responder):
     """The lecture's naive take: each colliding pair once per tick, then push apart.
 
-    See the module docstring for the formula. No parameters: no caching, no
-    accumulation, no joints. ``w.last_step.residuals`` holds the one pass's
-    largest velocity change |f| A (m/s).
+    See the module docstring for the formula. push_max (m/s) bounds how fast the
+    push-apart may remove an overlap. No caching, no accumulation, no joints.
+    ``w.last_step.residuals`` holds the one pass's largest velocity change |f| A (m/s).
     """
 
     name = "naive"
     warm_start = False
     handles_joints = False
+    push_max = Setting(non_negative_float, "largest push-out speed, m/s")
+
+    def __init__(self, push_max: float = 3.0) -> None:
+        self.push_max = push_max
 
     def respond(self, ctx: StepContext) -> SolveResult:
-        return pairwise_response(ctx, 1)
+        return pairwise_response(ctx, 1, self.push_max)
 
     def __repr__(self) -> str:
-        return "NaiveImpulse()"
+        return f"NaiveImpulse(push_max={self.push_max:g})"
 
 
 __all__ = ["NaiveImpulse", "pairwise_response"]

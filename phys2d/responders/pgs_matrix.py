@@ -20,7 +20,10 @@ and runs the lecture's pseudocode on them, skipping the zero entries of A:
 then V2 = V1 + M^-1 (dt F_ext + J^T x). Row order, warm start (x starts at the
 cached lambdas), bounds and the residual (the largest |delta_k| A_kk of a sweep,
 m/s) are those of the impulse form, so the two forms make the same iterates: the
-test that the lecture's equations and the fast solver are one method.
+test that the lecture's equations and the fast solver are one method. The split
+push is a second system on the same A, A x_p >= push over the contact normal rows
+from x_p = 0; positions move with V2 + M^-1 J^T x_p; then the restitution pass
+(shared with the impulse form) adds lam_bounce.
 
 The sparse matrices are plain CSR arrays (``SparseMatrix``): no scipy. Everything
 assembled stays on ``w.last_step.system`` (a ``MatrixSystem``) for lessons;
@@ -37,6 +40,7 @@ from numba import njit
 
 from ..constraints.rows import Rows
 from .base import SolveResult, StepContext
+from .restitution import bounce_after_moving
 
 DENSE_MAX_ENTRIES = 4_000_000  # dense() refuses matrices larger than this (8 bytes each)
 
@@ -128,11 +132,24 @@ class MatrixSystem:
     hi: np.ndarray
     bound_row: np.ndarray  # (R,) normal row bounding a Coulomb friction row, else -1
     mu: np.ndarray  # (R,)
-    lam: np.ndarray  # (R,) N s
+    lam: np.ndarray  # (R,) N s, the sweeps' answer to A lam = b
+    push: np.ndarray  # (R,) m/s, the split push targets (zeros when the push is part of xi)
+    lam_push: np.ndarray  # (R,) N s, the push impulses (they move positions, never V)
+    bounce: np.ndarray  # (R,) m/s, bounce targets of the points that approached fast
+    lam_bounce: np.ndarray  # (R,) N s, what the restitution pass added once the bodies moved:
+    # the step's impulses (w.contacts) are lam + lam_bounce
+
+    def read_only(self) -> MatrixSystem:
+        """Make every array of the system read-only, and return self."""
+        for a in (self.J.indptr, self.J.indices, self.J.data, self.A.indptr, self.A.indices, self.A.data,
+                  self.M_inv, self.V1, self.F_ext, self.xi, self.b, self.lo, self.hi, self.bound_row, self.mu,
+                  self.lam, self.push, self.lam_push, self.bounce, self.lam_bounce):
+            a.flags.writeable = False
+        return self
 
     def velocities(self) -> np.ndarray:
-        """V2 = V1 + M^-1 (dt F_ext + J^T lam), (3N,)."""
-        return self.V1 + self.M_inv * (self.dt * self.F_ext + self.J.dot_transposed(self.lam))
+        """V2 = V1 + M^-1 (dt F_ext + J^T (lam + lam_bounce)), (3N,): the step's new V."""
+        return self.V1 + self.M_inv * (self.dt * self.F_ext + self.J.dot_transposed(self.lam + self.lam_bounce))
 
     def dense(self) -> SimpleNamespace:
         """J, M_inv (3N x 3N), A as dense numpy matrices, with b, lo, hi, lam: for lessons
@@ -261,21 +278,21 @@ def diagonal(indptr, indices, data, R):
     return out
 
 
-def assemble(ctx: StepContext) -> MatrixSystem:
-    """J, M^-1, A, b and the bounds of this step (lam: the warm start, ctx.rows.lam)."""
+def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
+    """J, M^-1, A, b = xi - J V1 - dt J M^-1 F_ext and the bounds of this step (lam: the warm
+    start, ctx.rows.lam)."""
     r = ctx.rows
     n = ctx.V.shape[0]
     J = jacobian(r, n)
     M_inv = ctx.M_inv.reshape(-1).copy()
-    if ctx.V1 is None:  # no split given: all of V counts as V1, no external force
-        V1, F_ext = ctx.V.reshape(-1).copy(), np.zeros(3 * n)
-    else:
-        V1, F_ext = ctx.V1.reshape(-1).copy(), ctx.F_ext.reshape(-1).copy()
+    V1, F_ext = ctx.V1.reshape(-1).copy(), ctx.F_ext.reshape(-1).copy()
     indptr, indices, data = assemble_A(r.i, r.j, r.J, ctx.M_inv)
     A = SparseMatrix(indptr, indices, data, (len(r), len(r)))
-    b = r.xi - J.dot(V1) - ctx.dt * J.dot(M_inv * F_ext)
-    return MatrixSystem(ctx.dt, J, M_inv, V1, F_ext, r.xi.copy(), A, b, r.lo.copy(), r.hi.copy(),
-                        r.bound_row.copy(), r.mu.copy(), r.lam.copy())
+    b = xi - J.dot(V1) - ctx.dt * J.dot(M_inv * F_ext)
+    R = len(r)
+    return MatrixSystem(ctx.dt, J, M_inv, V1, F_ext, xi.copy(), A, b, r.lo.copy(), r.hi.copy(),
+                        r.bound_row.copy(), r.mu.copy(), r.lam.copy(), push=np.zeros(R), lam_push=np.zeros(R),
+                        bounce=r.bounce.copy(), lam_bounce=np.zeros(R))
 
 
 # -- the lecture's PGS on A x = b -----------------------------------------------------------
@@ -322,9 +339,45 @@ def final_bounds(bound_row, mu, x, lo, hi):
             lo[k] = -hi[k]
 
 
-def solve_matrix_form(ctx: StepContext, iterations: int, tolerance: float) -> SolveResult:
-    """Assemble, sweep, and set V2 = V1 + M^-1 (dt F_ext + J^T lam) into ctx.V."""
-    system = assemble(ctx)
+@njit(cache=True)
+def push_matrix_solve(normal_row, indptr, indices, data, A_kk, push, x_push, iterations, tolerance):
+    """Split impulses in matrix form: A x_push >= push on the contact normal rows, x_push >= 0,
+    complementary, swept from x_push = 0 (every other row's x_push stays 0). Returns the sweeps."""
+    pushing = False
+    for q in range(normal_row.shape[0]):
+        pushing = pushing or push[normal_row[q]] > 0.0
+    if not pushing:
+        return 0
+    for s in range(iterations):
+        worst = 0.0
+        for q in range(normal_row.shape[0]):
+            k = normal_row[q]
+            if A_kk[k] <= 0.0:
+                continue
+            new = max(x_push[k] + (push[k] - csr_row_dot(indptr, indices, data, k, x_push)) / A_kk[k], 0.0)
+            worst = max(worst, abs(new - x_push[k]) * A_kk[k])
+            x_push[k] = new
+        if worst <= tolerance:
+            return s + 1
+    return iterations
+
+
+@njit(cache=True, inline="always")
+def csr_row_dot(indptr, indices, data, k, x):
+    """sum_l A_kl x_l over the stored entries of row k."""
+    s = 0.0
+    for e in range(indptr[k], indptr[k + 1]):
+        s += data[e] * x[indices[e]]
+    return s
+
+
+def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, tolerance: float,
+                      split: bool) -> SolveResult:
+    """The impulse form's step, with matrices: assemble and sweep A lam = b; with ``split``, the
+    push system A lam_push = push; positions move with V2 (+ M^-1 J^T lam_push); then the
+    restitution pass (``restitution.bounce_after_moving``, the same code as the impulse form's)."""
+    r = ctx.rows
+    system = assemble(ctx, xi)
     A = system.A
     A_kk = diagonal(A.indptr, A.indices, A.data, A.shape[0])
     residuals = np.zeros(iterations)
@@ -332,9 +385,18 @@ def solve_matrix_form(ctx: StepContext, iterations: int, tolerance: float) -> So
                          system.bound_row, system.mu, system.lam, iterations, tolerance,
                          residuals)
     final_bounds(system.bound_row, system.mu, system.lam, system.lo, system.hi)
+    V2 = system.velocities()
+    V_move = V2
+    if split:
+        system.push[:] = r.push
+        push_matrix_solve(r.normal_row, A.indptr, A.indices, A.data, A_kk, system.push, system.lam_push,
+                          iterations, tolerance)
+        V_move = V2 + system.M_inv * system.J.dot_transposed(system.lam_push)
     ctx.rows.lam[:] = system.lam
-    ctx.V[:] = system.velocities().reshape(ctx.V.shape)
-    return SolveResult(n, residuals[:n], system)
+    ctx.V[:] = V2.reshape(ctx.V.shape)
+    bounce_after_moving(ctx, V_move.reshape(ctx.V.shape), iterations, tolerance)
+    system.lam_bounce[:] = ctx.rows.lam - system.lam
+    return SolveResult(n, residuals[:n], system, integrated=True)
 
 
 __all__ = ["MatrixSystem", "SparseMatrix", "assemble", "solve_matrix_form"]
