@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from .responders.base import Responder
-from .shapes import finite_float, positive_float
+from .validation import finite_float, positive_float
 from .world import World
 
 GROUND_HALF_WIDTH = 100.0  # m

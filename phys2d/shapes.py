@@ -17,7 +17,6 @@ import numpy as np
 
 from .validation import positive_float, vec2
 
-# positive_float is re-exported: scenes.py imports it from here
 __all__ = ["CIRCLE", "POLYGON", "ShapeSpec", "box", "circle", "mass_properties", "polygon", "positive_float"]
 
 CIRCLE = 0

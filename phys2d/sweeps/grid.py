@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..responders import REGISTRY
-from ..responders.pgs import MAX_SWEEPS
+from ..validation import MAX_COUNT as MAX_SWEEPS
 from .scenes import RATIO_SCENES, all_scenes
 
 DEFAULT_DT = 1.0 / 60.0  # s

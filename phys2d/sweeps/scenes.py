@@ -18,7 +18,7 @@ from typing import Any, cast
 
 from .. import scenes
 from ..responders.base import Responder
-from ..shapes import positive_float
+from ..validation import positive_float
 from ..world import World
 
 CIRCLE_RADIUS = 0.5  # m
