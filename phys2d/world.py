@@ -106,7 +106,7 @@ class World:
         if (self._joints or adding) and not responder.handles_joints:
             raise ValueError(
                 f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
-                "(as the lecture's naive takes do); use phys2d.PGS() in a world with joints")
+                "(as the lecture's naive takes do); use phys2d.PGS() or phys2d.SoftStep() in a world with joints")
 
     @property
     def gravity(self) -> np.ndarray:
@@ -345,7 +345,8 @@ class World:
             # the responders see contacts in row order: contact q of ctx is contact order[q]
             rc = c.reordered(order) if responder.colour_order else c
             ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), rc.body_a, rc.body_b, rc.point,
-                              rc.normal, rc.separation, rc.restitution, gravity=self._gravity)
+                              rc.normal, rc.separation, rc.restitution, gravity=self._gravity,
+                              joints=self._joint_arrays)
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)

@@ -36,6 +36,7 @@ class StepContext:
     separation: np.ndarray  # (K,) m, negative when overlapping
     restitution: np.ndarray  # (K,) mixed e of each contact
     gravity: np.ndarray | None = None  # (2,) m/s^2, the only external force
+    joints: object = None  # the world's packed joints (``JointArrays``), for responders that rebuild joint rows
 
     @property
     def F_ext(self) -> np.ndarray:

@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..constraints.joints import JointArrays, joint_rows
 from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
@@ -83,8 +84,8 @@ def _push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C, static_pair, lam, V, h, use_bias, soft_dyn,
-               soft_static, block):
+def soft_sweep(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, C, static_pair, lam, V, h, use_bias,
+               soft_dyn, soft_static, block):
     """One sweep over the contacts: normal rows (soft push if use_bias), then friction.
     C[c] is contact c's separation now (m).
 
@@ -98,10 +99,10 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C, static_pair
     c = 0
     while c < n_contacts:
         k = normal_row[c]
-        a, b = i[k], j[k]
+        a, b = body_a[k], body_b[k]
         soft = soft_static if static_pair[c] else soft_dyn
         s1 = C[c]
-        if block and c + 1 < n_contacts and i[normal_row[c + 1]] == a and j[normal_row[c + 1]] == b:
+        if block and c + 1 < n_contacts and body_a[normal_row[c + 1]] == a and body_b[normal_row[c + 1]] == b:
             k2 = normal_row[c + 1]
             s2 = C[c + 1]
             K11, K22 = A_diag[k], A_diag[k2]
@@ -137,7 +138,7 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C, static_pair
         k, kn = friction_row[c], normal_row[c]
         if A_diag[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
             continue  # static pair, or a point that does not push: its friction cone is [0, 0]
-        a, b = i[k], j[k]
+        a, b = body_a[k], body_b[k]
         top = mu[k] * lam[kn]
         d = -row_velocity(k, a, b, J, V) / A_diag[k]
         new = min(max(lam[k] + d, -top), top)
@@ -149,18 +150,18 @@ def soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, C, static_pair
 
 
 @njit(cache=True)
-def _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn):
+def _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn):
     """Before a sweep: every point's separation now (m), and J V (m/s) of those not yet met."""
     for c in range(normal_row.shape[0]):
         k = normal_row[c]
-        sub_C[c] = _separation(c, i[k], j[k], C0, r, normal, moved)
+        sub_C[c] = _separation(c, body_a[k], body_b[k], C0, r, normal, moved)
         if not impacted[c]:
-            sub_vn[c] = row_velocity(k, i[k], j[k], J, V)
+            sub_vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)
 
 
 @njit(cache=True)
-def _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, threshold, impacted, vn_impact, dvn_impact,
-                  landed):
+def _note_impacts(normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, threshold, impacted, vn_impact,
+                  dvn_impact, landed):
     """After a sweep: a point that pushed for the first time meets its partner in this
     sub-step's motion (gap sub_C, J V sub_vn before a sub-step of forces dv): its approach
     at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
@@ -169,21 +170,244 @@ def _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, threshold, imp
         k = normal_row[c]
         if not impacted[c] and lam[k] > 0.0:
             impacted[c] = True
-            dvn = row_velocity(k, i[k], j[k], J, dv)
+            dvn = row_velocity(k, body_a[k], body_b[k], J, dv)
             vn_impact[c] = approach_at_impact(sub_C[c], sub_vn[c], sub_vn[c] + dvn, h)
             dvn_impact[c] = dvn
             landed[c] = sub_C[c] > MET and vn_impact[c] < -threshold
 
 
-@njit(cache=True)
-def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restitution, C0, point, normal, static_pair,
-                    x, theta, V, V1, dt, substeps, relax, contact_hertz, damping_ratio, push_max,
-                    restitution_threshold, block, lam, total, residuals):
-    """The whole tick: sub-steps of forces, warm start, soft sweep, positions, relax.
+# -- joints: rows rebuilt at every sub-step's positions ------------------------------------------
+DIRECT_JOINT_ROWS_MAX = 256  # more equality joint rows than this are swept, not factored
+PIVOT_TOL = 1e-9  # a pivot below this fraction of A_kk marks a redundant row: it is left out
 
-    ``lam`` holds the impulse per sub-step (warm start in, last sub-step out);
-    ``total`` receives the impulse over the whole tick (N s). Positions are
-    integrated here. Returns the number of sweeps recorded in ``residuals``.
+
+@njit(cache=True)
+def _joint_C(first_joint_row, n_rows, xi, C):
+    """C of each joint row (m or rad) from rows built with beta = dt = 1 (xi = -C)."""
+    for k in range(first_joint_row, n_rows):
+        C[k] = -xi[k]
+
+
+@njit(cache=True)
+def _equality_rows(first_joint_row, n_rows, lo):
+    """The joint rows with no bound (pins, rods, fixed angles): indices into the rows."""
+    n_eq = 0
+    for k in range(first_joint_row, n_rows):
+        if lo[k] == -np.inf:
+            n_eq += 1
+    eq = np.empty(n_eq, np.int64)
+    n_eq = 0
+    for k in range(first_joint_row, n_rows):
+        if lo[k] == -np.inf:
+            eq[n_eq] = k
+            n_eq += 1
+    return eq
+
+
+@njit(cache=True)
+def _coupling(p, q, body_a, body_b, J, JM):
+    """A_pq = J_p M^-1 J_q^T: nonzero only through a body rows p and q share."""
+    s = 0.0
+    for side_p in range(2):
+        body_p = body_a[p] if side_p == 0 else body_b[p]
+        for side_q in range(2):
+            body_q = body_a[q] if side_q == 0 else body_b[q]
+            if body_p == body_q:
+                for m in range(3):
+                    s += J[p, 3 * side_p + m] * JM[q, 3 * side_q + m]
+    return s
+
+
+@njit(cache=True)
+def factor_joint_rows(eq, body_a, body_b, J, JM, L, first):
+    """Cholesky factor L L^T = A of the equality joint rows ``eq`` (A_pq = J_p M^-1 J_q^T).
+
+    Only each row's envelope is touched: first[p] is the first row that shares a body
+    with row p, so a chain's A (banded) costs O(n w^2). A redundant row (a pivot below
+    PIVOT_TOL A_pp) gets L_pp = 0 and is left out of the solve.
+    """
+    n = eq.shape[0]
+    for p in range(n):
+        first[p] = p
+        for q in range(p):
+            a, b = body_a[eq[p]], body_b[eq[p]]
+            if a == body_a[eq[q]] or a == body_b[eq[q]] or b == body_a[eq[q]] or b == body_b[eq[q]]:
+                first[p] = q
+                break
+    for p in range(n):
+        for q in range(first[p], p + 1):
+            s = _coupling(eq[p], eq[q], body_a, body_b, J, JM)
+            for m in range(max(first[p], first[q]), q):
+                s -= L[p, m] * L[q, m]
+            if q < p:
+                L[p, q] = s / L[q, q] if L[q, q] > 0.0 else 0.0
+            else:
+                A_pp = _coupling(eq[p], eq[p], body_a, body_b, J, JM)
+                L[p, p] = np.sqrt(s) if s > PIVOT_TOL * A_pp else 0.0
+
+
+@njit(cache=True)
+def solve_factored(L, first, y):
+    """y <- A^-1 y with A = L L^T from ``factor_joint_rows`` (left-out rows get 0)."""
+    n = y.shape[0]
+    for p in range(n):  # forward: L z = y
+        for m in range(first[p], p):
+            y[p] -= L[p, m] * y[m]
+        y[p] = y[p] / L[p, p] if L[p, p] > 0.0 else 0.0
+    for p in range(n - 1, -1, -1):  # back: L^T x = z
+        y[p] = y[p] / L[p, p] if L[p, p] > 0.0 else 0.0
+        for m in range(first[p], p):
+            y[m] -= L[p, m] * y[p]
+
+
+@njit(cache=True)
+def _joint_bias(C, use_bias, soft):
+    """Velocity bias of an equality joint row whose error is C (m or rad): the joint's soft pull."""
+    return soft[0] * C if use_bias else 0.0
+
+
+@njit(cache=True)
+def solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C, lam, V, h, use_bias,
+                 soft_joint, direct):
+    """The joint rows once: limit rows one by one (lambda >= 0, like a contact point whose
+    separation is the gap to the stop), then the equality rows, together (``direct``:
+    delta lambda = -A^-1 (J V + bias), exact for the joint block) or one by one with the
+    joint's softness. Returns the largest |delta lambda| A_kk (m/s)."""
+    worst = 0.0
+    for k in range(first_joint_row, n_rows):
+        unbounded = lo[k] == -np.inf
+        if A_diag[k] <= 0.0 or (direct and unbounded):
+            continue
+        a, b = body_a[k], body_b[k]
+        if unbounded:  # the soft joint of Box2D v3
+            mass_scale, impulse_scale = (soft_joint[1], soft_joint[2]) if use_bias else (1.0, 0.0)
+            d = -mass_scale * (row_velocity(k, a, b, J, V) + _joint_bias(C[k], use_bias, soft_joint)) / A_diag[k] \
+                - impulse_scale * lam[k]
+            lam[k] += d
+        else:
+            if not use_bias and C[k] > MET:
+                continue  # relax leaves a limit still short of its stop alone
+            bias, mass_scale, impulse_scale = _push(C[k], h, use_bias, soft_joint)
+            d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
+            new = max(lam[k] + d, 0.0)  # a stop pushes, it never pulls
+            d = new - lam[k]
+            lam[k] = new
+        apply_row_impulse(k, a, b, JM, d, V)
+        worst = max(worst, abs(d) * A_diag[k])
+    if direct and eq.shape[0] > 0:
+        y = np.empty(eq.shape[0])
+        for p in range(eq.shape[0]):
+            k = eq[p]
+            y[p] = -(row_velocity(k, body_a[k], body_b[k], J, V) + _joint_bias(C[k], use_bias, soft_joint))
+        solve_factored(L, first, y)
+        for p in range(eq.shape[0]):
+            k = eq[p]
+            lam[k] += y[p]
+            apply_row_impulse(k, body_a[k], body_b[k], JM, y[p], V)
+            worst = max(worst, abs(y[p]) * A_diag[k])
+    return worst
+
+
+@njit(cache=True)
+def prepare_joints(kind, joint_a, joint_b, local_a, local_b, params, row_offset, first_joint_row, x, theta, M_inv,
+                   body_a, body_b, J, JM, A_diag, xi, lo, hi, bound_row, mu, row_kind, C, eq, L, first, direct):
+    """The joint rows at the bodies' positions now: J, A_kk and C; with ``direct`` the
+    factor of the equality rows' A."""
+    n_rows = body_a.shape[0]
+    joint_rows(kind, joint_a, joint_b, local_a, local_b, params, row_offset, first_joint_row, x, theta, M_inv, 1.0,
+               1.0, body_a, body_b, J, JM, A_diag, xi, lo, hi, bound_row, mu, row_kind)
+    _joint_C(first_joint_row, n_rows, xi, C)
+    if direct:
+        factor_joint_rows(eq, body_a, body_b, J, JM, L, first)
+
+
+# -- the stages of a sub-step ---------------------------------------------------------------------
+@njit(cache=True)
+def prepare_contacts(normal_row, body_a, body_b, point, x):
+    """Each contact point's lever arms (r_a, r_b) (m) at the start of the tick: (K, 4)."""
+    n_contacts = normal_row.shape[0]
+    r = np.empty((n_contacts, 4))
+    for c in range(n_contacts):
+        k = normal_row[c]
+        a, b = body_a[k], body_b[k]
+        r[c, 0] = point[c, 0] - x[a, 0]
+        r[c, 1] = point[c, 1] - x[a, 1]
+        r[c, 2] = point[c, 0] - x[b, 0]
+        r[c, 3] = point[c, 1] - x[b, 1]
+    return r
+
+
+@njit(cache=True)
+def warm_start(body_a, body_b, JM, lam, V):
+    """Apply last sub-step's impulses (N s) to V."""
+    for k in range(lam.shape[0]):
+        if lam[k] != 0.0:
+            apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
+
+
+@njit(cache=True)
+def integrate_positions(x, theta, V, h, x0, theta0, moved):
+    """x += h v, theta += h omega; moved[b] = (dx, dy, cos dtheta, sin dtheta) since the tick began."""
+    for b in range(x.shape[0]):
+        x[b, 0] += h * V[b, 0]
+        x[b, 1] += h * V[b, 1]
+        theta[b] += h * V[b, 2]
+        moved[b, 0] = x[b, 0] - x0[b, 0]
+        moved[b, 1] = x[b, 1] - x0[b, 1]
+        moved[b, 2] = np.cos(theta[b] - theta0[b])
+        moved[b, 3] = np.sin(theta[b] - theta0[b])
+
+
+@njit(cache=True)
+def store(normal_row, friction_row, lam, total, landed):
+    """Add the sub-step's impulses to the tick's; an impact is an event, not a load: it is
+    not warm started into the next sub-step."""
+    for k in range(lam.shape[0]):
+        total[k] += lam[k]
+    for c in range(normal_row.shape[0]):
+        if landed[c]:
+            lam[normal_row[c]] = 0.0
+            lam[friction_row[c]] = 0.0
+            landed[c] = False
+
+
+@njit(cache=True)
+def restitution(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, impacted, vn_impact, dvn_impact,
+                threshold, total, V):
+    """Bounce the points that met their partner fast (``constraints.rows.bounce_target``),
+    keeping the tick's friction inside mu lambda_n."""
+    for c in range(normal_row.shape[0]):
+        k, kt = normal_row[c], friction_row[c]
+        if (e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0
+                or A_diag[k] <= 0.0):
+            continue
+        a, b = body_a[k], body_b[k]
+        target = bounce_target(e[c], vn_impact[c], dvn_impact[c])
+        d = (target - row_velocity(k, a, b, J, V)) / A_diag[k]
+        new = max(total[k] + d, 0.0)
+        d = new - total[k]
+        total[k] = new
+        apply_row_impulse(k, a, b, JM, d, V)
+        top = mu[kt] * total[k]  # a smaller push shrinks the cone
+        d = min(max(total[kt], -top), top) - total[kt]
+        if d != 0.0:
+            total[kt] += d
+            apply_row_impulse(kt, a, b, JM, d, V)
+
+
+@njit(cache=True)
+def soft_step_solve(normal_row, friction_row, body_a, body_b, J, JM, A_diag, xi, lo, hi, bound_row, mu, row_kind,
+                    e, C0, point, normal, static_pair, x, theta, M_inv, V, V1, dt, substeps, relax, contact_hertz,
+                    damping_ratio, push_max, joint_hertz, joint_damping_ratio, direct_joints,
+                    restitution_threshold, block, joint_kind, joint_a, joint_b, joint_local_a, joint_local_b,
+                    joint_params, joint_row_offset, first_joint_row, lam, total, residuals):
+    """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
+    warm start, solve with bias, integrate positions, relax, store; then restitution.
+
+    ``lam`` holds the impulse per sub-step (warm start in, last sub-step out); ``total``
+    receives the impulse over the whole tick (N s). Joint rows (from first_joint_row)
+    are rebuilt at each sub-step's positions. Returns the number of sweeps recorded in
+    ``residuals``.
     """
     n_rows = lam.shape[0]
     n_contacts = normal_row.shape[0]
@@ -191,19 +415,18 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
     hertz = min(contact_hertz, 0.25 / h)
     soft_dyn = _soft(hertz, damping_ratio, h, push_max)
     soft_static = _soft(2.0 * hertz, damping_ratio, h, push_max)
+    soft_joint = _soft(min(joint_hertz, 0.25 / h), joint_damping_ratio, h, np.inf)
+    # prepare
     x0 = x.copy()
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     moved[:, 2] = 1.0
-    # lever arms at the start of the tick
-    r = np.empty((n_contacts, 4))
-    for c in range(n_contacts):
-        k = normal_row[c]
-        a, b = i[k], j[k]
-        r[c, 0] = point[c, 0] - x[a, 0]
-        r[c, 1] = point[c, 1] - x[a, 1]
-        r[c, 2] = point[c, 0] - x[b, 0]
-        r[c, 3] = point[c, 1] - x[b, 1]
+    r = prepare_contacts(normal_row, body_a, body_b, point, x)
+    eq = _equality_rows(first_joint_row, n_rows, lo)
+    direct = direct_joints and 0 < eq.shape[0] <= DIRECT_JOINT_ROWS_MAX
+    L = np.zeros((eq.shape[0], eq.shape[0])) if direct else np.zeros((0, 0))
+    first = np.zeros(eq.shape[0], np.int64)
+    C_joint = np.zeros(n_rows)
     # each point's approach at impact: taken in the sub-step where it first pushes
     impacted = np.zeros(n_contacts, np.bool_)
     vn_impact = np.zeros(n_contacts)
@@ -217,78 +440,61 @@ def soft_step_solve(normal_row, friction_row, i, j, J, JM, A_diag, mu, restituti
         total[k] = 0.0
     n_sweeps = 0
     for _ in range(substeps):
-        _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
-        V += dv
-        for k in range(n_rows):  # warm start: last sub-step's impulses
-            if lam[k] != 0.0:
-                apply_row_impulse(k, i[k], j[k], JM, lam[k], V)
-        soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, sub_C, static_pair, lam, V, h, True, soft_dyn,
-                   soft_static, block)
-        _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
-                      dvn_impact, landed)
-        for b in range(x.shape[0]):
-            x[b, 0] += h * V[b, 0]
-            x[b, 1] += h * V[b, 1]
-            theta[b] += h * V[b, 2]
-            moved[b, 0] = x[b, 0] - x0[b, 0]
-            moved[b, 1] = x[b, 1] - x0[b, 1]
-            moved[b, 2] = np.cos(theta[b] - theta0[b])
-            moved[b, 3] = np.sin(theta[b] - theta0[b])
+        if n_rows > first_joint_row:
+            prepare_joints(joint_kind, joint_a, joint_b, joint_local_a, joint_local_b, joint_params,
+                           joint_row_offset, first_joint_row, x, theta, M_inv, body_a, body_b, J, JM, A_diag, xi,
+                           lo, hi, bound_row, mu, row_kind, C_joint, eq, L, first, direct)
+        _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
+        V += dv  # integrate velocities
+        warm_start(body_a, body_b, JM, lam, V)
+        # solve with bias: joints first, contacts last (they have the last word on overlap)
+        solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C_joint, lam, V, h,
+                     True, soft_joint, direct)
+        soft_sweep(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, sub_C, static_pair, lam, V, h, True,
+                   soft_dyn, soft_static, block)
+        _note_impacts(normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted,
+                      vn_impact, dvn_impact, landed)
+        integrate_positions(x, theta, V, h, x0, theta0, moved)
+        residuals[n_sweeps] = 0.0
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
-            _note_approach(normal_row, i, j, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
-            residuals[n_sweeps] = soft_sweep(normal_row, friction_row, i, j, J, JM, A_diag, mu, sub_C, static_pair, lam,
-                                              V, h, False, soft_dyn, soft_static, block)
-            _note_impacts(normal_row, i, j, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
-                          dvn_impact, landed)
-        else:
-            residuals[n_sweeps] = 0.0
+            _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
+            worst = solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C_joint,
+                                 lam, V, h, False, soft_joint, direct)
+            worst = max(worst, soft_sweep(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, sub_C,
+                                          static_pair, lam, V, h, False, soft_dyn, soft_static, block))
+            residuals[n_sweeps] = worst
+            _note_impacts(normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted,
+                          vn_impact, dvn_impact, landed)
         n_sweeps += 1
-        for k in range(n_rows):
-            total[k] += lam[k]
-        for c in range(n_contacts):  # an impact is an event, not a load: not warm started again
-            if landed[c]:
-                lam[normal_row[c]] = 0.0
-                lam[friction_row[c]] = 0.0
-                landed[c] = False
-    # restitution: bounce the points that met their partner fast (``constraints.rows.bounce_target``)
-    for c in range(n_contacts):
-        k, kt = normal_row[c], friction_row[c]
-        if (restitution[c] == 0.0 or not impacted[c] or vn_impact[c] >= -restitution_threshold
-                or total[k] == 0.0 or A_diag[k] <= 0.0):
-            continue
-        a, b = i[k], j[k]
-        target = bounce_target(restitution[c], vn_impact[c], dvn_impact[c])
-        d = (target - row_velocity(k, a, b, J, V)) / A_diag[k]
-        new = max(total[k] + d, 0.0)
-        d = new - total[k]
-        total[k] = new
-        apply_row_impulse(k, a, b, JM, d, V)
-        # a smaller push shrinks the cone: keep the tick's friction inside mu lambda_n
-        top = mu[kt] * total[k]
-        d = min(max(total[kt], -top), top) - total[kt]
-        if d != 0.0:
-            total[kt] += d
-            apply_row_impulse(kt, a, b, JM, d, V)
+        store(normal_row, friction_row, lam, total, landed)
+    restitution(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, impacted, vn_impact, dvn_impact,
+                restitution_threshold, total, V)
     return n_sweeps
 
 
 class SoftStep(Responder):
-    """Sub-stepped soft-contact solver (Box2D v3's "soft step"): stable stacks and mass ratios.
+    """Sub-stepped soft-contact solver (Box2D v3's "soft step"): stable stacks, mass ratios, joints.
 
     substeps       sub-steps per tick (each: one sweep with the soft push, one relax sweep)
     relax          run the relax sweep that removes the push's velocity
     contact_hertz  stiffness of the contact spring (Hz); capped at a quarter of the sub-step rate
     damping_ratio  zeta of the contact spring (10: heavily over-damped, no bounce from the push)
     push_max       largest velocity the push may give an overlapping point (m/s)
+    joint_hertz    stiffness of the joints' pull back to C = 0 (Hz), capped like contact_hertz
+    joint_damping_ratio  zeta of that pull
+    direct_joints  solve the equality joint rows (pins, rods, fixed angles) together, exactly,
+                   in each sweep (a Cholesky factor of their A, refreshed every sub-step) instead
+                   of one by one; the pull keeps its rate, the rows are rigid
     restitution_threshold  approach speed (m/s) above which e applies
     warm_start     start each sub-step from last tick's impulse per sub-step
     block          solve a two-point manifold's normal rows together (see ``soft_sweep``)
 
-    Friction is Coulomb's (|lambda_t| <= mu lambda_n). Joints are not supported.
+    Friction is Coulomb's (|lambda_t| <= mu lambda_n). Joints' rows are rebuilt at every
+    sub-step's positions; angle limits are one-sided rows treated like contact points.
     """
 
     name = "soft-step"
-    handles_joints = False
+    handles_joints = True
     colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
     beta = 0.0  # the rows' Baumgarte terms are not used: the push is soft
     slop = 0.0
@@ -298,13 +504,17 @@ class SoftStep(Responder):
     contact_hertz = Setting(non_negative_float, "contact spring stiffness, Hz")
     damping_ratio = Setting(non_negative_float, "contact spring damping ratio")
     push_max = Setting(non_negative_float, "largest push-out speed, m/s")
+    joint_hertz = Setting(non_negative_float, "joint spring stiffness, Hz")
+    joint_damping_ratio = Setting(non_negative_float, "joint spring damping ratio")
+    direct_joints = Setting(check_bool, "solve the equality joint rows together, exactly")
     restitution_threshold = Setting(non_negative_float, "approach speed (m/s) above which e applies")
     warm_start = Setting(check_bool, "start from last tick's impulses")
     block = Setting(check_bool, "solve two-point manifolds as 2x2 blocks")
 
     def __init__(self, substeps: int = 4, relax: bool = True, contact_hertz: float = 30.0,
                  damping_ratio: float = 10.0, push_max: float = 3.0, restitution_threshold: float = 1.0,
-                 warm_start: bool = True, block: bool = True) -> None:
+                 warm_start: bool = True, block: bool = True, joint_hertz: float = 60.0,
+                 joint_damping_ratio: float = 2.0, direct_joints: bool = True) -> None:
         self.substeps = substeps
         self.relax = relax
         self.contact_hertz = contact_hertz
@@ -313,26 +523,32 @@ class SoftStep(Responder):
         self.restitution_threshold = restitution_threshold
         self.warm_start = warm_start
         self.block = block
+        self.joint_hertz = joint_hertz
+        self.joint_damping_ratio = joint_damping_ratio
+        self.direct_joints = direct_joints
 
     def respond(self, ctx: StepContext) -> SolveResult:
         rows = ctx.rows
-        n_rows = rows.first_joint_row  # contact rows only: a world with joints refuses this responder
-        lam = rows.lam[:n_rows] / self.substeps  # cached impulse per tick -> per sub-step
-        total = np.zeros(n_rows)
+        lam = rows.lam / self.substeps  # cached impulse per tick -> per sub-step
+        total = np.zeros(len(rows))
         residuals = np.zeros(self.substeps)
         static_pair = (ctx.M_inv[ctx.body_a, 0] == 0.0) | (ctx.M_inv[ctx.body_b, 0] == 0.0)
-        n = soft_step_solve(rows.normal_row, rows.friction_row, rows.i[:n_rows], rows.j[:n_rows], rows.J[:n_rows],
-                            rows.JM[:n_rows], rows.A_diag[:n_rows], rows.mu[:n_rows], ctx.restitution,
-                            ctx.separation, ctx.point, ctx.normal, static_pair, ctx.x, ctx.theta, ctx.V, ctx.V1,
-                            ctx.dt, self.substeps, self.relax, self.contact_hertz, self.damping_ratio,
-                            self.push_max, self.restitution_threshold, self.block, lam, total, residuals)
-        rows.lam[:n_rows] = total
+        ja = ctx.joints if ctx.joints is not None else JointArrays([])
+        n = soft_step_solve(rows.normal_row, rows.friction_row, rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi,
+                            rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind, ctx.restitution, ctx.separation,
+                            ctx.point, ctx.normal, static_pair, ctx.x, ctx.theta, ctx.M_inv, ctx.V, ctx.V1, ctx.dt,
+                            self.substeps, self.relax, self.contact_hertz, self.damping_ratio, self.push_max,
+                            self.joint_hertz, self.joint_damping_ratio, self.direct_joints,
+                            self.restitution_threshold, self.block, ja.kind, ja.i, ja.j, ja.local_i, ja.local_j,
+                            ja.params, ja.row_offset, rows.first_joint_row, lam, total, residuals)
+        rows.lam[:] = total
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
         return (f"SoftStep(substeps={self.substeps}, relax={self.relax}, contact_hertz={self.contact_hertz:g}, "
                 f"damping_ratio={self.damping_ratio:g}, push_max={self.push_max:g}, warm_start={self.warm_start}, "
-                f"block={self.block})")
+                f"block={self.block}, joint_hertz={self.joint_hertz:g}, "
+                f"joint_damping_ratio={self.joint_damping_ratio:g}, direct_joints={self.direct_joints})")
 
 
 __all__ = ["SoftStep", "soft_step_solve"]

@@ -1,0 +1,164 @@
+"""SoftStep with joints: pendulum theory, the heavy chain, angle limits, the direct joint solve."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import phys2d
+from phys2d import scenes
+from phys2d.constraints.joints import JointArrays, joint_rows
+from phys2d.constraints.rows import Rows
+from phys2d.responders.soft_step import factor_joint_rows, solve_factored
+from tests.test_joints import G, amplitude_factor, measured_period, swing
+
+
+@pytest.mark.parametrize("direct", [True, False], ids=["direct", "sweep"])
+def test_soft_step_distance_pendulum_period(direct):
+    # T = 2 pi sqrt(L/g) times the amplitude factor (the exact period), as for PGS
+    L, theta_0, dt = 1.5, 0.5, 1 / 60
+    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep(direct_joints=direct))
+    pivot = np.array([0.0, 5.0])
+    anchor = w.add_circle(position=pivot, radius=0.05, static=True)
+    bob = w.add_circle(position=pivot + L * np.array([math.sin(theta_0), -math.cos(theta_0)]), radius=0.1)
+    joint = w.add_distance_joint(anchor, bob, anchor_a=pivot, anchor_b=bob.position)
+    t, angle = swing(w, bob, pivot, dt, 8.0)
+    expected = 2 * math.pi * math.sqrt(L / G) * amplitude_factor(theta_0)
+    assert measured_period(t, angle) == pytest.approx(expected, rel=0.01)
+    assert angle.max() == pytest.approx(theta_0, abs=0.02)
+    assert joint.gap() < 1e-3
+
+
+def test_soft_step_pin_pendulum_period():
+    # a rod pinned at one end: T = 2 pi sqrt(I_p / (m g d)), I_p = I_cm + m d^2
+    hx, hy, theta_0, dt = 0.5, 0.05, 0.4, 1 / 60
+    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep())
+    pivot = np.array([0.0, 5.0])
+    base = w.add_circle(position=pivot, radius=0.05, static=True)
+    direction = np.array([math.sin(theta_0), -math.cos(theta_0)])
+    rod = w.add_box(position=pivot + hx * direction, half_extents=(hx, hy), angle=theta_0 + math.pi / 2)
+    pin = w.add_pin_joint(base, rod, anchor=pivot)
+    m = rod.mass
+    I_p = m * ((2 * hx) ** 2 + (2 * hy) ** 2) / 12 + m * hx**2
+    t, angle = swing(w, rod, pivot, dt, 8.0)
+    expected = 2 * math.pi * math.sqrt(I_p / (m * G * hx)) * amplitude_factor(theta_0)
+    assert measured_period(t, angle) == pytest.approx(expected, rel=0.01)
+    assert pin.gap() < 1e-3
+
+
+def test_heavy_chain_keeps_every_joint_within_a_centimetre():
+    # issue 11: 20 links carrying a 100x heavier box, swinging down from horizontal
+    w = scenes.heavy_chain(20, 100.0, responder=phys2d.SoftStep(substeps=4))
+    worst = 0.0
+    for _ in range(90):  # 1.5 s: the fall and the fastest part of the first swing
+        w.step(1 / 60)
+        worst = max(worst, max(joint.gap() for joint in w.joints))
+    assert worst < 0.01
+    assert w.x[-1, 1] < w.x[1, 1] - 5.0  # it really fell: the heavy box is far below the pivot
+
+
+def test_angle_limit_stops_a_falling_lever():
+    # a bar pinned at its left end to a static body falls; its lower limit of -0.3 rad stops it
+    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep())
+    base = w.add_circle(position=(0.0, 5.0), radius=0.05, static=True)
+    bar = w.add_box(position=(1.0, 5.0), half_extents=(1.0, 0.05))
+    w.add_pin_joint(base, bar, anchor=(0.0, 5.0))
+    limit = w.add_angle_joint(base, bar, lower=-0.3, upper=0.3)
+    for _ in range(180):
+        w.step(1 / 60)
+    # without the limit it would hang straight down (-pi/2); the stop holds it at -0.3 rad
+    assert limit.offset() == pytest.approx(-0.3, abs=0.01)
+    assert abs(w.V[bar.index, 2]) < 0.05
+
+
+def test_fixed_angle_joint_holds_two_bodies_at_their_angle():
+    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep())
+    base = w.add_circle(position=(0.0, 5.0), radius=0.05, static=True)
+    bar = w.add_box(position=(1.0, 5.0), half_extents=(1.0, 0.05))
+    w.add_pin_joint(base, bar, anchor=(0.0, 5.0))
+    weld = w.add_angle_joint(base, bar)
+    for _ in range(120):
+        w.step(1 / 60)
+    assert abs(weld.offset()) < 0.01  # a cantilever: the pin and the fixed angle together hold it level
+
+
+def _chain(n_links: int, redundant: bool = False) -> phys2d.World:
+    """A chain of 1 m links pinned end to end, each turned a little more than the last."""
+    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.PGS())
+    previous = w.add_circle(position=(0.0, 0.0), radius=0.05, static=True)
+    for k in range(n_links):
+        link = w.add_box(position=(k + 0.5, 0.3 * k), half_extents=(0.5, 0.1), angle=0.2 * k)
+        w.add_pin_joint(previous, link, anchor=(k, 0.3 * k))
+        if redundant:  # the same pin twice: two rows that repeat two others
+            w.add_pin_joint(previous, link, anchor=(k, 0.3 * k))
+        previous = link
+    return w
+
+
+def _rows_of(w: phys2d.World) -> Rows:
+    """The joint rows of w at its positions now, with xi = -C (beta = dt = 1)."""
+    ja = JointArrays(list(w.joints))
+    rows = Rows(ja.n_rows)
+    joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, 0, w.x, w.theta, w.M_inv, 1.0,
+               1.0, rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu,
+               rows.kind)
+    return rows
+
+
+def _dense_A(rows):
+    """A = J M^-1 J^T, assembled from the 6-column rows (a second method)."""
+    n = len(rows)
+    n_bodies = int(max(rows.i.max(), rows.j.max())) + 1
+    Jfull = np.zeros((n, 3 * n_bodies))
+    JMfull = np.zeros((n, 3 * n_bodies))
+    for k in range(n):
+        for side, body in enumerate((rows.i[k], rows.j[k])):
+            Jfull[k, 3 * body : 3 * body + 3] += rows.J[k, 3 * side : 3 * side + 3]
+            JMfull[k, 3 * body : 3 * body + 3] += rows.JM[k, 3 * side : 3 * side + 3]
+    return Jfull @ JMfull.T
+
+
+def test_direct_joint_solve_matches_a_dense_solve():
+    w = _chain(6)
+    rows = _rows_of(w)
+    n = len(rows)
+    eq = np.arange(n, dtype=np.int64)
+    L = np.zeros((n, n))
+    first = np.zeros(n, np.int64)
+    factor_joint_rows(eq, rows.i, rows.j, rows.J, rows.JM, L, first)
+    rhs = np.linspace(-1.0, 2.0, n)
+    y = rhs.copy()
+    solve_factored(L, first, y)
+    A = _dense_A(rows)
+    np.testing.assert_allclose(y, np.linalg.solve(A, rhs), rtol=1e-9, atol=1e-12)
+    assert first.max() > 0 and first[-1] >= n - 4  # a chain: each row reaches back only to its neighbours
+
+
+def test_direct_joint_solve_leaves_redundant_rows_out_and_stays_consistent():
+    # the same pin twice makes A singular; a consistent right-hand side (from a velocity) is met exactly
+    w = _chain(4, redundant=True)
+    rows = _rows_of(w)
+    n = len(rows)
+    eq = np.arange(n, dtype=np.int64)
+    L = np.zeros((n, n))
+    first = np.zeros(n, np.int64)
+    factor_joint_rows(eq, rows.i, rows.j, rows.J, rows.JM, L, first)
+    A = _dense_A(rows)
+    rhs = A @ np.sin(np.arange(n) + 1.0)  # in A's range
+    y = rhs.copy()
+    solve_factored(L, first, y)
+    assert np.all(np.isfinite(y))
+    np.testing.assert_allclose(A @ y, rhs, atol=1e-8)
+
+
+def test_soft_step_joint_scenes_are_deterministic():
+    states = []
+    for _ in range(2):
+        w = scenes.heavy_chain(5, 100.0, responder=phys2d.SoftStep())
+        for _ in range(30):
+            w.step(1 / 60)
+        states.append((w.x.copy(), w.theta.copy(), w.V.copy(), w.last_step.joint_impulses.copy()))
+    for a, b in zip(*states):
+        assert np.array_equal(a, b)
