@@ -32,13 +32,6 @@ import numpy as np
 
 import phys2d
 
-
-def feature(f):
-    """A polygon-polygon feature id in words (phys2d.collision.narrowphase)."""
-    owner = "b" if f >> 15 & 1 else "a"
-    return f"ref edge {f >> 8 & 63} of {owner}, incident edge {f >> 1 & 63}, end {f & 1}"
-
-
 args = c.options(__doc__)
 seconds = 3.0 if args.quick else 10.0
 c.claim("with contact identities that survive from tick to tick, warm-started PGS reaches a tolerance in "
@@ -57,8 +50,8 @@ for name, v in (("resting box", 0.0), ("sliding box (3 m/s)", 3.0)):
         ct = w.contacts
         hits.append(w.last_step.cache_hit_rate)
         if tick in (0, 1, 59):
-            rows += [[str(w.tick), f"{ct.key[k]:#x}", feature(int(ct.feature[k])), str(ct.warm_started[k]),
-                      ct.normal_impulse[k]] for k in range(len(ct))]
+            rows += [[str(w.tick), f"{ct.key[k]:#x}", repr(phys2d.describe_feature(int(ct.feature[k]))),
+                      str(ct.warm_started[k]), ct.normal_impulse[k]] for k in range(len(ct))]
     print(f"{name}: contacts on ticks 1, 2 and 60")
     c.table(["tick", "key", "feature id", "warm started", "lambda_n (N s)"], rows)
     print(f"{name}: cache hit rate over ticks 2..60: {100 * np.mean(hits[1:]):.1f}%  (tick 1: {100 * hits[0]:.0f}%)")

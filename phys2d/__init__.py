@@ -16,6 +16,7 @@ first use, so ``import phys2d`` never imports pyarrow or dask.
 
 from . import scenes
 from .bodies import Body
+from .collision import describe_feature
 from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
 from .contacts import Contacts
 from .responders import REGISTRY, make_responder
@@ -31,7 +32,8 @@ __version__ = "0.1.0"
 
 __all__ = ["AngleJoint", "Body", "Contacts", "DistanceJoint", "IterativeImpulse", "Joint",
            "NaiveImpulse", "PGS", "PinJoint", "REGISTRY", "Recorder", "Responder", "SimulationError", "SoftStep",
-           "StepReport", "Verdict", "Watch", "World", "make_responder", "playback", "scenes", "sweep", "__version__"]
+           "StepReport", "Verdict", "Watch", "World", "describe_feature", "make_responder", "playback", "scenes",
+           "sweep", "__version__"]
 
 
 def __getattr__(name: str):

@@ -17,7 +17,7 @@ import numpy as np
 from . import shapes
 from .bodies import Body, BodyArrays
 from .collision.broadphase import fits_inside, sweep_and_prune, update_geometry
-from .collision.narrowphase import collide_pairs
+from .collision.recycle import ManifoldCache
 from .constraints.joints import (
     AngleJoint,
     DistanceJoint,
@@ -56,17 +56,24 @@ class World:
                 at the surface instead of sinking into it
     max_speed   a step that leaves any body faster than this (m/s, or rad/s for
                 spin) raises SimulationError and is undone
+    contact_recycle_distance  a touching pair that has moved less than this (m)
+                relative to itself since its points were found keeps them
+                (``collision.recycle``); 0 finds every manifold anew each step
 
-    gravity, contact_margin, max_speed and responder can be set between steps; a bad
+    gravity, contact_margin, max_speed, contact_recycle_distance and responder can be
+    set between steps; a bad
     value is refused with the constructor's message and changes nothing.
     """
 
     def __init__(self, gravity=(0.0, -10.0), responder: Responder | None = None, *,
-                 contact_margin: float = 0.02, max_speed: float = 1e4) -> None:
+                 contact_margin: float = 0.02, max_speed: float = 1e4,
+                 contact_recycle_distance: float = 0.05) -> None:
         self._gravity = vec2(gravity, "gravity")
         self._responder = self._check_responder(PGS() if responder is None else responder)
         self.contact_margin = contact_margin
         self.max_speed = max_speed
+        self._manifolds = ManifoldCache()
+        self.contact_recycle_distance = contact_recycle_distance
         self._bodies = BodyArrays()
         self._handles: list[Body] = []
         self._cache = ContactCache()
@@ -126,6 +133,17 @@ class World:
     def contact_margin(self, value: float) -> None:
         self._contact_margin = non_negative_float(value, "contact_margin")
         self._sweep_again = True  # the fat boxes were grown by the old margin
+        if hasattr(self, "_manifolds"):
+            self._manifolds.clear()  # their points were found with the old margin
+
+    @property
+    def contact_recycle_distance(self) -> float:
+        """A pair that moved less than this (m) relative to itself keeps its contact points."""
+        return self._contact_recycle_distance
+
+    @contact_recycle_distance.setter
+    def contact_recycle_distance(self, value: float) -> None:
+        self._contact_recycle_distance = non_negative_float(value, "contact_recycle_distance")
 
     @property
     def max_speed(self) -> float:
@@ -337,6 +355,7 @@ class World:
         responder = self._responder
         self._check_joints_supported(responder)
         before = b.snapshot()
+        manifolds_before = self._manifolds.state()
         try:
             V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
@@ -353,6 +372,7 @@ class World:
             self._check_limits()
         except BaseException:
             b.restore(before)
+            self._manifolds.restore(manifolds_before)
             raise
         k = len(c)
         c.normal_impulse, c.tangent_impulse = rows.contact_impulses()
@@ -396,8 +416,8 @@ class World:
         out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
                np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
         pair_start = np.empty(self._n_pairs + 1, np.int64)
-        k = collide_pairs(self._pairs, self._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v,
-                          world_n, self.contact_margin, travel, b.uid, b.friction, b.restitution, *out, pair_start)
+        k = self._manifolds.collide(self._pairs, self._n_pairs, b, world_v, world_n, self.contact_margin, travel,
+                                    self.contact_recycle_distance, out, pair_start)
         body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
         if self._responder.colour_order:
             order = solve_order(self._pair_order, pair_start)

@@ -33,6 +33,7 @@ NOT_A_NUMBER = ["x", None, True, [1.0]]
 BAD = [
     ("World", "contact_margin", [-5.0, -1e-9, math.nan, math.inf] + NOT_A_NUMBER),
     ("World", "max_speed", [0.0, -1.0, math.inf, math.nan] + NOT_A_NUMBER),
+    ("World", "contact_recycle_distance", [-0.01, math.inf, math.nan] + NOT_A_NUMBER),
     ("World", "gravity", [(math.nan, 0.0), (1.0, 2.0, 3.0), "ab", None]),
     ("PGS", "iterations", [0, -3, 100_001, 1.5, True, "10"]),
     ("PGS", "warm_start", [1, 0, "yes", None]),
@@ -52,6 +53,9 @@ BAD = [
     ("SoftStep", "restitution_threshold", [-0.5] + NOT_A_NUMBER),
     ("SoftStep", "warm_start", [0, "x"]),
     ("SoftStep", "block", [0, "x"]),
+    ("SoftStep", "joint_hertz", [-1.0, math.nan] + NOT_A_NUMBER),
+    ("SoftStep", "joint_damping_ratio", [-1.0, math.inf] + NOT_A_NUMBER),
+    ("SoftStep", "direct_joints", [1, None]),
     ("IterativeImpulse", "passes", [0, 2.5, True]),
     ("IterativeImpulse", "push_max", [-1.0, math.nan] + NOT_A_NUMBER),
     ("NaiveImpulse", "push_max", [-1.0, math.inf] + NOT_A_NUMBER),

@@ -28,6 +28,8 @@ no further, so a resting box that tilts by a hair keeps both corners supported.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -35,6 +37,70 @@ from ..shapes import CIRCLE
 
 FLIP_BIT = 1 << 15
 VERTEX_BIT = 1 << 7
+EDGE_MASK = 63  # 6 bits: an edge or vertex index
+REFERENCE_SHIFT = 8
+INCIDENT_SHIFT = 1
+END_BIT = 1
+
+PAIR_KINDS = ("polygons", "circle-polygon", "circles")
+
+
+class Feature(NamedTuple):
+    """What a feature id names (``describe_feature``); fields that do not apply are None.
+
+    pair            "polygons", "circle-polygon" or "circles"
+    reference       polygons: the body ("a" or "b") whose edge is the reference face
+    reference_edge  polygons: that edge's index (edge e runs from vertex e to vertex e + 1)
+    incident_edge   polygons: the other polygon's edge that was clipped against it
+    end             polygons: 0 if the point lies towards the reference edge's first vertex, 1 its second
+    edge            circle-polygon: the polygon edge whose region holds the circle's centre
+    vertex          circle-polygon: the polygon vertex whose region holds it
+    """
+
+    pair: str
+    reference: str | None = None
+    reference_edge: int | None = None
+    incident_edge: int | None = None
+    end: int | None = None
+    edge: int | None = None
+    vertex: int | None = None
+
+    def __repr__(self) -> str:
+        if self.pair == "polygons":
+            other = "a" if self.reference == "b" else "b"
+            return (f"Feature(reference edge {self.reference_edge} of {self.reference}, incident edge "
+                    f"{self.incident_edge} of {other}, end {self.end})")
+        if self.pair == "circle-polygon":
+            where = f"edge {self.edge}" if self.vertex is None else f"vertex {self.vertex}"
+            return f"Feature(circle in the region of polygon {where})"
+        return "Feature(circle against circle)"
+
+
+def describe_feature(feature: int, pair: str = "polygons") -> Feature:
+    """The edges and vertices a contact's feature id names (encoding in the module docstring).
+
+    ``pair`` says which shapes made the contact ("polygons", "circle-polygon" or
+    "circles"): the same number means different things for each.
+    """
+    if isinstance(feature, (bool, np.bool_)) or not isinstance(feature, (int, np.integer)):
+        raise TypeError(f"feature must be an integer feature id, got {type(feature).__name__}")
+    feature = int(feature)
+    if pair not in PAIR_KINDS:
+        raise ValueError(f"pair must be one of {', '.join(PAIR_KINDS)}, got {pair!r}")
+    if pair == "polygons":
+        if not 0 <= feature < 2 * FLIP_BIT or feature & (VERTEX_BIT | 1 << 14):
+            raise ValueError(f"feature {feature:#x} is not a polygon-polygon feature id")
+        return Feature(pair, reference="b" if feature & FLIP_BIT else "a",
+                       reference_edge=feature >> REFERENCE_SHIFT & EDGE_MASK,
+                       incident_edge=feature >> INCIDENT_SHIFT & EDGE_MASK, end=feature & END_BIT)
+    if pair == "circle-polygon":
+        if not 0 <= feature < 2 * VERTEX_BIT:
+            raise ValueError(f"feature {feature:#x} is not a circle-polygon feature id")
+        index = feature & ~VERTEX_BIT
+        return Feature(pair, vertex=index) if feature & VERTEX_BIT else Feature(pair, edge=index)
+    if feature != 0:
+        raise ValueError(f"feature {feature:#x} is not a circle-circle feature id (always 0)")
+    return Feature(pair)
 
 # Prefer the first polygon's face unless the second's separates clearly more:
 # nearly equal faces then never trade places from one tick to the next.
@@ -195,6 +261,53 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
+def manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin):
+    """The manifold of bodies a and b, points up to ``margin`` (m) apart, normal from a to b:
+    (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2)."""
+    if kind[a] != CIRCLE and kind[b] != CIRCLE:
+        return collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
+    if kind[a] == CIRCLE and kind[b] == CIRCLE:
+        c = collide_circles(x[a, 0], x[a, 1], radius[a], x[b, 0], x[b, 1], radius[b], margin)
+        sign = 1.0
+    elif kind[a] == CIRCLE:  # polygon b, normal from b to a: flip it
+        c = collide_circle_polygon(world_v, world_n, vstart[b], vcount[b], x[a, 0], x[a, 1], radius[a], margin)
+        sign = -1.0
+    else:
+        c = collide_circle_polygon(world_v, world_n, vstart[a], vcount[a], x[b, 0], x[b, 1], radius[b], margin)
+        sign = 1.0
+    return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
+
+
+@njit(cache=True)
+def pair_key(uid, a, b):
+    """The key of pair (a, b): uid_a << 39 | uid_b << 16; a point's key adds its feature id."""
+    return (uid[a] << 39) | (uid[b] << 16)
+
+
+@njit(cache=True)
+def write_point(k, a, b, px, py, nx, ny, sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f,
+                out_key, out_mu, out_e):
+    """Contact point k of the step's arrays."""
+    out_key[k] = key | feature
+    out_mu[k] = mu
+    out_e[k] = e
+    out_a[k] = a
+    out_b[k] = b
+    out_p[k, 0] = px
+    out_p[k, 1] = py
+    out_n[k, 0] = nx
+    out_n[k, 1] = ny
+    out_s[k] = sep
+    out_f[k] = feature
+
+
+@njit(cache=True)
+def pair_friction(friction, restitution, a, b):
+    """The pair's friction sqrt(mu_a mu_b) and restitution max(e_a, e_b)."""
+    return np.sqrt(friction[a]) * np.sqrt(friction[b]), max(restitution[a], restitution[b])  # no overflow
+
+
+@njit(cache=True)
 def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, contact_margin, travel, uid,
                   friction, restitution, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e,
                   pair_start):
@@ -211,41 +324,16 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
-        margin = contact_margin + travel[a] + travel[b]
-        if kind[a] != CIRCLE and kind[b] != CIRCLE:
-            m = collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
-            count, nx, ny = m[0], m[1], m[2]
-            points = ((m[3], m[4], m[5], m[6]), (m[7], m[8], m[9], m[10]))
-        else:
-            if kind[a] == CIRCLE and kind[b] == CIRCLE:
-                c = collide_circles(x[a, 0], x[a, 1], radius[a], x[b, 0], x[b, 1], radius[b], margin)
-                sign = 1.0
-            elif kind[a] == CIRCLE:  # polygon b, normal from b to a: flip it
-                c = collide_circle_polygon(world_v, world_n, vstart[b], vcount[b], x[a, 0], x[a, 1], radius[a],
-                                           margin)
-                sign = -1.0
-            else:
-                c = collide_circle_polygon(world_v, world_n, vstart[a], vcount[a], x[b, 0], x[b, 1], radius[b],
-                                           margin)
-                sign = 1.0
-            count, nx, ny = c[0], sign * c[1], sign * c[2]
-            points = ((c[3], c[4], c[5], c[6]), (c[3], c[4], c[5], c[6]))
-        pair_key = (uid[a] << 39) | (uid[b] << 16)
-        mu = np.sqrt(friction[a]) * np.sqrt(friction[b])  # cannot overflow as sqrt(mu_a mu_b) can
-        e = max(restitution[a], restitution[b])
-        for m in range(count):
-            px, py, sep, feature = points[m]
-            out_key[k] = pair_key | feature
-            out_mu[k] = mu
-            out_e[k] = e
-            out_a[k] = a
-            out_b[k] = b
-            out_p[k, 0] = px
-            out_p[k, 1] = py
-            out_n[k, 0] = nx
-            out_n[k, 1] = ny
-            out_s[k] = sep
-            out_f[k] = feature
+        m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, contact_margin + travel[a] + travel[b])
+        mu, e = pair_friction(friction, restitution, a, b)
+        key = pair_key(uid, a, b)
+        if m[0] >= 1:
+            write_point(k, a, b, m[3], m[4], m[1], m[2], m[5], m[6], key, mu, e, out_a, out_b, out_p, out_n, out_s,
+                        out_f, out_key, out_mu, out_e)
+            k += 1
+        if m[0] == 2:
+            write_point(k, a, b, m[7], m[8], m[1], m[2], m[9], m[10], key, mu, e, out_a, out_b, out_p, out_n, out_s,
+                        out_f, out_key, out_mu, out_e)
             k += 1
     pair_start[n_pairs] = k
     return k

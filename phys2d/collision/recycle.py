@@ -1,0 +1,246 @@
+"""Contact recycling: keep a manifold's points while its two bodies barely move.
+
+After Box2D v3 (its world's collide stage, 2026). When the narrowphase finds a
+manifold, the pair's relative pose is remembered: B's position and angle in A's
+frame, and each body's angle. In a later step, while
+
+    |p_rel - p_rel,cached| + extent |sin(dtheta_rel)| < contact_recycle_distance
+
+(extent: the larger distance from a moving body's centre to its surface) and
+neither body has turned by more than RECYCLE_MAX_TURN since, the narrowphase is
+skipped: each point keeps its anchors, r_a and r_b turned with their bodies, its
+normal and feature id, and only its separation follows the motion,
+
+    C = C_cached + (x_b - x_a + r_b - r_a) . n
+
+as within the soft step's sub-steps. A stack whose boxes lean by a hair then keeps
+the points it had instead of the ones clipping would find at each new tilt, and a
+pair that stays put costs no narrowphase. Fast pairs (whose velocities could carry
+them further than contact_margin within the step) are always collided anew, so
+speculative contacts still see what is coming; so is a pair that had no points, and
+one whose recycled points would lie further apart than the narrowphase keeps them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..shapes import CIRCLE
+from .narrowphase import manifold, pair_friction, pair_key, write_point
+
+RECYCLE_MAX_TURN = 0.98  # cos of the largest turn (about 11.5 degrees) of either body since caching
+
+
+@njit(cache=True)
+def body_extent(b, kind, radius, vstart, vcount, local_v, static):
+    """The largest distance (m) from body b's centre to its surface; 0 for a static body."""
+    if static[b]:
+        return 0.0
+    if kind[b] == CIRCLE:
+        return radius[b]
+    r2 = 0.0
+    for v in range(vstart[b], vstart[b] + vcount[b]):
+        r2 = max(r2, local_v[v, 0] ** 2 + local_v[v, 1] ** 2)
+    return np.sqrt(r2)
+
+
+@njit(cache=True)
+def relative_pose(a, b, x, theta):
+    """B's pose in A's frame: (px, py, theta_b - theta_a) in m and rad."""
+    c, s = np.cos(theta[a]), np.sin(theta[a])
+    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
+    return c * dx + s * dy, -s * dx + c * dy, theta[b] - theta[a]
+
+
+@njit(cache=True)
+def may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static, cached_pose, cached_theta,
+                recycle_distance):
+    """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose."""
+    if np.cos(theta[a] - cached_theta[slot, 0]) <= RECYCLE_MAX_TURN:
+        return False
+    if np.cos(theta[b] - cached_theta[slot, 1]) <= RECYCLE_MAX_TURN:
+        return False
+    px, py, turn = relative_pose(a, b, x, theta)
+    distance = np.hypot(px - cached_pose[slot, 0], py - cached_pose[slot, 1])
+    extent = max(body_extent(a, kind, radius, vstart, vcount, local_v, static),
+                 body_extent(b, kind, radius, vstart, vcount, local_v, static))
+    return distance + extent * abs(np.sin(turn - cached_pose[slot, 2])) < recycle_distance
+
+
+@njit(cache=True)
+def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation):
+    """(px, py, separation) of a cached point now: its anchors turned with their bodies."""
+    ca, sa = np.cos(theta[a] - cached_theta[slot, 0]), np.sin(theta[a] - cached_theta[slot, 0])
+    cb, sb = np.cos(theta[b] - cached_theta[slot, 1]), np.sin(theta[b] - cached_theta[slot, 1])
+    r_ax = ca * anchor[point, 0] - sa * anchor[point, 1]
+    r_ay = sa * anchor[point, 0] + ca * anchor[point, 1]
+    r_bx = cb * anchor[point, 2] - sb * anchor[point, 3]
+    r_by = sb * anchor[point, 2] + cb * anchor[point, 3]
+    dx = x[b, 0] + r_bx - x[a, 0] - r_ax
+    dy = x[b, 1] + r_by - x[a, 1] - r_ay
+    separation = base_separation[point] + dx * normal[point, 0] + dy * normal[point, 1]
+    # the point midway between the two anchors, as the narrowphase puts it between the surfaces
+    px = 0.5 * (x[a, 0] + r_ax + x[b, 0] + r_bx)
+    py = 0.5 * (x[a, 1] + r_ay + x[b, 1] + r_by)
+    return px, py, separation
+
+
+@njit(cache=True)
+def all_within(slot, a, b, x, theta, cached_start, cached_theta, anchor, normal, base_separation, margin):
+    """True if every cached point of the slot is still within ``margin`` (m) of its partner:
+    the narrowphase would drop one that is not, so the pair is collided anew."""
+    for point in range(cached_start[slot], cached_start[slot + 1]):
+        if recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation)[2] > margin:
+            return False
+    return True
+
+
+@njit(cache=True)
+def collide_recycling(pairs, n_pairs, x, theta, kind, radius, vstart, vcount, local_v, static, world_v, world_n,
+                      contact_margin, travel, uid, friction, restitution, recycle_distance, cached_key, cached_start,
+                      cached_pose, cached_theta, cached_anchor, cached_normal, cached_separation, cached_feature,
+                      out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e, pair_start, new_key,
+                      new_start, new_pose, new_theta, new_anchor, new_normal, new_separation, new_feature):
+    """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
+
+    cached_*: last step's manifolds, sorted by pair key (slot s's points are
+    cached_start[s] up to cached_start[s + 1]). new_*: this step's, to cache (room for
+    n_pairs manifolds and 2 n_pairs points). Returns (points K, manifolds cached, recycled).
+    """
+    k = 0
+    n_new = 0
+    n_recycled = 0
+    n_cached = cached_key.shape[0]
+    for q in range(n_pairs):
+        pair_start[q] = k
+        a, b = pairs[q, 0], pairs[q, 1]
+        key = pair_key(uid, a, b)
+        mu, e = pair_friction(friction, restitution, a, b)
+        slot = -1
+        if recycle_distance > 0.0 and travel[a] + travel[b] <= contact_margin and n_cached > 0:
+            s = np.searchsorted(cached_key, key)
+            if s < n_cached and cached_key[s] == key:
+                slot = s
+        new_start[n_new] = k
+        margin = contact_margin + travel[a] + travel[b]
+        if slot >= 0 and not (may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static,
+                                          cached_pose, cached_theta, recycle_distance)
+                              and all_within(slot, a, b, x, theta, cached_start, cached_theta, cached_anchor,
+                                             cached_normal, cached_separation, margin)):
+            slot = -1
+        if slot >= 0:
+            n_recycled += 1
+            for point in range(cached_start[slot], cached_start[slot + 1]):
+                px, py, sep = recycled_point(point, a, b, x, theta, cached_theta, slot, cached_anchor, cached_normal,
+                                             cached_separation)
+                write_point(k, a, b, px, py, cached_normal[point, 0], cached_normal[point, 1], sep,
+                            cached_feature[point], key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f, out_key,
+                            out_mu, out_e)
+                # the cache keeps the manifold as it was found: pose, anchors and separation
+                new_anchor[k] = cached_anchor[point]
+                new_normal[k] = cached_normal[point]
+                new_separation[k] = cached_separation[point]
+                new_feature[k] = cached_feature[point]
+                k += 1
+            new_pose[n_new] = cached_pose[slot]
+            new_theta[n_new] = cached_theta[slot]
+        else:
+            m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin)
+            for point in range(m[0]):
+                if point == 0:
+                    px, py, sep, feature = m[3], m[4], m[5], m[6]
+                else:
+                    px, py, sep, feature = m[7], m[8], m[9], m[10]
+                write_point(k, a, b, px, py, m[1], m[2], sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s,
+                            out_f, out_key, out_mu, out_e)
+                new_anchor[k, 0] = px - x[a, 0]
+                new_anchor[k, 1] = py - x[a, 1]
+                new_anchor[k, 2] = px - x[b, 0]
+                new_anchor[k, 3] = py - x[b, 1]
+                new_normal[k, 0] = m[1]
+                new_normal[k, 1] = m[2]
+                new_separation[k] = sep
+                new_feature[k] = feature
+                k += 1
+            px, py, turn = relative_pose(a, b, x, theta)
+            new_pose[n_new, 0] = px
+            new_pose[n_new, 1] = py
+            new_pose[n_new, 2] = turn
+            new_theta[n_new, 0] = theta[a]
+            new_theta[n_new, 1] = theta[b]
+        if k > new_start[n_new]:  # a pair with points: cache its manifold
+            new_key[n_new] = key
+            n_new += 1
+    pair_start[n_pairs] = k
+    new_start[n_new] = k
+    return k, n_new, n_recycled
+
+
+@njit(cache=True)
+def points_in_order(start, order, new_start):
+    """The points of manifolds order[0], order[1], ... (indices), and each one's first in new_start."""
+    points = np.empty(start[order.shape[0]] if order.shape[0] else 0, np.int64)
+    n = 0
+    for m in range(order.shape[0]):
+        new_start[m] = n
+        for point in range(start[order[m]], start[order[m] + 1]):
+            points[n] = point
+            n += 1
+    new_start[order.shape[0]] = n
+    return points[:n]
+
+
+class ManifoldCache:
+    """Last step's manifolds, kept for recycling (the world owns one)."""
+
+    def __init__(self) -> None:
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget every manifold: the next step collides every pair anew."""
+        self.key = np.zeros(0, np.int64)
+        self.start = np.zeros(1, np.int64)
+        self.pose = np.zeros((0, 3))
+        self.theta = np.zeros((0, 2))
+        self.anchor = np.zeros((0, 4))
+        self.normal = np.zeros((0, 2))
+        self.separation = np.zeros(0)
+        self.feature = np.zeros(0, np.int32)
+        self.recycled = 0  # manifolds recycled in the last step
+
+    _STATE = ("key", "start", "pose", "theta", "anchor", "normal", "separation", "feature", "recycled")
+
+    def state(self) -> tuple:
+        """What ``restore`` needs to undo a step (``collide`` replaces the arrays, never edits them)."""
+        return tuple(getattr(self, name) for name in self._STATE)
+
+    def restore(self, state: tuple) -> None:
+        for name, value in zip(self._STATE, state):
+            setattr(self, name, value)
+
+    def collide(self, pairs, n_pairs, bodies, world_v, world_n, contact_margin, travel, recycle_distance, out,
+                pair_start) -> int:
+        """The step's contact points into ``out`` (as ``collide_pairs``); returns K."""
+        b = bodies
+        cap = 2 * n_pairs
+        new = (np.zeros(n_pairs, np.int64), np.zeros(n_pairs + 1, np.int64), np.zeros((n_pairs, 3)),
+               np.zeros((n_pairs, 2)), np.zeros((cap, 4)), np.zeros((cap, 2)), np.zeros(cap),
+               np.zeros(cap, np.int32))
+        k, n_new, self.recycled = collide_recycling(
+            pairs, n_pairs, b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static, world_v, world_n,
+            contact_margin, travel, b.uid, b.friction, b.restitution, recycle_distance, self.key, self.start,
+            self.pose, self.theta, self.anchor, self.normal, self.separation, self.feature, *out, pair_start, *new)
+        key, start, pose, theta, anchor, normal, separation, feature = new
+        # sorted by pair key for the next step's look-up; points follow their manifolds
+        by_key = np.argsort(key[:n_new], kind="stable")
+        self.start = np.zeros(n_new + 1, np.int64)
+        points = points_in_order(start, by_key, self.start)
+        self.key = key[:n_new][by_key]
+        self.pose = pose[:n_new][by_key]
+        self.theta = theta[:n_new][by_key]
+        self.anchor = anchor[points]
+        self.normal = normal[points]
+        self.separation = separation[points]
+        self.feature = feature[points]
+        return k

@@ -1,0 +1,119 @@
+"""Contact recycling: kept points agree with the narrowphase, and are given up when they should be."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import phys2d
+from phys2d import scenes
+from phys2d.collision.broadphase import update_geometry
+from phys2d.collision.narrowphase import collide_pairs
+
+
+def narrowphase_now(w: phys2d.World):
+    """The narrowphase's own manifolds of w's current pairs at its current positions (a second method)."""
+    b = w._bodies
+    world_v = np.empty((b.n_verts, 2))
+    world_n = np.empty((b.n_verts, 2))
+    aabb = np.empty((b.n, 4))
+    travel = np.empty(b.n)
+    V = w.V.copy()
+    V[~b.static, :2] += w.gravity / 60.0  # the step's travel is taken after gravity
+    update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, V, 1 / 60,
+                    w.contact_margin, world_v, world_n, aabb, travel)
+    cap = 2 * w._n_pairs
+    out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
+           np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
+    pair_start = np.empty(w._n_pairs + 1, np.int64)
+    k = collide_pairs(w._pairs, w._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v, world_n,
+                      w.contact_margin, travel, b.uid, b.friction, b.restitution, *out, pair_start)
+    return {name: a[:k] for name, a in zip(("a", "b", "point", "normal", "separation", "feature", "key"), out)}
+
+
+def test_recycled_points_agree_with_the_narrowphase_on_a_resting_stack():
+    w = scenes.vertical_stack(5, phys2d.SoftStep())
+    for _ in range(60):
+        w.step(1 / 60)
+    x, theta, V = w.x.copy(), w.theta.copy(), w.V.copy()
+    fresh = narrowphase_now(w)
+    w.step(1 / 60)
+    assert w._manifolds.recycled == 5  # every pair kept its points
+    c = w.contacts
+    assert np.array_equal(np.sort(c.key), np.sort(fresh["key"]))  # the same features, so the same cache keys
+    order = np.argsort(fresh["key"])
+    mine = np.argsort(c.key)
+    # separations follow the motion since the points were found: the same as collision detection now to
+    # within what the bodies turned (below a milliradian here) times their size
+    np.testing.assert_allclose(c.separation[mine], fresh["separation"][order], atol=1e-4)
+    np.testing.assert_allclose(c.normal[mine], fresh["normal"][order], atol=1e-3)
+    np.testing.assert_allclose(c.point[mine], fresh["point"][order], atol=2e-3)
+    assert np.all(np.abs(theta) < 1e-3) and np.all(np.isfinite(x)) and np.all(np.isfinite(V))
+
+
+def test_recycling_off_finds_every_manifold_anew():
+    w = scenes.vertical_stack(5, phys2d.SoftStep())
+    w.contact_recycle_distance = 0.0
+    for _ in range(30):
+        w.step(1 / 60)
+    assert w._manifolds.recycled == 0
+    fresh = narrowphase_now(w)
+    w.step(1 / 60)
+    # the step's contacts are the narrowphase's own at the same positions, bit for bit
+    assert np.array_equal(np.sort(w.contacts.key), np.sort(fresh["key"]))
+    assert np.array_equal(w.contacts.separation[np.argsort(w.contacts.key)],
+                          fresh["separation"][np.argsort(fresh["key"])])
+
+
+def test_a_pair_that_moved_more_than_the_recycle_distance_is_collided_anew():
+    w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.SoftStep())
+    w.add_box(position=(0.0, 0.0), half_extents=(1.0, 0.5), static=True)
+    box = w.add_box(position=(0.0, 1.0), half_extents=(0.5, 0.5))
+    w.step(1 / 60)
+    w.step(1 / 60)
+    assert w._manifolds.recycled == 1
+    # slide it sideways by 6 cm (more than the 5 cm recycle distance), slowly enough not to count as fast
+    box.position = (0.06, 1.0)
+    w.step(1 / 60)
+    assert w._manifolds.recycled == 0
+    fresh = narrowphase_now(w)
+    np.testing.assert_allclose(np.sort(w.contacts.point[:, 0]), np.sort(fresh["point"][:, 0]), atol=1e-9)
+
+
+def test_points_that_would_lie_beyond_the_margin_are_not_kept():
+    # a box lifted by 3 cm: its recycled points would be 3 cm apart, past the 2 cm margin
+    w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.PGS())
+    w.add_box(position=(0.0, 0.0), half_extents=(1.0, 0.5), static=True)
+    box = w.add_box(position=(0.0, 1.0), half_extents=(0.5, 0.5))
+    w.step(1 / 60)
+    box.position = (0.0, 1.03)
+    w.step(1 / 60)
+    assert len(w.contacts) == 0
+
+
+@pytest.mark.parametrize("responder", [phys2d.PGS(), phys2d.SoftStep()], ids=["pgs", "soft-step"])
+def test_recycling_keeps_twins_bit_identical(responder):
+    states = []
+    for _ in range(2):
+        w = scenes.vertical_stack(8, type(responder)(), lean=0.001)
+        for _ in range(90):
+            w.step(1 / 60)
+        states.append((w.x.copy(), w.theta.copy(), w.V.copy(), w.contacts.key.copy()))
+    for a, b in zip(*states):
+        assert np.array_equal(a, b)
+
+
+def test_a_failed_step_leaves_the_recycled_manifolds_as_they_were():
+    twins = [scenes.vertical_stack(4, phys2d.SoftStep()) for _ in range(2)]
+    for w in twins:
+        for _ in range(20):
+            w.step(1 / 60)
+    w = twins[0]
+    w.max_speed = 1e-6  # everything is too fast: the step is undone
+    with pytest.raises(phys2d.SimulationError):
+        w.step(1 / 60)
+    w.max_speed = 1e4
+    for t in twins:
+        for _ in range(10):
+            t.step(1 / 60)
+    assert np.array_equal(twins[0].x, twins[1].x) and np.array_equal(twins[0].V, twins[1].V)
