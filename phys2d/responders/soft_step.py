@@ -1,21 +1,35 @@
 """Soft step: sub-stepping with soft contacts and relaxation (Box2D v3's solver).
 
 What the field learned after the lecture, kept beside its PGS, not in place of it.
-The tick of length dt is split into n sub-steps of h = dt/n. Each sub-step:
+The tick of length dt is split into n sub-steps of h = dt/n. The stages carry
+Box2D v3's names:
 
-    V += h M^-1 F_ext                        external forces, a slice at a time
-    V += M^-1 J^T lambda                     warm start with the impulse per sub-step
-    one PGS sweep with a soft push           (below)
-    x += h v, theta += h omega               positions move within the tick
-    one PGS sweep without the push           "relax": remove the push's velocity
+    prepare                                  lever arms; per sub-step, the joint rows at the
+                                             positions now (and their factor, below)
+    integrate velocities  V += h M^-1 F_ext  external forces, a slice at a time
+    warm start            V += M^-1 J^T lam  the impulse per sub-step
+    solve (with bias)                        joint rows, then one PGS sweep of the contacts
+                                             with a soft push (below)
+    integrate positions   x += h v, theta += h omega
+    relax                                    the same without the push: remove its velocity
+    store                                    add the sub-step's impulses to the tick's
 
-then one restitution pass: the points that met their partner faster than the
-threshold bounce from their approach at impact, taken in the sub-step where they
-first pushed. Between sweeps the separation of each contact point is updated from
-how far its bodies have moved (x - x0 and the rotated lever arms), so no new
-collision detection is needed within the tick. The relax sweep leaves points still
-apart alone (the next sweep with the push limits their approach), and an impact's
-impulse is not warm started into the next sub-step: it was an event, not a load.
+and after the last sub-step one restitution pass: the points that met their partner
+faster than the threshold bounce from their approach at impact, taken in the
+sub-step where they first pushed. Between sweeps the separation of each contact point
+is updated from how far its bodies have moved (x - x0 and the rotated lever arms),
+so no new collision detection is needed within the tick. The relax sweep leaves
+points still apart alone (the next sweep with the push limits their approach), and
+an impact's impulse is not warm started into the next sub-step: it was an event,
+not a load.
+
+Joints (distance, pin, angle) are rebuilt at each sub-step's positions, so C and J
+follow the motion. Their equality rows are solved together: a Cholesky factor of
+their A = J M^-1 J^T (a chain's A is banded: only each row's envelope is factored)
+gives delta lambda = -A^-1 (J V + bias) exactly for the joint block, bias pulling C
+back to 0 at ``joint_hertz``; a heavy body on a long chain then stretches it by
+millimetres where one sweep of soft joint rows lets it stretch by decimetres.
+Angle limits are one-sided rows solved like contact points.
 
 The soft push replaces Baumgarte's beta with a spring of stiffness ``contact_hertz``
 and damping ratio ``damping_ratio`` (Catto, "Solver2D", 2024): for a row with
