@@ -162,3 +162,24 @@ def test_soft_step_joint_scenes_are_deterministic():
         states.append((w.x.copy(), w.theta.copy(), w.V.copy(), w.last_step.joint_impulses.copy()))
     for a, b in zip(*states):
         assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("name", sorted(scenes.SCENES))
+def test_every_stock_scene_runs_under_soft_step(name):
+    # every scene PGS runs, SoftStep runs (the joint scenes included); a few ticks, finite and moving
+    build = scenes.SCENES[name][0]
+    w = build(responder=phys2d.SoftStep())
+    for _ in range(20):
+        w.step(1 / 60)
+    assert np.all(np.isfinite(w.x)) and np.all(np.isfinite(w.V))
+    assert w.last_step.responder == "soft-step"
+
+
+def test_redundant_pins_are_solved_without_blowing_up():
+    # the same pin twice (lesson 09's redundant constraints): A is singular, the direct solve leaves one out
+    w = _chain(3, redundant=True)
+    w.responder = phys2d.SoftStep()
+    for _ in range(120):
+        w.step(1 / 60)
+    assert np.all(np.isfinite(w.V))
+    assert max(joint.gap() for joint in w.joints) < 0.01
