@@ -65,7 +65,7 @@ class World:
     value is refused with the constructor's message and changes nothing.
     """
 
-    def __init__(self, gravity: ArrayLike = (0.0, -10.0), responder: Responder | None = None, *,
+    def __init__(self, gravity=(0.0, -10.0), responder: Responder | None = None, *,
                  contact_margin: float = 0.02, max_speed: float = 1e4) -> None:
         self._gravity = vec2(gravity, "gravity")
         self._responder = self._check_responder(PGS() if responder is None else responder)

@@ -1,1 +1,1 @@
-"""Constraints as Jacobian rows (docs/formulation.md#constraint-rows)."""
+"""Constraints as Jacobian rows (docs/formulation.md, "Constraint rows")."""
