@@ -32,9 +32,10 @@ Row-by-row PGS falls within seconds. The block solver and the soft step lean fur
 every second: in the full 30 s run both fall too (at about 5.7 s and 5.1 s). The soft
 step's contact springs (30 Hz) let the boxes tilt on each other like a column on
 springs, and a column of 20 boxes is past the height where such a column buckles
-under its own weight (with 60 Hz springs it sways by 0.19 m and stands). Box2D v3, with the same springs and points recycled from
-tick to tick, sways by 0.1 m and comes back; phys2d recycles points too
-(World.contact_recycle_distance) and still falls: the difference is not found yet.
+under its own weight (with 60 Hz springs it sways by 0.19 m and stands). Box2D v3,
+with the same springs and points recycled from tick to tick, sways by 0.1 m and
+comes back; phys2d recycles points too (World.contact_recycle_distance) and still
+falls: the difference is not found yet.
 
 In the viewer: nine worlds side by side. stack-pgs sways and falls while
 stack-pgs-block and stack-soft-step stand still; ratio-pgs topples, ratio-pgs-block

@@ -227,7 +227,7 @@ class ManifoldCache:
         new = (np.zeros(n_pairs, np.int64), np.zeros(n_pairs + 1, np.int64), np.zeros((n_pairs, 3)),
                np.zeros((n_pairs, 2)), np.zeros((cap, 4)), np.zeros((cap, 2)), np.zeros(cap),
                np.zeros(cap, np.int32))
-        k, n_new, self.recycled = collide_recycling(
+        k, n_new, self.recycled = collide_recycling(  # type: ignore[call-arg]
             pairs, n_pairs, b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static, world_v, world_n,
             contact_margin, travel, b.uid, b.friction, b.restitution, recycle_distance, self.key, self.start,
             self.pose, self.theta, self.anchor, self.normal, self.separation, self.feature, *out, pair_start, *new)

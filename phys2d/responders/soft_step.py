@@ -547,7 +547,7 @@ class SoftStep(Responder):
         total = np.zeros(len(rows))
         residuals = np.zeros(self.substeps)
         static_pair = (ctx.M_inv[ctx.body_a, 0] == 0.0) | (ctx.M_inv[ctx.body_b, 0] == 0.0)
-        ja = ctx.joints if ctx.joints is not None else JointArrays([])
+        ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
         n = soft_step_solve(rows.normal_row, rows.friction_row, rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi,
                             rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind, ctx.restitution, ctx.separation,
                             ctx.point, ctx.normal, static_pair, ctx.x, ctx.theta, ctx.M_inv, ctx.V, ctx.V1, ctx.dt,
