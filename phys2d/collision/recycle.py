@@ -9,7 +9,8 @@ frame, and each body's angle. In a later step, while
 (extent: the larger distance from a moving body's centre to its surface) and
 neither body has turned by more than RECYCLE_MAX_TURN since, the narrowphase is
 skipped: each point keeps its anchors, r_a and r_b turned with their bodies, its
-normal and feature id, and only its separation follows the motion,
+normal and feature id (the point itself rides with the incident polygon, whose
+corner made it), and only its separation follows the motion,
 
     C = C_cached + (x_b - x_a + r_b - r_a) . n
 
@@ -17,8 +18,9 @@ as within the soft step's sub-steps. A stack whose boxes lean by a hair then kee
 the points it had instead of the ones clipping would find at each new tilt, and a
 pair that stays put costs no narrowphase. Fast pairs (whose velocities could carry
 them further than contact_margin within the step) are always collided anew, so
-speculative contacts still see what is coming; so is a pair that had no points, and
-one whose recycled points would lie further apart than the narrowphase keeps them.
+speculative contacts still see what is coming; so is a pair that had no points, one
+whose recycled points would lie further apart than the narrowphase keeps them, and
+any pair with a circle (a rolling circle's point moves over its surface as it turns).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from ..shapes import CIRCLE
-from .narrowphase import manifold, pair_friction, pair_key, write_point
+from .narrowphase import FLIP_BIT, manifold, pair_friction, pair_key, write_point
 
 RECYCLE_MAX_TURN = 0.98  # cos of the largest turn (about 11.5 degrees) of either body since caching
 
@@ -69,7 +71,7 @@ def may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, sta
 
 
 @njit(cache=True)
-def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation):
+def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation, feature):
     """(px, py, separation) of a cached point now: its anchors turned with their bodies."""
     ca, sa = np.cos(theta[a] - cached_theta[slot, 0]), np.sin(theta[a] - cached_theta[slot, 0])
     cb, sb = np.cos(theta[b] - cached_theta[slot, 1]), np.sin(theta[b] - cached_theta[slot, 1])
@@ -80,18 +82,20 @@ def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, ba
     dx = x[b, 0] + r_bx - x[a, 0] - r_ax
     dy = x[b, 1] + r_by - x[a, 1] - r_ay
     separation = base_separation[point] + dx * normal[point, 0] + dy * normal[point, 1]
-    # the point midway between the two anchors, as the narrowphase puts it between the surfaces
-    px = 0.5 * (x[a, 0] + r_ax + x[b, 0] + r_bx)
-    py = 0.5 * (x[a, 1] + r_ay + x[b, 1] + r_by)
-    return px, py, separation
+    # the point rides with the incident polygon, whose corner made it: a box sliding on the ground
+    # keeps its lever arms (b's, unless the reference face was b's)
+    if feature[point] & FLIP_BIT:
+        return x[a, 0] + r_ax, x[a, 1] + r_ay, separation
+    return x[b, 0] + r_bx, x[b, 1] + r_by, separation
 
 
 @njit(cache=True)
-def all_within(slot, a, b, x, theta, cached_start, cached_theta, anchor, normal, base_separation, margin):
+def all_within(slot, a, b, x, theta, cached_start, cached_theta, anchor, normal, base_separation, feature, margin):
     """True if every cached point of the slot is still within ``margin`` (m) of its partner:
     the narrowphase would drop one that is not, so the pair is collided anew."""
     for point in range(cached_start[slot], cached_start[slot + 1]):
-        if recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation)[2] > margin:
+        if recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation,
+                          feature)[2] > margin:
             return False
     return True
 
@@ -118,7 +122,8 @@ def collide_recycling(pairs, n_pairs, x, theta, kind, radius, vstart, vcount, lo
         key = pair_key(uid, a, b)
         mu, e = pair_friction(friction, restitution, a, b)
         slot = -1
-        if recycle_distance > 0.0 and travel[a] + travel[b] <= contact_margin and n_cached > 0:
+        polygons = kind[a] != CIRCLE and kind[b] != CIRCLE  # a circle rolls: its point moves over it
+        if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
             s = np.searchsorted(cached_key, key)
             if s < n_cached and cached_key[s] == key:
                 slot = s
@@ -127,13 +132,13 @@ def collide_recycling(pairs, n_pairs, x, theta, kind, radius, vstart, vcount, lo
         if slot >= 0 and not (may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static,
                                           cached_pose, cached_theta, recycle_distance)
                               and all_within(slot, a, b, x, theta, cached_start, cached_theta, cached_anchor,
-                                             cached_normal, cached_separation, margin)):
+                                             cached_normal, cached_separation, cached_feature, margin)):
             slot = -1
         if slot >= 0:
             n_recycled += 1
             for point in range(cached_start[slot], cached_start[slot + 1]):
                 px, py, sep = recycled_point(point, a, b, x, theta, cached_theta, slot, cached_anchor, cached_normal,
-                                             cached_separation)
+                                             cached_separation, cached_feature)
                 write_point(k, a, b, px, py, cached_normal[point, 0], cached_normal[point, 1], sep,
                             cached_feature[point], key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f, out_key,
                             out_mu, out_e)
