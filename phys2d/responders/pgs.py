@@ -362,9 +362,9 @@ class PGS(Responder):
             xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
             return solve_matrix_form(ctx, xi, self.iterations, tol, self.split)
         residuals = np.zeros(self.iterations)
-        n = pgs_step(r.normal_row, r.friction_row, r.first_joint_row, r.i, r.j, r.J, r.JM, r.A_diag, r.xi, r.push,
-                     r.bounce, r.lo, r.hi, r.bound_row, r.mu, r.lam, ctx.x, ctx.theta, ctx.V, ctx.separation, ctx.dt,
-                     self.iterations, tol, self.block, self.split, residuals)
+        n = pgs_step(r.normal_row, r.friction_row, r.first_joint_row, r.body_a, r.body_b, r.J, r.JM, r.A_kk, r.xi,
+                     r.push, r.bounce, r.lo, r.hi, r.bound_row, r.mu, r.lam, ctx.x, ctx.theta, ctx.V, ctx.separation,
+                     ctx.dt, self.iterations, tol, self.block, self.split, residuals)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
