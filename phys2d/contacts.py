@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .constraints.rows import Rows
+from .constraints.rows import Rows, rows_to_contacts
 
 
 @njit(cache=True)
@@ -119,6 +119,16 @@ def warm_start_rows(cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed, ke
 
 
 @njit(cache=True)
+def impulses_to_contacts_and_cache(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t,
+                                   cache_lambda_n, cache_lambda_t, cache_pushed):
+    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows, and what the cache
+    keeps of them (``impulses_to_cache``)."""
+    impact = np.empty(order.shape[0], np.bool_)
+    rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact)
+    impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed)
+
+
+@njit(cache=True)
 def impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed):
     """What the cache keeps of this step's impulses (N s): 0 for a contact that met its partner
     fast within the step (``impact``: an event, not a load), and which contacts pushed."""
@@ -214,14 +224,26 @@ class ContactCache:
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray, rows: Rows) -> np.ndarray:
+    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray, rows: Rows) -> tuple[np.ndarray, int]:
         """Start the contact rows of ``rows`` from the cache (``warm_start_rows``): contacts
         ``c`` (keys sorted) found in it get last tick's impulses (N s), the others and every
-        contact of an island that lost a load 0. Returns the (K,) mask of contacts found."""
+        contact of an island that lost a load 0. Returns the (K,) mask of contacts found,
+        and how many."""
         hit = np.empty(len(c), np.bool_)
-        warm_start_rows(self.keys, self.lambda_n, self.lambda_t, self.pushed, c.key, c.body_a, c.body_b, uid, static,
-                        rows.order, rows.normal_row, rows.friction_row, rows.lam, hit)
-        return hit
+        hits = warm_start_rows(self.keys, self.lambda_n, self.lambda_t, self.pushed, c.key, c.body_a, c.body_b, uid,
+                               static, rows.order, rows.normal_row, rows.friction_row, rows.lam, hit)
+        return hit, hits
+
+    def store_rows(self, keys: np.ndarray, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
+        """``store`` this step's impulses read off ``rows``; returns them, (lambda_n, lambda_t)
+        in contact order (N s), for the contacts."""
+        k = keys.shape[0]
+        self.keys = keys.copy()
+        self.lambda_n, self.lambda_t, self.pushed = np.empty(k), np.empty(k), np.empty(k, np.bool_)
+        lambda_n, lambda_t = np.empty(k), np.empty(k)
+        impulses_to_contacts_and_cache(rows.order, rows.normal_row, rows.friction_row, rows.lam, rows.impact, lambda_n,
+                                       lambda_t, self.lambda_n, self.lambda_t, self.pushed)
+        return lambda_n, lambda_t
 
     def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, impact: np.ndarray) -> None:
         """Remember this tick's impulses (N s) for warm starting; ``keys`` must be sorted ascending.

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import fits_inside, sweep_and_prune, update_geometry
+from .collision.broadphase import sweep_and_prune, update_geometry_in
 from .collision.narrowphase import collide_pairs
 from .constraints.joints import (
     AngleJoint,
@@ -39,6 +39,7 @@ from .validation import check_bool, finite_float, float_in, non_negative_float, 
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
 NOT_COUNTED = np.ones(0)  # points per manifold, when the friction model does not need them
+NONE_WARM = np.zeros(0, np.bool_)  # placeholder until the step has warm started its contacts
 
 
 class SimulationError(RuntimeError):
@@ -344,7 +345,7 @@ class World:
         try:
             apply_external_forces(V, M_inv, self._gravity, dt)
             c, order = self._collide(dt)
-            rows, hit = self._build_rows(c, order, V1, V, dt)
+            rows, hit, hits, deepest = self._build_rows(c, order, V1, V, dt)
             ctx = self._context(c, order, rows, dt, V1)
             result = responder.respond(ctx)
             if not result.integrated:
@@ -354,16 +355,14 @@ class World:
             b.restore((x0, theta0, V1))
             raise
         k = len(c)
-        c.lambda_n, c.lambda_t, impact = rows.contact_values()
+        c.lambda_n, c.lambda_t = self._cache.store_rows(c.key, rows)
         c.warm_started = hit
-        self._cache.store(c.key, c.lambda_n, c.lambda_t, impact)
         self._store_joint_impulses(rows)
         self._contacts, self._contacts_sealed = c, False  # sealed read-only when first looked at
         self._last_step = StepReport(
             responder=responder.name, dt=dt, iterations=result.iterations, counted=responder.counts,
             residuals=result.residuals,
-            max_penetration=max(0.0, -float(c.separation.min())) if k else 0.0,
-            contact_count=k, cache_hits=int(np.count_nonzero(hit)),
+            max_penetration=deepest, contact_count=k, cache_hits=hits,
             joint_impulses=rows.joint_impulses() if self._joints else EMPTY, system=result.system,
             solve_order=order)  # its arrays turn read-only when first looked at
         self.tick += 1
@@ -411,9 +410,9 @@ class World:
         """
         b = self._bodies
         world_v, world_n, aabb, travel = self._geometry_buffers()
-        update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
-                        self.contact_margin, world_v, world_n, aabb, travel)
-        if self._sweep_again or not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
+        fits = update_geometry_in(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
+                                  self._contact_margin, world_v, world_n, aabb, travel, self._fat)
+        if self._sweep_again or not fits:  # something left its fat box: sweep again
             fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
             n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
             if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
@@ -433,16 +432,18 @@ class World:
         else:
             order = np.arange(k, dtype=np.int32)
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
-                        feature=feature, key=key, friction=mu, restitution=e), order
+                        lambda_n=EMPTY, lambda_t=EMPTY, feature=feature, key=key, warm_started=NONE_WARM,
+                        friction=mu, restitution=e), order
 
     def _build_rows(self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
-                    ) -> tuple[Rows, np.ndarray]:
+                    ) -> tuple[Rows, np.ndarray, int, float]:
         """Constraint rows for this step: contacts (visited in ``order``), then the joints' rows.
 
         V1 is the velocity the tick began with, V the one after external forces.
 
         Returns the rows, lambda started from the contact cache when the responder
-        warm starts, and the mask of contacts found in the cache.
+        warm starts, the mask of contacts found in the cache and their number, and the
+        deepest overlap (m).
         """
         b = self._bodies
         r = self._responder
@@ -455,15 +456,15 @@ class World:
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = NOT_COUNTED  # Coulomb friction does not look at it
-        contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
+        deepest = contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
                      c.separation, c.friction, c.restitution, b.x, V1, V, b.M_inv, dt, r.beta, r.slop,
                      r.push_max, r.restitution_threshold, r.friction_model, self._gravity_norm,
                      points_in_manifold, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.push,
                      rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu)
         if r.warm_start:
-            hit = self._cache.warm_start(c, b.uid, b.static, rows)
+            hit, hits = self._cache.warm_start(c, b.uid, b.static, rows)
         else:
-            hit = np.zeros(k, np.bool_)
+            hit, hits = np.zeros(k, np.bool_), 0
         if ja.n_rows:
             joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
                        rows.first_joint_row, b.x, b.theta, b.M_inv, dt, r.beta, rows.body_a, rows.body_b, rows.J,
@@ -475,7 +476,7 @@ class World:
                 for q, joint in enumerate(self._joints):
                     start = rows.first_joint_row + ja.row_offset[q]
                     rows.lam[start : start + joint.row_count] = joint._impulse
-        return rows, hit
+        return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, rows: Rows) -> None:
         """Hand each joint its rows and reactions of the step just taken."""

@@ -286,6 +286,7 @@ class PGS(Responder):
     """
 
     handles_joints = True
+    counts = "sweeps"
 
     iterations = Setting(lambda v, name: check_int(v, name, 1), "sweeps per step")
     warm_start = Setting(check_bool, "start from last tick's impulses")
