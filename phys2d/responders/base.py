@@ -157,7 +157,6 @@ class Responder:
                     instead of in pair order: faster sweeps, a different Gauss-Seidel order
     """
 
-    name = "responder"
     counts = "iterations"  # what StepReport.count counts for this responder
     beta = 0.2
     slop = 0.005
@@ -166,7 +165,16 @@ class Responder:
     warm_start = False
     handles_joints = False
     colour_order = False
-    friction_model = FRICTION_COULOMB
+
+    @property
+    def name(self) -> str:
+        """The responder's name in reports (a subclass may set a plain class attribute)."""
+        return "responder"
+
+    @property
+    def friction_model(self) -> int:
+        """FRICTION_COULOMB or FRICTION_LECTURE: how the rows bound friction."""
+        return FRICTION_COULOMB
 
     def respond(self, ctx: StepContext) -> SolveResult:  # pragma: no cover - interface
         raise NotImplementedError
