@@ -266,7 +266,7 @@ def bounce_target(e, vn_impact, dvn):
 def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1, V,
                  M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity,
                  points_in_manifold, out_a, out_b, J, JM, A_kk, xi, push, bounce, impact, lo, hi, bound_row, out_mu):
-    """The normal and friction rows of contact point c = order[q] (FORMULATION.md).
+    """The normal and friction rows of contact point c = order[q] (docs/formulation.md).
 
     Normal:   xi = -C/dt for a speculative point still C > 0 apart (it may close the gap
               within the step, no more), 0 when touching; push = min(-(beta/dt) min(0, C + slop),

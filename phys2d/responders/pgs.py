@@ -2,7 +2,7 @@
 
 The lecture's PGS on A lambda = b, with A = J M^-1 J^T never formed: the term
 sum_l A_kl lambda_l - b_k is J_k V - xi_k, read off the velocities that every
-impulse applied so far has produced (FORMULATION.md, "Projected Gauss-Seidel").
+impulse applied so far has produced (docs/formulation.md, "Projected Gauss-Seidel").
 
 One step (``PGS.respond``):
 
@@ -13,6 +13,13 @@ One step (``PGS.respond``):
     restitution pass                  points that met their partner fast bounce (restitution.py)
 
 With split=False the push is part of xi, as the lecture has it, and stays in V.
+
+``sweep`` is the lecture's loop, one row at a time in pair order (rows are stored
+in it: each contact's normal row, then its friction row; joint rows last);
+``block_sweep`` is Box2D's block solver, which takes a two-point manifold's normal
+rows together (``lcp2``, shared with the soft step). ``pgs_step`` runs a whole
+``respond`` in one numba call: each call from Python costs a dispatch that grows
+with its arguments.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Projected Gauss-Seidel, matrix form: the lecture's A x = b, assembled and swept.
 
-Each step this builds, exactly as FORMULATION.md writes them,
+Each step this builds, exactly as docs/formulation.md writes them,
 
     J      (R, 3N)  sparse: row k has its 6 non-zeros in the columns of bodies a and b
     M^-1   (3N,)    the diagonal [1/m_1, 1/m_1, 1/I_1, ...] (0 for static bodies)
@@ -112,7 +112,7 @@ def _csr_dot_transposed(indptr, indices, data, v, out):
 
 @dataclass(eq=False)
 class MatrixSystem:
-    """The system one step solved: A lam = b with lo <= lam <= hi (FORMULATION.md).
+    """The system one step solved: A lam = b with lo <= lam <= hi (docs/formulation.md).
 
     J (R x 3N) and A (R x R) are ``SparseMatrix``; M_inv, V1, F_ext are flat (3N,)
     vectors in the lecture's order [.., vx_b, vy_b, omega_b, ..]. lo, hi are the
