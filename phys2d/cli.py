@@ -583,7 +583,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         bodies = int(np.isfinite(r.x[-1, :, 0]).sum()) if r.tick.size else 0
         most = int(np.max(np.diff(c.offsets))) if len(c) else 0
         pen = 1e3 * float(np.max(np.maximum(0.0, -c.separation))) if c.separation.size else 0.0
-        lam = f"{float(np.max(c.lambda_n)):.4g}" if c.lambda_n.size else "-"
+        lam = f"{float(np.max(c.normal_impulse)):.4g}" if c.normal_impulse.size else "-"
         last_res = r.residuals_at(int(r.tick[-1])) if r.tick.size else np.zeros(0)
         res = f"{last_res[-1]:.3g}" if last_res.size else "-"
         ke = f"{r.kinetic_energy[-1]:.4g}" if r.kinetic_energy.size else "-"
