@@ -177,15 +177,6 @@ class Contacts:
             getattr(self, name).flags.writeable = False
         return self
 
-    def reordered(self, order: np.ndarray) -> Contacts:
-        """The same contacts listed in ``order`` (contact order[q] becomes the q-th).
-
-        Arrays not filled yet (the impulses, before the responder) stay empty.
-        """
-        k = len(self)
-        return Contacts(**{name: (a[order] if a.shape[0] == k else a)
-                           for name, a in ((n, getattr(self, n)) for n in self.__dataclass_fields__)})
-
     @property
     def normal_impulse(self) -> np.ndarray:
         """``lambda_n`` under the name the API used first (read-only, N s)."""
@@ -235,8 +226,12 @@ class ContactCache:
         return hit, hits
 
     def store_rows(self, keys: np.ndarray, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
-        """``store`` this step's impulses read off ``rows``; returns them, (lambda_n, lambda_t)
-        in contact order (N s), for the contacts."""
+        """Remember this tick's impulses (N s), read off ``rows``, for warm starting; ``keys``
+        must be sorted ascending. A contact that met its partner fast within the tick (an
+        impact) took an event, not a load: 0 is cached for it. Which contacts pushed at all
+        is kept too (``unloaded_islands``). Returns (lambda_n, lambda_t) in contact order for
+        the contacts: arrays of their own, so the ones handed to the user never feed the
+        next warm start."""
         k = keys.shape[0]
         self.keys = keys.copy()
         self.lambda_n, self.lambda_t, self.pushed = np.empty(k), np.empty(k), np.empty(k, np.bool_)
@@ -244,13 +239,3 @@ class ContactCache:
         impulses_to_contacts_and_cache(rows.order, rows.normal_row, rows.friction_row, rows.lam, rows.impact, lambda_n,
                                        lambda_t, self.lambda_n, self.lambda_t, self.pushed)
         return lambda_n, lambda_t
-
-    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, impact: np.ndarray) -> None:
-        """Remember this tick's impulses (N s) for warm starting; ``keys`` must be sorted ascending.
-        A contact that met its partner fast within the tick (``impact``) took an event, not a
-        load: 0 is cached for it. Which contacts pushed at all is kept too (``unloaded_islands``).
-        The arrays are new: the ones handed to the user never feed the next warm start."""
-        k = keys.shape[0]
-        self.keys = keys.copy()
-        self.lambda_n, self.lambda_t, self.pushed = np.empty(k), np.empty(k), np.empty(k, np.bool_)
-        impulses_to_cache(lambda_n, lambda_t, impact, self.lambda_n, self.lambda_t, self.pushed)

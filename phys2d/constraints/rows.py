@@ -113,27 +113,13 @@ class Rows:
         self.normal_row, self.friction_row = row_map[0][:k], row_map[1][:k]
         self.first_joint_row = contact_row_count(k)
 
-    def contact_impacts(self) -> np.ndarray:
-        """(K,) True for each contact that met its partner fast within the step, in contact order."""
-        return self.contact_values()[2]
-
     def contact_impulses(self) -> tuple[np.ndarray, np.ndarray]:
         """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
-        lambda_n, lambda_t, _ = self.contact_values()
-        return lambda_n, lambda_t
-
-    def contact_values(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(lambda_n, lambda_t, impact) of every contact, in contact order (``rows_to_contacts``)."""
         k = self.n_contacts
         lambda_n, lambda_t, impact = np.empty(k), np.empty(k), np.empty(k, np.bool_)
         rows_to_contacts(self.order, self.normal_row, self.friction_row, self.lam, self.impact, lambda_n, lambda_t,
                          impact)
-        return lambda_n, lambda_t, impact
-
-    def start_contacts(self, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
-        """Start the contact rows from (lambda_n, lambda_t) given in contact order (warm starting)."""
-        self.lam[self.normal_row] = lambda_n[self.order]
-        self.lam[self.friction_row] = lambda_t[self.order]
+        return lambda_n, lambda_t
 
     def joint_impulses(self) -> np.ndarray:
         """lambda of the joint rows, in joint order (a copy)."""
