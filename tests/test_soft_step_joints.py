@@ -102,19 +102,19 @@ def _rows_of(w: phys2d.World) -> Rows:
     ja = JointArrays(list(w.joints))
     rows = Rows(ja.n_rows)
     joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, 0, w.x, w.theta, w.M_inv, 1.0,
-               1.0, rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu,
-               rows.kind)
+               1.0, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.lo, rows.hi, rows.bound_row,
+               rows.mu)
     return rows
 
 
 def _dense_A(rows):
     """A = J M^-1 J^T, assembled from the 6-column rows (a second method)."""
     n = len(rows)
-    n_bodies = int(max(rows.i.max(), rows.j.max())) + 1
+    n_bodies = int(max(rows.body_a.max(), rows.body_b.max())) + 1
     Jfull = np.zeros((n, 3 * n_bodies))
     JMfull = np.zeros((n, 3 * n_bodies))
     for k in range(n):
-        for side, body in enumerate((rows.i[k], rows.j[k])):
+        for side, body in enumerate((rows.body_a[k], rows.body_b[k])):
             Jfull[k, 3 * body : 3 * body + 3] += rows.J[k, 3 * side : 3 * side + 3]
             JMfull[k, 3 * body : 3 * body + 3] += rows.JM[k, 3 * side : 3 * side + 3]
     return Jfull @ JMfull.T
@@ -127,7 +127,7 @@ def test_direct_joint_solve_matches_a_dense_solve():
     eq = np.arange(n, dtype=np.int64)
     L = np.zeros((n, n))
     first = np.zeros(n, np.int64)
-    factor_joint_rows(eq, rows.i, rows.j, rows.J, rows.JM, L, first)
+    factor_joint_rows(eq, rows.body_a, rows.body_b, rows.J, rows.JM, L, first)
     rhs = np.linspace(-1.0, 2.0, n)
     y = rhs.copy()
     solve_factored(L, first, y)
@@ -144,7 +144,7 @@ def test_direct_joint_solve_leaves_redundant_rows_out_and_stays_consistent():
     eq = np.arange(n, dtype=np.int64)
     L = np.zeros((n, n))
     first = np.zeros(n, np.int64)
-    factor_joint_rows(eq, rows.i, rows.j, rows.J, rows.JM, L, first)
+    factor_joint_rows(eq, rows.body_a, rows.body_b, rows.J, rows.JM, L, first)
     A = _dense_A(rows)
     rhs = A @ np.sin(np.arange(n) + 1.0)  # in A's range
     y = rhs.copy()
