@@ -82,11 +82,13 @@ def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, ba
     dx = x[b, 0] + r_bx - x[a, 0] - r_ax
     dy = x[b, 1] + r_by - x[a, 1] - r_ay
     separation = base_separation[point] + dx * normal[point, 0] + dy * normal[point, 1]
-    # the point rides with the incident polygon, whose corner made it: a box sliding on the ground
-    # keeps its lever arms (b's, unless the reference face was b's)
+    # the point rides with the incident polygon, whose corner made it (b's, unless the reference face
+    # was b's), kept midway between the surfaces as the narrowphase puts it: a box sliding on the
+    # ground keeps its lever arms
+    shift = 0.5 * (separation - base_separation[point])
     if feature[point] & FLIP_BIT:
-        return x[a, 0] + r_ax, x[a, 1] + r_ay, separation
-    return x[b, 0] + r_bx, x[b, 1] + r_by, separation
+        return x[a, 0] + r_ax + shift * normal[point, 0], x[a, 1] + r_ay + shift * normal[point, 1], separation
+    return x[b, 0] + r_bx - shift * normal[point, 0], x[b, 1] + r_by - shift * normal[point, 1], separation
 
 
 @njit(cache=True)
