@@ -8,21 +8,13 @@ columns and encoding them happen on another core while the simulation runs.
 
 from __future__ import annotations
 
-import uuid
 from typing import Any
-
-import rerun as rr
 
 from . import blueprint as bp
 from . import columns, schema
 from .buffer import ContactChoice, RunBuffer
+from .native import Stream
 from .sample import Sample
-
-
-def _send_property(rec: rr.RecordingStream, entity: str, **values: Any) -> None:
-    """Static run metadata at /__properties/<name>; empty values are left out (Rerun drops them)."""
-    kept = {k: v for k, v in values.items() if v is not None and v != ""}
-    rec.send_property(entity, rr.AnyValues(**kept))
 
 
 class Sink:
@@ -40,19 +32,12 @@ class Sink:
         self.runs: dict[str | None, RunBuffer] = {}
         self.closed = False
         self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
-        self.rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()))
-        sinks: list[Any] = []
-        if path is not None:
-            sinks.append(rr.FileSink(path))
-        if stream_to is not None:
-            sinks.append(rr.GrpcSink(stream_to))
-        self.rec.set_sinks(*sinks)
-        self.rec.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
+        self.rec = Stream(application_id, recording_id, path, stream_to)
         if name:
-            self.rec.send_recording_name(name)
+            self.rec.recording_name(name)
         from .. import __version__
 
-        _send_property(self.rec, schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
+        self.rec.property(schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
 
     def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
         """One sampled tick of run ``label``; ``info`` (responder, ...) with a run's first tick."""
@@ -61,8 +46,8 @@ class Sink:
             b = self.runs[label] = RunBuffer(label, schema.run_prefix(label), self.choice)
             columns.write_start(self.rec, b, schema.PALETTE[(len(self.runs) - 1) % len(schema.PALETTE)])
         if info is not None:
-            _send_property(self.rec, schema.run_property(label), scene=self.scene, run=label,
-                           plotted=repr(self.choice), **info)
+            self.rec.property(schema.run_property(label), scene=self.scene, run=label, plotted=repr(self.choice),
+                              **info)
         b.add(s, self.contact_series)
         if len(b.samples) >= self.flush_every:
             if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
@@ -83,7 +68,7 @@ class Sink:
         views = [bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r),
                             r.has_joints) for r in self.runs.values()]
         if views != self.sent_views:
-            self.rec.send_blueprint(bp.build(views))
+            self.rec.blueprint(bp.build(views))
             self.sent_views = views
 
     def _will_plot(self, r: RunBuffer) -> bool:
@@ -104,4 +89,4 @@ class Sink:
             self.send_blueprint()
             self.rec.flush()
         finally:
-            self.rec.disconnect()  # writes the footer: the file is complete and readable
+            self.rec.close()  # writes the footer: the file is complete and readable
