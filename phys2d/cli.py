@@ -448,7 +448,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     count = requested_count(args)
     choice = plot_choice(args)  # checked even when nothing is recorded
     responder = make_responder(args.responder, count)
-    w = build_world(args.scene, args.size, responder)
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
     name = f"{args.scene}-{size}-{args.responder}{_count_tag(count, args.responder)}.rrd"
     path = None if args.no_record else (args.out or os.path.join(DEFAULT_DIR, name))
@@ -457,10 +456,24 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.live is not None:
         stream_to, viewer = start_live(args.live, args.web_port, args.port)
     rec = None
+    folder = os.path.dirname(os.path.abspath(path)) if path else None
+    new_folder = folder is not None and not os.path.isdir(folder)
     if path or stream_to:
+        # the writer process starts first, so that it loads rerun while this one builds the world
+        # and loads the numba kernels
         rec = Recorder(path, name=f"{args.scene} {size} / {args.responder}", scene=args.scene,
                        contact_series=not args.no_series, plot=choice, stream_to=stream_to,
                        flush_every=6 if stream_to else 60, background=True)
+    try:
+        w = build_world(args.scene, args.size, responder)
+    except BaseException:
+        if rec is not None:  # nothing was recorded: leave no empty file (or folder) behind
+            rec.close()
+            if path is not None and os.path.isfile(path):
+                os.unlink(path)
+            if new_folder and folder is not None and not os.listdir(folder):
+                os.rmdir(folder)
+        raise
     watch = Watch(w)
     deepest = 0.0
     t0 = time.perf_counter()

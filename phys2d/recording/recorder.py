@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from .buffer import ContactChoice, as_choice
-from .sample import Sample, Sampler
+from .sample import Sample, Sampler, pack
 
 
 def _checked_path(path: Any) -> str:
@@ -110,6 +110,7 @@ class _Background:
         child.close()
         self.window = window
         self.pending: list[tuple[str | None, Sample, dict[str, Any] | None]] = []
+        self.sent: dict[str | None, set[int]] = {}  # per run, the layout versions the writer has
 
     def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
         self.pending.append((label, s, info))
@@ -117,10 +118,18 @@ class _Background:
             self._send()
 
     def _send(self) -> None:
+        """The pending ticks as one message: per run, its samples packed into a few long arrays."""
         if self.pending:
             if not self.proc.is_alive():
                 raise RuntimeError("the recording's writer process stopped")
-            self.queue.put(("add", self.pending))
+            runs: dict[str | None, list[Sample]] = {}
+            infos: dict[str | None, dict[str, Any]] = {}
+            for label, s, info in self.pending:
+                runs.setdefault(label, []).append(s)
+                if info is not None:
+                    infos[label] = info
+            self.queue.put(("add", [(label, pack(ss, self.sent.setdefault(label, set())), infos.get(label))
+                                    for label, ss in runs.items()]))
             self.pending = []
 
     def close(self) -> dict[str | None, list[str]]:

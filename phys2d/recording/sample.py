@@ -193,3 +193,43 @@ def aggregates(samples: list[Sample]) -> np.ndarray:
         out[start:end, 6:] = np.stack([s.step for s in samples[start:end]])
         start = end
     return out
+
+
+# -- handing samples to a writer process -------------------------------------------------------
+_PACKED = ("x", "theta", "V", "key", "point", "normal", "separation", "lambda_n", "lambda_t", "warm", "gravity",
+           "step", "residuals", "joint_ends", "joint_keys", "joint_impulses")
+
+
+def pack(samples: list[Sample], sent: set[int]) -> dict:
+    """One run's samples as a few long arrays (one concatenation per field), cheap to pickle and
+    to send to a writer process; the layouts whose versions are not in ``sent`` go along once
+    and are added to it."""
+    out: dict = {"tick": np.fromiter((s.tick for s in samples), np.int64, len(samples)),
+                 "time": np.fromiter((s.time for s in samples), np.float64, len(samples)),
+                 "layout": np.fromiter((s.layout.version for s in samples), np.int64, len(samples)), "layouts": {}}
+    for s in samples:
+        if s.layout.version not in sent:
+            sent.add(s.layout.version)
+            out["layouts"][s.layout.version] = s.layout
+    for name in _PACKED:
+        arrays = [getattr(s, name) for s in samples]
+        present = np.array([a is not None for a in arrays])
+        kept = [a for a in arrays if a is not None]
+        out[name] = (present, np.fromiter((a.shape[0] for a in kept), np.int64, len(kept)),
+                     np.concatenate(kept) if kept else None)
+    return out
+
+
+def unpack(packed: dict, layouts: dict[int, Layout]) -> list[Sample]:
+    """The samples ``pack`` packed (views into its arrays); ``layouts`` (by version) remembers the
+    run's layouts sent so far."""
+    layouts.update(packed["layouts"])
+    n = packed["tick"].size
+    fields: dict[str, list] = {}
+    for name in _PACKED:
+        present, lengths, flat = packed[name]
+        parts = iter(np.split(flat, np.cumsum(lengths)[:-1]) if flat is not None else [])
+        fields[name] = [next(parts) if p else None for p in present]
+    return [Sample(tick=int(packed["tick"][i]), time=float(packed["time"][i]),
+                   layout=layouts[int(packed["layout"][i])], **{name: fields[name][i] for name in _PACKED})
+            for i in range(n)]

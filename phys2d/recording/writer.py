@@ -10,7 +10,7 @@ from typing import Any
 
 
 def serve(queue, conn, kwargs: dict[str, Any]) -> None:
-    """A writer process: a Sink fed from ``queue`` with ("add", [(label, sample, info), ...]) and
+    """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...]) and
     ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text). When the
     simulating process dies, the file is closed too, so every tick sent is readable."""
     import os
@@ -19,9 +19,11 @@ def serve(queue, conn, kwargs: dict[str, Any]) -> None:
     parent = os.getppid()
     sink = None
     try:
-        from .sink import Sink  # rerun is imported here, in the writer, not in the simulating process
+        from .sample import unpack
+        from .sink import Sink  # rerun's native layer is loaded here, in the writer, not in the simulating process
 
         sink = Sink(**kwargs)
+        layouts: dict[str | None, dict] = {}
         while True:
             try:
                 msg = queue.get(timeout=1.0)
@@ -32,8 +34,9 @@ def serve(queue, conn, kwargs: dict[str, Any]) -> None:
             except (EOFError, OSError):
                 break
             if msg[0] == "add":
-                for label, sample, info in msg[1]:
-                    sink.add(label, sample, info)
+                for label, packed, info in msg[1]:
+                    for k, sample in enumerate(unpack(packed, layouts.setdefault(label, {}))):
+                        sink.add(label, sample, info if k == 0 else None)
             else:
                 break
         sink.close()
