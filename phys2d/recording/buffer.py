@@ -197,6 +197,11 @@ class RunBuffer:
     bounds: tuple[float, float, float, float] | None = None  # xmin, xmax, ymin, ymax of the first tick
     has_joints: bool = False
     plotted: bool = False  # any contact series written
+    # the per-tick stats and the residuals of the windows written so far, sent together (``write_stats``):
+    # a viewer loads a few long chunks much faster than many short ones
+    stats: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # ticks, times, values
+    residuals: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    stats_ticks: int = 0  # ticks in ``stats``
 
     def add(self, s: Sample, contact_series: bool) -> None:
         """Keep a sample, and the values of the contacts chosen for plotting."""

@@ -94,14 +94,29 @@ def write_scene(rec: Stream, b: RunBuffer) -> None:
     _write_contacts(rec, b, ss, ticks, times)
     if b.has_joints:
         _write_joints(rec, b, ss)
-    stats = aggregates(ss)
-    index = _index(ticks, times)
-    ones = _ones(len(ss))
-    for k, st in enumerate(schema.STATS):
-        rec.send(f"{b.prefix}{schema.STATS_ROOT}/{st.name}", index,
-                 {native.SCALARS: native.lists(np.ascontiguousarray(stats[:, k]), ones)})
-    _write_residuals(rec, b, ss, ticks, times)
+    b.stats.append((ticks, times, aggregates(ss)))
+    b.stats_ticks += len(ss)
+    _keep_residuals(b, ss, ticks, times)
     b.samples = []
+
+
+def write_stats(rec: Stream, b: RunBuffer) -> None:
+    """The stats and residuals of the windows written so far: one chunk per entity."""
+    if b.stats:
+        ticks, times, stats = (np.concatenate(parts) for parts in zip(*b.stats, strict=True))
+        index = _index(ticks, times)
+        ones = _ones(ticks.size)
+        for k, st in enumerate(schema.STATS):
+            rec.send(f"{b.prefix}{schema.STATS_ROOT}/{st.name}", index,
+                     {native.SCALARS: native.lists(np.ascontiguousarray(stats[:, k]), ones)})
+    if b.residuals:
+        t, tm, sweep, res = (np.concatenate(parts) for parts in zip(*b.residuals, strict=True))
+        index = {**_index(t, tm), schema.SWEEP: native.sequence(sweep)}
+        ones = _ones(res.size)
+        rec.send(f"{b.prefix}{schema.RESIDUAL}", index, {
+            native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
+            native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones)})
+    b.stats, b.residuals, b.stats_ticks = [], [], 0
 
 
 def _body_values(lay_rows: np.ndarray, uid: np.ndarray, X: np.ndarray, TH: np.ndarray,
@@ -200,19 +215,16 @@ def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
         native.STRIP_CLASS_IDS: native.lists(np.full(len(ends), schema.CLASS_JOINT, np.uint16), lengths)})
 
 
-def _write_residuals(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
-    """One row per sweep: log10 for the plot, the residual itself (m/s) exactly."""
+def _keep_residuals(b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
+    """One row per sweep (written by ``write_stats``): log10 for the plot, the residual itself
+    (m/s) exactly."""
     n = np.fromiter((s.residuals.size for s in ss), dtype=np.int64, count=len(ss))
     if not n.sum():
         return
     res = np.concatenate([s.residuals for s in ss])
     sweep = b.sweeps + np.arange(res.size, dtype=np.int64)
     b.sweeps += int(res.size)
-    index = {**_index(np.repeat(t, n), np.repeat(tm, n)), schema.SWEEP: native.sequence(sweep)}
-    ones = _ones(res.size)
-    rec.send(f"{b.prefix}{schema.RESIDUAL}", index, {
-        native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
-        native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones)})
+    b.residuals.append((np.repeat(t, n), np.repeat(tm, n), sweep, res))
 
 
 # -- the plotted series ------------------------------------------------------------------------------
@@ -318,4 +330,4 @@ def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]]
     return out
 
 
-__all__ = ["write_scene", "write_series", "write_start"]
+__all__ = ["write_scene", "write_series", "write_start", "write_stats"]

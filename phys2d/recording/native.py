@@ -101,11 +101,21 @@ def duration(seconds: np.ndarray) -> pa.Array:
 
 
 class Stream:
-    """A Rerun recording stream to a file and/or a viewer, fed with arrow columns."""
+    """A Rerun recording stream to a file and/or a viewer, fed with arrow columns.
+
+    ``coalesce_bytes`` > 0: consecutive sends to an entity with the same columns are held and
+    sent as one chunk once they hold that many bytes (and at ``flush``/``close``). The
+    columns are still built window by window, while the simulation runs; only the chunk
+    boundaries move. The web viewer loads a file of a few long chunks several times faster
+    than one of many short chunks (tests/test_web_viewer.py; benchmarks/RECORDING.md).
+    """
 
     def __init__(self, application_id: str, recording_id: str | None, path: str | None,
-                 stream_to: str | None) -> None:
+                 stream_to: str | None, coalesce_bytes: int = 0) -> None:
         self.application_id = application_id
+        self.coalesce_bytes = coalesce_bytes
+        # per entity: the column names of the held sends, the sends, their bytes
+        self.held: dict[str, tuple[tuple, list[tuple[dict, dict]], int]] = {}
         self.rec = rb.new_recording(application_id=application_id, recording_id=recording_id or str(uuid.uuid4()),
                                     make_default=False, make_thread_default=False, default_enabled=True,
                                     send_properties=True)
@@ -119,7 +129,40 @@ class Stream:
 
     def send(self, entity: str, timelines: dict[str, pa.Array], components: dict[Descriptor, pa.Array]) -> None:
         """Temporal columns: one row per timeline value."""
+        if self.coalesce_bytes <= 0:
+            rb.send_arrow_chunk(entity, timelines=timelines, components=components, recording=self.rec)
+            return
+        names = (tuple(timelines), tuple(d.component for d in components))
+        held = self.held.get(entity)
+        if held is not None and held[0] != names:
+            self._release(entity)
+            held = None
+        size = sum(a.nbytes for a in timelines.values()) + sum(a.nbytes for a in components.values())
+        if held is None:
+            held = (names, [], 0)
+        held[1].append((timelines, components))
+        self.held[entity] = (names, held[1], held[2] + size)
+        if held[2] + size >= self.coalesce_bytes:
+            self._release(entity)
+
+    def _release(self, entity: str) -> None:
+        """Send what is held for ``entity`` as one chunk."""
+        held = self.held.pop(entity, None)
+        if held is None:
+            return
+        sends = held[1]
+        if len(sends) == 1:
+            timelines, components = sends[0]
+        else:
+            timelines = {k: pa.concat_arrays([t[k] for t, _ in sends]) for k in sends[0][0]}
+            columns = zip(*(list(c.values()) for _, c in sends), strict=True)  # same columns, same order
+            components = {d: pa.concat_arrays(list(parts)) for d, parts in zip(sends[0][1], columns, strict=True)}
         rb.send_arrow_chunk(entity, timelines=timelines, components=components, recording=self.rec)
+
+    def release(self) -> None:
+        """Send everything held."""
+        for entity in list(self.held):
+            self._release(entity)
 
     def static(self, entity: str, components: dict[Descriptor, pa.Array]) -> None:
         """One static row (every component an array of the row's instances)."""
@@ -147,5 +190,6 @@ class Stream:
         rb.flush(timeout_sec=timeout_sec, recording=self.rec)
 
     def close(self) -> None:
-        """Flush and finalize: the file gets its footer."""
+        """Send what is held, flush and finalize: the file gets its footer."""
+        self.release()
         rb.disconnect(recording=self.rec)

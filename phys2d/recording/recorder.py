@@ -215,7 +215,8 @@ class Recorder:
                       series_every=series_every, blueprint=bool(blueprint), stream_to=stream_to)
         self._samplers: dict[str | None, Sampler] = {}
         forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
-        backend = _Background(kwargs, flush_every) if background and forks else _Local(kwargs)
+        backend = _Background({**kwargs, "long_chunks": True}, flush_every) if background and forks \
+            else _Local(kwargs)
         self._state = _State(backend)
         self._finalizer = weakref.finalize(self, _State.close, self._state)
 

@@ -16,13 +16,15 @@ from .buffer import ContactChoice, RunBuffer
 from .native import Stream
 from .sample import Sample
 
+COALESCE_BYTES = 32 << 20  # windows of an entity are sent as one chunk of up to about this many bytes
+
 
 class Sink:
     """The stream and the runs' buffers; closed once, by ``Recorder.close`` or a finalizer."""
 
     def __init__(self, path: str | None, name: str | None, scene: str | None, application_id: str,
                  recording_id: str | None, contact_series: bool, choice: ContactChoice, flush_every: int,
-                 series_every: int, blueprint: bool, stream_to: str | None) -> None:
+                 series_every: int, blueprint: bool, stream_to: str | None, long_chunks: bool = False) -> None:
         self.scene = scene
         self.contact_series = contact_series
         self.choice = choice
@@ -32,7 +34,14 @@ class Sink:
         self.runs: dict[str | None, RunBuffer] = {}
         self.closed = False
         self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
-        self.rec = Stream(application_id, recording_id, path, stream_to)
+        # Long chunks (a file only; a viewer streamed to draws each window as it comes): an entity's
+        # windows are held and written as one chunk, and the stats and residuals go out every
+        # series_every ticks. Only for a writer process: it outlives a killed simulation and still
+        # writes what it holds, where an in-process writer loses it (then every window is written
+        # at once: a hard kill loses at most flush_every ticks).
+        self.long_chunks = long_chunks and stream_to is None
+        self.rec = Stream(application_id, recording_id, path, stream_to,
+                          coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0)
         if name:
             self.rec.recording_name(name)
         from .. import __version__
@@ -53,6 +62,8 @@ class Sink:
             if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
                 self.send_blueprint()
             columns.write_scene(self.rec, b)
+            if not self.long_chunks or b.stats_ticks >= self.series_every:
+                columns.write_stats(self.rec, b)
             self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
         if b.series_ticks >= self.series_every:
             columns.write_series(self.rec, b)
@@ -85,6 +96,7 @@ class Sink:
         try:
             for r in self.runs.values():
                 columns.write_scene(self.rec, r)
+                columns.write_stats(self.rec, r)
                 columns.write_series(self.rec, r)
             self.send_blueprint()
             self.rec.flush()
