@@ -16,7 +16,7 @@ from .buffer import ContactChoice, RunBuffer
 from .native import Stream
 from .sample import Sample
 
-COALESCE_BYTES = 32 << 20  # windows of an entity are sent as one chunk of up to about this many bytes
+COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about this many bytes
 
 
 class Sink:
