@@ -551,6 +551,110 @@ def test_a_background_writer_writes_what_an_in_process_one_does(tmp_path):
         assert np.array_equal(getattr(a.contacts, name), getattr(b.contacts, name)), name
 
 
+def _data_chunks(path, entity: str) -> list[int]:
+    """Rows of each temporal chunk of ``entity``."""
+    return [ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(content=entity, is_static=False)]
+
+
+def test_a_background_writer_writes_long_chunks_of_the_same_rows(tmp_path):
+    """A writer process holds an entity's windows and writes them as one chunk (up to ~8 MB):
+    the rows are those an in-process recorder writes window by window."""
+    chunks = {}
+    for background in (False, True):
+        path = tmp_path / f"chunks{background}.rrd"
+        w = phys2d.scenes.pyramid(6)
+        with Recorder(path, flush_every=10, series_every=50, background=background) as rec:
+            rec.log(w)
+            for _ in range(99):
+                w.step(1 / 60)
+                rec.log(w)
+        chunks[background] = {e: _data_chunks(path, e) for e in ("/world/sim/bodies", "/world/sim/contacts",
+                                                                   "/stats/energy/kinetic", "/solver/residual")}
+    for entity, rows in chunks[False].items():
+        assert sum(chunks[True][entity]) == sum(rows), entity  # the same rows ...
+    assert chunks[False]["/world/sim/contacts"] == [10] * 10  # ... one chunk per window in process,
+    assert chunks[True]["/world/sim/contacts"] == [100]  # one for the whole run from a writer process
+    assert chunks[True]["/world/sim/bodies"] == [1, 100]  # the labels' row, then every tick
+    assert chunks[True]["/stats/energy/kinetic"] == [100]
+    assert chunks[True]["/solver/residual"] == [sum(chunks[False]["/solver/residual"])]
+
+
+def test_the_blueprint_has_rerun_s_own_components_and_types():
+    """blueprint.build writes the rows rerun.blueprint writes for the same layout (entity kinds,
+    component descriptors, arrow types and values, up to the random view and container ids)."""
+    import rerun as rr
+    import rerun_bindings
+
+    from phys2d.recording import blueprint as bp
+
+    def ours(views):
+        return bp.build(views)
+
+    def theirs(views):
+        """What rerun's blueprint classes log, caught at rerun_bindings.log_arrow_msg."""
+        import rerun.blueprint as rrb
+
+        rows = []
+        original = rerun_bindings.log_arrow_msg
+
+        def catch(entity_path, components, static_, recording=None):
+            rows.append((entity_path, components, static_))
+
+        rerun_bindings.log_arrow_msg = catch
+        try:
+            stream = rr.RecordingStream("check", recording_id="x")
+            runs = views
+            single = len(runs) == 1
+            r = runs[0]
+            p = schema.run_prefix(r.label)
+
+            def world(r):
+                x0, x1, y0, y1 = r.bounds
+                return rrb.Spatial2DView(name=f"world {r.label}" if r.label else "world",
+                                         origin=f"/{schema.run_prefix(r.label)}{schema.WORLD}",
+                                         visual_bounds=rrb.VisualBounds2D(x_range=[x0, x1], y_range=[-y1, -y0]))
+
+            def plot(key, paths, legend=True):
+                return rrb.TimeSeriesView(name=bp.TITLES[key], origin="/", contents=[f"+ /{q}" for q in paths],
+                                          plot_legend=None if legend else rrb.PlotLegend(visible=False))
+
+            if single:
+                left = rrb.Tabs(world(r), rrb.DataframeView(name="contact table", origin=f"/{p}{schema.CONTACTS}"),
+                                active_tab=0)
+                plots = [plot("lambda", [f"{p}{schema.LAMBDA}/**"]),
+                         plot("penetration", [f"{p}{schema.PENETRATION}/**"]),
+                         plot("reaction", [f"{p}{schema.REACTION}/**"], legend=False),
+                         plot("residual", [f"{p}{schema.RESIDUAL}"]),
+                         plot("energy", [f"{p}{schema.STATS_ROOT}/energy/**"])]
+            else:
+                left = rrb.Grid(*[world(v) for v in runs])
+                plots = [plot("residual", [f"{schema.run_prefix(v.label)}{schema.RESIDUAL}" for v in runs])]
+            blueprint = rrb.Blueprint(rrb.Horizontal(left, rrb.Vertical(*plots), column_shares=[3, 2]),
+                                      rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
+                                      rrb.TimePanel(state="collapsed", timeline=schema.TICK, play_state="following"))
+            blueprint._log_to_stream(stream)
+        finally:
+            rerun_bindings.log_arrow_msg = original
+        return rows
+
+    def shape(rows):
+        out = []
+        for entity, comps, static in rows:
+            kind = entity.split("/")[0] + ("/" + entity.split("/")[-1] if entity.count("/") > 1 else "")
+            for d, a in comps.items():
+                values = None if "contents" in d.component or "active_tab" in d.component \
+                    or "root_container" in d.component else a.to_pylist()
+                out.append((kind, d.component, d.archetype, d.component_type, str(a.type), values, bool(static)))
+        return sorted(out, key=repr)
+
+    one = [bp.RunView(None, (-3.0, 3.0, -0.5, 6.0), True, True)]
+    assert shape(ours(one)) == shape(theirs(one))
+    two = [bp.RunView("a", (0.0, 1.0, 0.0, 1.0), False, False), bp.RunView("b", (0.0, 2.0, 0.0, 2.0), False, False)]
+    for component in ("ContainerBlueprint:container_kind", "VisualBounds2D:range"):  # a grid of worlds, each framed
+        assert [r for r in shape(ours(two)) if r[1] == component] == \
+            [r for r in shape(theirs(two)) if r[1] == component], component
+
+
 def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path):
     """os._exit in the simulating process: the writer sees it gone, writes every window it was
     sent and the footer."""

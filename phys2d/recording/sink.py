@@ -1,9 +1,9 @@
 """The writing side of a recording: sampled ticks in, a Rerun stream (file, viewer) out.
 
 ``Sink`` runs in the recording process, or in a writer process of its own
-(``serve``): a ``Recorder(background=True)`` samples in the simulating process and
-hands whole windows of ticks over a pipe, so that importing rerun, building the
-columns and encoding them happen on another core while the simulation runs.
+(``writer.serve``): a ``Recorder(background=True)`` samples in the simulating process and
+hands whole windows of ticks over a pipe, so that loading rerun's native layer, building
+the columns and encoding them happen on another core while the simulation runs.
 """
 
 from __future__ import annotations
