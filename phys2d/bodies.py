@@ -16,11 +16,16 @@ these arrays, never a copy of them.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .shapes import CIRCLE, ShapeSpec
 from .validation import finite_float, float_in, non_negative_float, vec2
+
+if TYPE_CHECKING:
+    from .world import World
 
 MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
 
@@ -32,9 +37,49 @@ def _grown(a: np.ndarray, capacity: int) -> np.ndarray:
 
 
 class BodyArrays:
-    """Structure-of-arrays storage for bodies and their shapes, grown by doubling."""
+    """Structure-of-arrays storage for bodies and their shapes, grown by doubling.
 
-    _PER_BODY = {
+    The public arrays are views of the first ``n`` rows of the private storage
+    (``x`` views ``_x``, ...), refreshed whenever a body is added or removed;
+    ``local_v`` and ``local_n`` view the first ``n_verts`` polygon vertices.
+    """
+
+    # public views: one row per body (the layout in the module docstring)
+    x: np.ndarray  # (N, 2) centre of mass, m
+    theta: np.ndarray  # (N,) angle, rad
+    V: np.ndarray  # (N, 3) [vx, vy, omega], m/s and rad/s
+    M_inv: np.ndarray  # (N, 3) diagonal of M^-1: 1/kg, 1/kg, 1/(kg m^2); 0 for static bodies
+    mass: np.ndarray  # (N,) kg
+    inertia: np.ndarray  # (N,) kg m^2
+    kind: np.ndarray  # (N,) int32 shapes.CIRCLE or shapes.POLYGON
+    radius: np.ndarray  # (N,) circle radius, m (0 for polygons)
+    vstart: np.ndarray  # (N,) int32 first row of the body's vertices in local_v
+    vcount: np.ndarray  # (N,) int32 number of vertices (0 for circles)
+    friction: np.ndarray  # (N,) friction coefficient mu
+    restitution: np.ndarray  # (N,) restitution e in [0, 1]
+    static: np.ndarray  # (N,) bool
+    uid: np.ndarray  # (N,) int64 unique in the world's lifetime
+    local_v: np.ndarray  # (n_verts, 2) polygon vertices in the body frame, m
+    local_n: np.ndarray  # (n_verts, 2) unit outward edge normals in the body frame
+    # the storage behind them, grown by doubling
+    _x: np.ndarray
+    _theta: np.ndarray
+    _V: np.ndarray
+    _M_inv: np.ndarray
+    _mass: np.ndarray
+    _inertia: np.ndarray
+    _kind: np.ndarray
+    _radius: np.ndarray
+    _vstart: np.ndarray
+    _vcount: np.ndarray
+    _friction: np.ndarray
+    _restitution: np.ndarray
+    _static: np.ndarray
+    _uid: np.ndarray
+    _local_v: np.ndarray
+    _local_n: np.ndarray
+
+    _PER_BODY: dict[str, tuple[tuple[int, ...], type]] = {
         "x": ((2,), np.float64),
         "theta": ((), np.float64),
         "V": ((3,), np.float64),
@@ -68,7 +113,10 @@ class BodyArrays:
         self.local_v = self._local_v[: self.n_verts]
         self.local_n = self._local_n[: self.n_verts]
 
-    def append(self, spec: ShapeSpec, x, theta, V, mass, inertia, friction, restitution, static) -> int:
+    def append(self, spec: ShapeSpec, x: ArrayLike, theta: float, V: ArrayLike, mass: float, inertia: float,
+               friction: float, restitution: float, static: bool) -> int:
+        """Add a body's row (values already checked): x (m), theta (rad), V = (vx, vy, omega)
+        (m/s, rad/s), mass (kg), inertia (kg m^2); returns its row index."""
         if self.next_uid > MAX_BODY_UID:
             raise ValueError(f"a world can create at most {MAX_BODY_UID + 1} bodies in its lifetime")
         i = self.n
@@ -117,9 +165,11 @@ class BodyArrays:
         self._refresh_views()
 
     def snapshot(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Copies of x, theta and V: what a step changes, for :meth:`restore`."""
         return self.x.copy(), self.theta.copy(), self.V.copy()
 
-    def restore(self, snap) -> None:
+    def restore(self, snap: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+        """Put back x, theta and V from a :meth:`snapshot` (same bodies)."""
         self.x[:], self.theta[:], self.V[:] = snap
 
 
@@ -135,7 +185,7 @@ class Body:
 
     __slots__ = ("_world", "_index", "_uid", "__weakref__")
 
-    def __init__(self, world, index: int, uid: int) -> None:
+    def __init__(self, world: World, index: int, uid: int) -> None:
         self._world = world
         self._index = index
         self._uid = uid
@@ -152,7 +202,8 @@ class Body:
         return self._index
 
     @property
-    def world(self):
+    def world(self) -> World:
+        """The world the body belongs (or belonged) to."""
         return self._world
 
     @property
@@ -167,7 +218,7 @@ class Body:
         return self._arrays().x[self._index].copy()
 
     @position.setter
-    def position(self, value) -> None:
+    def position(self, value: ArrayLike) -> None:
         v = vec2(value, "position")
         self._arrays().x[self._index] = v
 
@@ -177,7 +228,7 @@ class Body:
         return float(self._arrays().theta[self._index])
 
     @angle.setter
-    def angle(self, value) -> None:
+    def angle(self, value: float) -> None:
         v = finite_float(value, "angle")
         self._arrays().theta[self._index] = v
 
@@ -187,7 +238,7 @@ class Body:
         return self._arrays().V[self._index, :2].copy()
 
     @velocity.setter
-    def velocity(self, value) -> None:
+    def velocity(self, value: ArrayLike) -> None:
         v = vec2(value, "velocity")
         self._arrays().V[self._index, :2] = v
 
@@ -197,7 +248,7 @@ class Body:
         return float(self._arrays().V[self._index, 2])
 
     @angular_velocity.setter
-    def angular_velocity(self, value) -> None:
+    def angular_velocity(self, value: float) -> None:
         v = finite_float(value, "angular_velocity")
         self._arrays().V[self._index, 2] = v
 
@@ -222,7 +273,7 @@ class Body:
         return float(self._arrays().friction[self._index])
 
     @friction.setter
-    def friction(self, value) -> None:
+    def friction(self, value: float) -> None:
         v = non_negative_float(value, "friction")
         self._arrays().friction[self._index] = v
 
@@ -232,7 +283,7 @@ class Body:
         return float(self._arrays().restitution[self._index])
 
     @restitution.setter
-    def restitution(self, value) -> None:
+    def restitution(self, value: float) -> None:
         v = float_in(value, "restitution", 0.0, 1.0)
         self._arrays().restitution[self._index] = v
 
@@ -263,7 +314,7 @@ class Body:
         return self.local_vertices @ rot.T + a.x[self._index]
 
     # -- actions ----------------------------------------------------------
-    def apply_impulse(self, impulse, point=None) -> None:
+    def apply_impulse(self, impulse: ArrayLike, point: ArrayLike | None = None) -> None:
         """Apply an impulse (N s) at a world point (m), the centre of mass by default.
 
         v += impulse / m and omega += (r x impulse) / I, with r = point - x.
@@ -291,7 +342,7 @@ class Body:
         return (f"<Body {i}: {kind}{shape}, position=({x:.4g}, {y:.4g}) m, "
                 f"angle={a.theta[i]:.4g} rad, mass={a.mass[i]:.4g} kg>")
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: object) -> bool:
         return isinstance(other, Body) and other._world is self._world and other._uid == self._uid
 
     def __hash__(self) -> int:

@@ -1,7 +1,7 @@
 """Shapes: circles and convex polygons, their validation and mass properties.
 
 Every body has exactly one shape. A shape is described in the body frame, whose
-origin is the body's centre of mass ``x_b`` (FORMULATION.md, "State"): a polygon
+origin is the body's centre of mass ``x_b`` (docs/formulation.md#symbols-arrays-and-units): a polygon
 given with its centroid elsewhere is re-centred, so the body's position is always
 the centre of mass the lecture integrates.
 

@@ -11,8 +11,10 @@ after the move) say so, and the world does not integrate again.
 from __future__ import annotations
 
 import math
+from typing import TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import Body, BodyArrays
@@ -36,6 +38,8 @@ from .integrate import apply_external_forces, first_too_fast, integrate_position
 from .responders.base import Responder, StepContext, StepReport
 from .responders.pgs import PGS
 from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
+
+_J = TypeVar("_J", bound=Joint)
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
 
@@ -86,7 +90,7 @@ class World:
 
     # -- configuration ------------------------------------------------------
     @staticmethod
-    def _check_responder(responder) -> Responder:
+    def _check_responder(responder: object) -> Responder:
         if not isinstance(responder, Responder):
             raise TypeError(
                 f"responder must be a phys2d responder such as phys2d.PGS(), got {responder!r}")
@@ -114,7 +118,7 @@ class World:
         return self._gravity.copy()
 
     @gravity.setter
-    def gravity(self, value) -> None:
+    def gravity(self, value: ArrayLike) -> None:
         self._gravity = vec2(value, "gravity")
 
     @property
@@ -166,33 +170,36 @@ class World:
         return self._bodies.n
 
     # -- adding and removing bodies ----------------------------------------------
-    def add_box(self, position=(0.0, 0.0), half_extents=(0.5, 0.5), angle=0.0, density=1.0,
-                friction=0.6, restitution=0.0, static=False, velocity=(0.0, 0.0),
-                angular_velocity=0.0) -> Body:
-        """A box of half extents (hx, hy) in m centred at ``position``, rotated by ``angle`` (rad)."""
+    # Every argument after ``position`` is keyword-only. The ones all add_* share:
+    #   angle (rad), density (kg/m^2, 2D), friction (mu >= 0), restitution (e in [0, 1]),
+    #   static (never moved by impulses or gravity), velocity (m/s), angular_velocity (rad/s).
+    def add_box(self, position: ArrayLike = (0.0, 0.0), *, half_extents: ArrayLike = (0.5, 0.5),
+                angle: float = 0.0, density: float = 1.0, friction: float = 0.6, restitution: float = 0.0,
+                static: bool = False, velocity: ArrayLike = (0.0, 0.0), angular_velocity: float = 0.0) -> Body:
+        """A box of half extents (hx, hy) in m centred at ``position`` (m), rotated by ``angle`` (rad)."""
         return self._add(shapes.box(half_extents), position, angle, density, friction,
                          restitution, static, velocity, angular_velocity)
 
-    def add_circle(self, position=(0.0, 0.0), radius=0.5, angle=0.0, density=1.0, friction=0.6,
-                   restitution=0.0, static=False, velocity=(0.0, 0.0),
-                   angular_velocity=0.0) -> Body:
-        """A circle of ``radius`` (m) centred at ``position``."""
+    def add_circle(self, position: ArrayLike = (0.0, 0.0), *, radius: float = 0.5, angle: float = 0.0,
+                   density: float = 1.0, friction: float = 0.6, restitution: float = 0.0, static: bool = False,
+                   velocity: ArrayLike = (0.0, 0.0), angular_velocity: float = 0.0) -> Body:
+        """A circle of ``radius`` (m) centred at ``position`` (m)."""
         return self._add(shapes.circle(radius), position, angle, density, friction, restitution,
                          static, velocity, angular_velocity)
 
-    def add_polygon(self, position=(0.0, 0.0), vertices=(), angle=0.0, density=1.0,
-                    friction=0.6, restitution=0.0, static=False, velocity=(0.0, 0.0),
-                    angular_velocity=0.0) -> Body:
-        """A convex polygon: ``vertices`` counter-clockwise in the body frame (m).
+    def add_polygon(self, position: ArrayLike = (0.0, 0.0), *, vertices: ArrayLike, angle: float = 0.0,
+                    density: float = 1.0, friction: float = 0.6, restitution: float = 0.0, static: bool = False,
+                    velocity: ArrayLike = (0.0, 0.0), angular_velocity: float = 0.0) -> Body:
+        """A convex polygon: ``vertices`` (m), at least 3, counter-clockwise in the body frame.
 
         The vertices are re-centred on their centroid, which is placed at
-        ``position``: a body's position is always its centre of mass.
+        ``position`` (m): a body's position is always its centre of mass.
         """
         return self._add(shapes.polygon(vertices), position, angle, density, friction,
                          restitution, static, velocity, angular_velocity)
 
-    def _add(self, spec, position, angle, density, friction, restitution, static, velocity,
-             angular_velocity) -> Body:
+    def _add(self, spec: shapes.ShapeSpec, position: ArrayLike, angle: float, density: float, friction: float,
+             restitution: float, static: bool, velocity: ArrayLike, angular_velocity: float) -> Body:
         # validate everything before touching the arrays: a rejected call changes nothing
         x = vec2(position, "position")
         theta = finite_float(angle, "angle")
@@ -210,7 +217,7 @@ class World:
         self._sweep_again = True  # a new body
         return handle
 
-    def _own(self, body, name: str = "body") -> int:
+    def _own(self, body: object, name: str = "body") -> int:
         """The index of ``body`` after checking it is a live body of this world."""
         if not isinstance(body, Body):
             raise TypeError(f"{name} must be a phys2d Body, got {type(body).__name__}")
@@ -248,7 +255,7 @@ class World:
         """Handles of the joints, in creation order (their rows follow the contact rows)."""
         return tuple(self._joints)
 
-    def _joint_bodies(self, a, b) -> tuple[Body, Body]:
+    def _joint_bodies(self, a: Body, b: Body) -> tuple[Body, Body]:
         """The world's handles of a and b, after checking they can be joined."""
         ia, ib = self._own(a, "a"), self._own(b, "b")
         if ia == ib:
@@ -257,7 +264,8 @@ class World:
             raise ValueError("a and b are both static: a joint between them could never act")
         return self._handles[ia], self._handles[ib]
 
-    def add_distance_joint(self, a: Body, b: Body, anchor_a=None, anchor_b=None, length=None,
+    def add_distance_joint(self, a: Body, b: Body, *, anchor_a: ArrayLike | None = None,
+                           anchor_b: ArrayLike | None = None, length: float | None = None,
                            collide_connected: bool = False) -> DistanceJoint:
         """Keep point ``anchor_a`` of a and point ``anchor_b`` of b at distance ``length`` (m).
 
@@ -281,7 +289,7 @@ class World:
         return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length,
                                              collide))
 
-    def add_pin_joint(self, a: Body, b: Body, anchor, collide_connected: bool = False) -> PinJoint:
+    def add_pin_joint(self, a: Body, b: Body, *, anchor: ArrayLike, collide_connected: bool = False) -> PinJoint:
         """Pin a and b together at the world point ``anchor`` (m): they may turn about it."""
         body_a, body_b = self._joint_bodies(a, b)
         if anchor is None:
@@ -292,7 +300,7 @@ class World:
         self._check_joints_supported(self._responder, adding=True)
         return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide))
 
-    def add_angle_joint(self, a: Body, b: Body, lower=None, upper=None,
+    def add_angle_joint(self, a: Body, b: Body, *, lower: float | None = None, upper: float | None = None,
                         collide_connected: bool = False) -> AngleJoint:
         """Keep theta_b - theta_a at its value now (theta_0), or with ``lower`` and/or ``upper``
         (rad, offsets from theta_0) within [theta_0 + lower, theta_0 + upper]."""
@@ -305,7 +313,7 @@ class World:
         theta_0 = body_b.angle - body_a.angle
         return self._add_joint(AngleJoint(self, body_a, body_b, theta_0, lower, upper, collide))
 
-    def _add_joint(self, joint: Joint) -> Joint:
+    def _add_joint(self, joint: _J) -> _J:
         self._joints.append(joint)
         self._joints_changed()
         return joint
@@ -493,7 +501,7 @@ class World:
         dyn = ~b.static
         return np.sum(b.mass[dyn, None] * b.V[dyn, :2], axis=0)
 
-    def angular_momentum(self, about=(0.0, 0.0)) -> float:
+    def angular_momentum(self, about: ArrayLike = (0.0, 0.0)) -> float:
         """Sum of I omega + (x - about) x m v over dynamic bodies (kg m^2/s)."""
         o = vec2(about, "about")
         b = self._bodies

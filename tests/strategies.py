@@ -11,7 +11,9 @@ stepping that tolerates the velocity limit, and a few geometric second methods).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from hypothesis import strategies as st
@@ -164,6 +166,21 @@ def free_scene(scene: SceneSpec) -> SceneSpec:
 
 
 @st.composite
+def pgs_keywords(draw, *, friction: str | None = "coulomb") -> dict[str, Any]:
+    """Valid PGS keywords shared by every PGS entry of the registry (sweeps, Baumgarte,
+    stopping rule, bounce threshold, friction model): Coulomb friction unless ``friction``
+    says otherwise (None: either model)."""
+    return dict(
+        iterations=draw(st.integers(1, 30)),
+        beta=draw(reals(0.0, 1.0)),
+        slop=draw(reals(0.0, 0.02)),
+        tolerance=draw(st.none() | reals(0.0, 1e-2)),
+        restitution_threshold=draw(reals(0.0, 2.0)),
+        friction=draw(st.sampled_from(["coulomb", "lecture"])) if friction is None else friction,
+    )
+
+
+@st.composite
 def pgs_settings(draw, *, warm_start: bool | None = None, friction: str | None = "coulomb",
                  form: str | None = None) -> phys2d.PGS:
     """Valid PGS settings: impulse form (row by row or block) or matrix form; Coulomb
@@ -172,21 +189,17 @@ def pgs_settings(draw, *, warm_start: bool | None = None, friction: str | None =
     if form is None:
         form = "impulse" if block else draw(st.sampled_from(["impulse", "matrix"]))
     return phys2d.PGS(
-        iterations=draw(st.integers(1, 30)),
         warm_start=draw(st.booleans()) if warm_start is None else warm_start,
-        beta=draw(reals(0.0, 1.0)),
-        slop=draw(reals(0.0, 0.02)),
-        tolerance=draw(st.none() | reals(0.0, 1e-2)),
-        restitution_threshold=draw(reals(0.0, 2.0)),
-        friction=draw(st.sampled_from(["coulomb", "lecture"])) if friction is None else friction,
         form=form,
         block=block,
+        **draw(pgs_keywords(friction=friction)),
     )
 
 
 @st.composite
-def soft_step_settings(draw) -> phys2d.SoftStep:
-    return phys2d.SoftStep(
+def soft_step_keywords(draw) -> dict[str, Any]:
+    """Valid SoftStep keywords."""
+    return dict(
         substeps=draw(st.integers(1, 6)),
         relax=draw(st.booleans()),
         contact_hertz=draw(reals(0.0, 60.0)),
@@ -198,11 +211,38 @@ def soft_step_settings(draw) -> phys2d.SoftStep:
     )
 
 
+def soft_step_settings() -> st.SearchStrategy[phys2d.SoftStep]:
+    return soft_step_keywords().map(lambda kw: phys2d.SoftStep(**kw))
+
+
+def _with_warm_start(keywords: st.SearchStrategy[dict[str, Any]]) -> st.SearchStrategy[dict[str, Any]]:
+    return st.tuples(keywords, st.booleans()).map(lambda t: {**t[0], "warm_start": t[1]})
+
+
+# Keywords for each registered responder (phys2d.REGISTRY, in its order), beyond what its
+# entry fixes: given the PGS friction model (None: either), a strategy of valid keyword
+# arguments for ``REGISTRY[name](**keywords)``. tests/test_project.py checks that the names
+# are exactly the registry's.
+RESPONDER_SETTINGS: dict[str, Callable[[str | None], st.SearchStrategy[dict[str, Any]]]] = {
+    "naive": lambda friction: st.just({}),
+    "iterative": lambda friction: st.integers(1, 20).map(lambda n: {"passes": n}),
+    "pgs": lambda friction: pgs_keywords(friction=friction),
+    "pgs-cold": lambda friction: pgs_keywords(friction=friction),
+    "pgs-matrix": lambda friction: _with_warm_start(pgs_keywords(friction=friction)),
+    "pgs-block": lambda friction: _with_warm_start(pgs_keywords(friction=friction)),
+    "soft-step": lambda friction: soft_step_keywords(),
+}
+
+
+def registered(name: str, *, friction: str | None = None) -> st.SearchStrategy[phys2d.Responder]:
+    """The responder registered as ``name``, with valid settings drawn for it."""
+    return RESPONDER_SETTINGS[name](friction).map(lambda kw: phys2d.REGISTRY[name](**kw))
+
+
 def responders(*, friction: str | None = None) -> st.SearchStrategy[phys2d.Responder]:
-    """Every responder of the engine, with valid settings (PGS with either friction model
-    unless ``friction`` is given)."""
-    return (pgs_settings(friction=friction) | soft_step_settings() | st.just(phys2d.NaiveImpulse())
-            | st.integers(1, 20).map(lambda n: phys2d.IterativeImpulse(passes=n)))
+    """Every registered responder (``phys2d.REGISTRY``), with valid settings (PGS with
+    either friction model unless ``friction`` is given)."""
+    return st.sampled_from(list(phys2d.REGISTRY)).flatmap(lambda name: registered(name, friction=friction))
 
 
 dts = st.sampled_from([1 / 30, 1 / 60, 1 / 120, 1 / 240]) | reals(1e-4, 0.05)

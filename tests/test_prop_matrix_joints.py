@@ -47,7 +47,7 @@ def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settin
 @given(scene=scenes(max_bodies=5, ground=None, static=None, gravity=None),
        settings=pgs_settings(form="matrix"), dt=dts)
 def test_matrix_system_is_the_lecture_system(scene: SceneSpec, settings: phys2d.PGS, dt: float) -> None:
-    """w.last_step.system holds the step's own equations (FORMULATION.md): its rows of J
+    """w.last_step.system holds the step's own equations (docs/formulation.md#equations-of-motion): its rows of J
     are the contacts' [-n, -(r_a x n) | n, r_b x n] and tangent rows, A = J M^-1 J^T,
     b = xi - J V1 - dt J M^-1 F_ext with F_ext = m g, lo <= lambda <= hi, and
     V2 = V1 + M^-1 (dt F_ext + J^T lambda) is the world's new V."""

@@ -1,6 +1,6 @@
 """Properties of PGS: lambda bounds, the LCP it solves, complementarity, and two-body analytics.
 
-The second method for the LCP is written here from FORMULATION.md alone: J, M^-1,
+The second method for the LCP is written here from docs/formulation.md alone: J, M^-1,
 A = J M^-1 J^T and b = xi - J V1 - dt J M^-1 F_ext are assembled densely from the
 step's contacts, and the LCP (lambda >= 0, w = A lambda - b >= 0, lambda . w = 0) is
 solved by trying every active set.

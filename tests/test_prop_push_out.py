@@ -12,15 +12,8 @@ from hypothesis import strategies as st
 import phys2d
 from tests.strategies import reals
 
-RESPONDERS = {
-    "pgs": lambda **kw: phys2d.PGS(**kw),
-    "pgs-lecture-push": lambda **kw: phys2d.PGS(split=False, **kw),
-    "pgs-block": lambda **kw: phys2d.PGS(block=True, **kw),
-    "pgs-matrix": lambda **kw: phys2d.PGS(form="matrix", **kw),
-    "soft-step": lambda **kw: phys2d.SoftStep(**kw),
-    "naive": lambda **kw: phys2d.NaiveImpulse(**kw),
-    "iterative": lambda **kw: phys2d.IterativeImpulse(**kw),
-}
+# every registered responder, and the lecture's push (PGS(split=False), which has no name)
+RESPONDERS = {**phys2d.REGISTRY, "pgs-lecture-push": lambda **kw: phys2d.PGS(split=False, **kw)}
 
 
 @st.composite

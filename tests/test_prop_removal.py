@@ -41,10 +41,7 @@ def test_contacts_never_name_a_removed_body(ops, responder: str, ground: bool) -
     """Random adds, removals (one body, or every body) and steps: after each step every
     contact joins two live bodies, its key holds their uids, and a world emptied of bodies
     reports no contact, ever after."""
-    make = {"pgs": phys2d.PGS, "pgs-block": lambda: phys2d.PGS(block=True),
-            "pgs-matrix": lambda: phys2d.PGS(form="matrix"), "soft-step": phys2d.SoftStep,
-            "naive": phys2d.NaiveImpulse}[responder]
-    w = phys2d.World(responder=make())
+    w = phys2d.World(responder=phys2d.make_responder(responder))
     if ground:
         phys2d.scenes.ground(w)
     for op, arg in ops:

@@ -20,16 +20,9 @@ from hypothesis import strategies as st
 import phys2d
 from tests.strategies import ellipse_polygons, reals
 
-RESPONDERS = {
-    "pgs": lambda: phys2d.PGS(),
-    "pgs-matrix": lambda: phys2d.PGS(form="matrix"),
-    "pgs-block": lambda: phys2d.PGS(block=True),
-    "pgs-lecture-push": lambda: phys2d.PGS(split=False),
-    "soft-step-4": lambda: phys2d.SoftStep(),
-    "soft-step-6": lambda: phys2d.SoftStep(substeps=6),
-    "naive": lambda: phys2d.NaiveImpulse(),
-    "iterative": lambda: phys2d.IterativeImpulse(),
-}
+# every registered responder (soft-step: 4 sub-steps), and two settings without a name of their own
+RESPONDERS = {**phys2d.REGISTRY, "pgs-lecture-push": lambda: phys2d.PGS(split=False),
+              "soft-step-6": lambda: phys2d.SoftStep(substeps=6)}
 MM = 1e-3
 
 
@@ -64,7 +57,7 @@ PAIRWISE = ("naive", "iterative")
 # PGS row by row leaves a residual after its 10 sweeps, and a flat landing stops both corners
 # at once: at 200 m/s and dt = 0.1 s (20 m a step) it ends 5 cm deep; up to half a metre a step
 # within 1 mm. The block solver and the soft step solve the two corners together, at any speed.
-ROW_BY_ROW = ("pgs", "pgs-matrix", "pgs-lecture-push")
+ROW_BY_ROW = ("pgs", "pgs-cold", "pgs-matrix", "pgs-lecture-push")
 
 
 def flat_on(vertices, edge: int) -> float:

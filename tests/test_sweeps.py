@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -377,5 +378,8 @@ def test_the_base_install_leaves_dask_jupyter_and_matplotlib_to_extras():
     assert "dask[distributed]" in extras["sweep"] and "pyarrow" in extras["sweep"] and "tqdm" in extras["sweep"]
     assert "rerun-notebook==0.41" in extras["notebook"] and "jupytext" in extras["notebook"]
     assert "matplotlib" in extras["plots"]
+    # the test extra may take other extras by reference (phys2d[sweep,plots]): follow them
+    test = extras["test"] + "".join(" " + extras[e] for ref in re.findall(r"phys2d\[([^\]]*)\]", extras["test"])
+                                    for e in ref.split(","))
     for need in ("dask", "matplotlib", "nbclient", "ipykernel", "jupytext", "rerun-notebook"):
-        assert need in extras["test"], need  # the test command installs what the tests import
+        assert need in test, need  # the test command installs what the tests import

@@ -9,11 +9,7 @@ import pytest
 import phys2d
 
 DT = 1 / 60
-RESPONDERS = {
-    "pgs": lambda: phys2d.PGS(),
-    "pgs-block": lambda: phys2d.PGS(block=True),
-    "soft-step": lambda: phys2d.SoftStep(),
-}
+RESPONDERS = {name: phys2d.REGISTRY[name] for name in ("pgs", "pgs-block", "soft-step")}
 
 
 def column(responder: phys2d.Responder, ratio: float | None) -> tuple[phys2d.World, list, phys2d.Body | None]:

@@ -134,7 +134,7 @@ def test_restitution_returns_e_times_the_impact_speed():
     # semi-implicit Euler puts the ends of steps on a parabola whose velocity is V - g dt/2:
     # the ball, a gap C above the ground with V = v at the start of the landing step, meets
     # it at u = sqrt((v - g dt/2)^2 + 2 g C) and leaves with the path's velocity e u, which
-    # is V = e u + g dt/2 (closed form, FORMULATION.md's integrator; bounce_target)
+    # is V = e u + g dt/2 (closed form, docs/formulation.md#symbols-arrays-and-units: the integrator; bounce_target)
     e, g = 0.5, 10.0
     w = phys2d.World()
     scenes.ground(w, friction=0.0)

@@ -1,1 +1,1 @@
-"""Constraints as Jacobian rows (FORMULATION.md, "Constraint rows")."""
+"""Constraints as Jacobian rows (docs/formulation.md, "Constraint rows")."""

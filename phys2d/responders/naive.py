@@ -1,6 +1,6 @@
 """The lecture's first take: one impulse per colliding pair, then push apart.
 
-For each contact pair once per tick (FORMULATION.md symbols, n from a to b):
+For each contact pair once per tick (docs/formulation.md#symbols-arrays-and-units, n from a to b):
 
     f   = -(1 + e) (J_n V) / (1/m_a + 1/m_b + (r_a x n)^2 / I_a + (r_b x n)^2 / I_b)
     V  += M^-1 J_n^T f                       only if the bodies approach (J_n V < 0)
