@@ -148,6 +148,7 @@ def test_the_strategies_cover_the_registry() -> None:
 
 # import name -> distribution name, where they differ
 DISTRIBUTION = {"PIL": "pillow", "websocket": "websocket-client", "rerun": "rerun-sdk", "rerun_cli": "rerun-sdk",
+                "rerun_bindings": "rerun-sdk",
                 "rerun_notebook": "rerun-notebook", "IPython": "ipython", "Box2D": "box2d", "yaml": "pyyaml"}
 LOCAL = {"phys2d", "tests", "_common", "engines", "box2d_v3", "webview", "conftest", "strategies"}
 

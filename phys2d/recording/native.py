@@ -184,6 +184,8 @@ class Stream:
         for entity, components, static in rows:
             rb.log_arrow_msg(entity, components=components, static_=static, recording=bp)
         storage = rb.memory_recording(recording=bp)
+        if storage is None:  # only a disabled stream has no memory sink
+            raise RuntimeError("rerun gave the blueprint stream no memory sink")
         rb.send_blueprint(storage, make_active=True, make_default=True, recording=self.rec)
 
     def flush(self, timeout_sec: float = 1e38) -> None:
