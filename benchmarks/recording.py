@@ -104,18 +104,19 @@ def main() -> None:
     repos = [os.path.abspath(r) for r in a.repo] + [HERE]
     print(f"phys2d run pyramid --steps {a.steps}, recording on vs --no-record, {a.repeats} repeats; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    commits = {repo: commit(repo) for repo in repos}  # before measuring: a checkout may move meanwhile
     rows = []
     for size in a.sizes:
         load0 = os.getloadavg()[0]
         results = measure(repos, size, a.steps, a.repeats)
         load1 = os.getloadavg()[0]
         for repo, r in results.items():
-            print(f"pyramid_{size} [{repo} {commit(repo)}]: recording costs {r['cost_ms']:.2f} ms per tick end to "
+            print(f"pyramid_{size} [{repo} {commits[repo]}]: recording costs {r['cost_ms']:.2f} ms per tick end to "
                   f"end (CPU {r['cpu_ms']:.2f} ms; each repeat: {', '.join(f'{x:.2f}' for x in r['all_ms'])}; "
                   f"run without recording {r['base_s']:.2f} s); file {r['size_mb']:.1f} MB, "
                   f"{r['size_kb']:.1f} kB per tick; load {load0:.1f} -> {load1:.1f}")
             each = ", ".join(f"{x:.2f}" for x in r["all_ms"])
-            rows.append(f"| pyramid_{size} | {commit(repo)} | {r['size_kb']:.1f} kB ({r['size_mb']:.1f} MB) | "
+            rows.append(f"| pyramid_{size} | {commits[repo]} | {r['size_kb']:.1f} kB ({r['size_mb']:.1f} MB) | "
                         f"{r['cost_ms']:.2f} ms | {r['cpu_ms']:.2f} ms | {each} | "
                         f"{r['base_s']:.2f} s | {load0:.1f} -> {load1:.1f} |")
     if a.markdown:
