@@ -35,10 +35,10 @@ All figures are medians over repeats. Stages:
 | stage | what is timed |
 | --- | --- |
 | external forces | `apply_external_forces` |
-| broadphase | `update_geometry`, `fits_inside`, and when a body left its fat box `sweep_and_prune` and `colour_pairs` |
+| broadphase | `update_geometry_in` (and the fat-box check); if a body left its box `sweep_and_prune`, `colour_pairs` |
 | narrowphase | `collide_pairs` |
-| cache matching | `ContactCache.warm_start` (the merge of sorted keys), `ContactCache.store` |
-| rows | `RowBuffer.take`, `solve_order`, `Contacts.reordered`, `contact_rows`, `joint_rows` |
+| cache matching | `ContactCache.warm_start` (the merge of sorted keys, into the rows), `ContactCache.store_rows` |
+| rows | `RowBuffer.take`, `solve_order`, `World._context` (contacts in row order), `contact_rows`, `joint_rows` |
 | solve | the responder's `respond` (SoftStep's moves the positions too: its sub-steps integrate) |
 | integrate | `integrate_positions` (not called for SoftStep), `first_too_fast` (the speed limit check) |
 """
@@ -68,22 +68,22 @@ if str(REPO_ROOT) not in sys.path:  # profile the phys2d of this checkout
 import phys2d  # noqa: E402
 import phys2d.world as world_module  # noqa: E402
 from phys2d.constraints.rows import RowBuffer  # noqa: E402
-from phys2d.contacts import ContactCache, Contacts  # noqa: E402
+from phys2d.contacts import ContactCache  # noqa: E402
 
 DT = 1.0 / 60.0
 
 # stage -> names in phys2d.world that World.step calls
 FUNCTION_STAGES = {
     "external forces": ("apply_external_forces",),
-    "broadphase": ("update_geometry", "fits_inside", "sweep_and_prune", "colour_pairs"),
+    "broadphase": ("update_geometry_in", "sweep_and_prune", "colour_pairs"),
     "narrowphase": ("collide_pairs",),
     "rows": ("solve_order", "contact_rows", "joint_rows"),
     "integrate": ("integrate_positions", "first_too_fast"),
 }
 # stage -> (class, method name) that World.step calls on its objects
 METHOD_STAGES = {
-    "cache matching": ((ContactCache, "warm_start"), (ContactCache, "store")),
-    "rows": ((RowBuffer, "take"), (Contacts, "reordered")),
+    "cache matching": ((ContactCache, "warm_start"), (ContactCache, "store_rows")),
+    "rows": ((RowBuffer, "take"), (world_module.World, "_context")),
 }
 STAGE_ORDER = ("external forces", "broadphase", "narrowphase", "cache matching", "rows", "solve", "integrate")
 

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from .constraints.rows import Rows, rows_to_contacts
+
 
 @njit(cache=True)
 def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit):
@@ -91,6 +93,51 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
         cold[c] = any_unloaded and unloaded[_root(parent, body)]
 
 
+@njit(cache=True)
+def warm_start_rows(cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed, keys, body_a, body_b, uid, static,
+                    order, normal_row, friction_row, lam, hit):
+    """Contact caching into the rows: contact c = order[q] starts its normal and friction rows
+    from the impulses cached under its key (``warm_start_from_cache``), or from 0 when it is
+    new or its island lost a load (``unloaded_islands``); hit[c] says which. Returns the hits."""
+    k = keys.shape[0]
+    lambda_n, lambda_t = np.zeros(k), np.zeros(k)
+    warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit)
+    cold = np.zeros(k, np.bool_)
+    unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold)
+    hits = 0
+    for q in range(order.shape[0]):
+        c = order[q]
+        hit[c] = hit[c] and not cold[c]
+        if hit[c]:
+            lam[normal_row[q]] = lambda_n[c]
+            lam[friction_row[q]] = lambda_t[c]
+            hits += 1
+        else:
+            lam[normal_row[q]] = 0.0
+            lam[friction_row[q]] = 0.0
+    return hits
+
+
+@njit(cache=True)
+def impulses_to_contacts_and_cache(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t,
+                                   cache_lambda_n, cache_lambda_t, cache_pushed):
+    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows, and what the cache
+    keeps of them (``impulses_to_cache``)."""
+    impact = np.empty(order.shape[0], np.bool_)
+    rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact)
+    impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed)
+
+
+@njit(cache=True)
+def impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed):
+    """What the cache keeps of this step's impulses (N s): 0 for a contact that met its partner
+    fast within the step (``impact``: an event, not a load), and which contacts pushed."""
+    for c in range(lambda_n.shape[0]):
+        cache_lambda_n[c] = 0.0 if impact[c] else lambda_n[c]
+        cache_lambda_t[c] = 0.0 if impact[c] else lambda_t[c]
+        cache_pushed[c] = lambda_n[c] > 0.0
+
+
 @dataclass(eq=False)
 class Contacts:
     """The contact points of one step, as arrays of length K.
@@ -99,8 +146,8 @@ class Contacts:
     point             (K, 2) contact point p, m
     normal            (K, 2) unit normal n, from a to b
     separation        (K,) C in m, negative when overlapping
-    normal_impulse    (K,) accumulated lambda_n of the step, N s (>= 0 under PGS)
-    tangent_impulse   (K,) accumulated friction lambda_t along t = (-n_y, n_x), N s
+    lambda_n          (K,) the accumulated normal impulse of the step, N s (>= 0 under PGS)
+    lambda_t          (K,) the accumulated friction impulse along t = (-n_y, n_x), N s
     feature           (K,) feature id (see ``phys2d.collision.narrowphase``)
     key               (K,) the contact's identity (pair of uids and feature)
     warm_started      (K,) True where the cache supplied last tick's impulses
@@ -112,8 +159,8 @@ class Contacts:
     point: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     separation: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    normal_impulse: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    tangent_impulse: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    lambda_n: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    lambda_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     feature: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     warm_started: np.ndarray = field(default_factory=lambda: np.zeros(0, np.bool_))
@@ -130,14 +177,15 @@ class Contacts:
             getattr(self, name).flags.writeable = False
         return self
 
-    def reordered(self, order: np.ndarray) -> Contacts:
-        """The same contacts listed in ``order`` (contact order[q] becomes the q-th).
+    @property
+    def normal_impulse(self) -> np.ndarray:
+        """``lambda_n`` under the name the API used first (read-only, N s)."""
+        return self.lambda_n
 
-        Arrays not filled yet (the impulses, before the responder) stay empty.
-        """
-        k = len(self)
-        return Contacts(**{name: (a[order] if a.shape[0] == k else a)
-                           for name, a in ((n, getattr(self, n)) for n in self.__dataclass_fields__)})
+    @property
+    def tangent_impulse(self) -> np.ndarray:
+        """``lambda_t`` under the name the API used first (read-only, N s)."""
+        return self.lambda_t
 
     @property
     def tangent(self) -> np.ndarray:
@@ -167,28 +215,27 @@ class ContactCache:
     def __len__(self) -> int:
         return int(self.keys.shape[0])
 
-    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(hit, lambda_n, lambda_t) for this step's contacts ``c`` (keys sorted), in their order:
-        the cached impulses (N s) of contacts found in the cache, 0 for the others and for
-        every contact of an island that lost a load (``unloaded_islands``)."""
-        k = len(c)
-        hit = np.zeros(k, np.bool_)
-        lambda_n, lambda_t = np.zeros(k), np.zeros(k)
-        warm_start_from_cache(self.keys, self.lambda_n, self.lambda_t, c.key, lambda_n, lambda_t, hit)
-        cold = np.zeros(k, np.bool_)
-        unloaded_islands(self.keys, self.pushed, c.key, c.body_a, c.body_b, uid, static, cold)
-        hit &= ~cold
-        lambda_n[cold] = 0.0
-        lambda_t[cold] = 0.0
-        return hit, lambda_n, lambda_t
+    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray, rows: Rows) -> tuple[np.ndarray, int]:
+        """Start the contact rows of ``rows`` from the cache (``warm_start_rows``): contacts
+        ``c`` (keys sorted) found in it get last tick's impulses (N s), the others and every
+        contact of an island that lost a load 0. Returns the (K,) mask of contacts found,
+        and how many."""
+        hit = np.empty(len(c), np.bool_)
+        hits = warm_start_rows(self.keys, self.lambda_n, self.lambda_t, self.pushed, c.key, c.body_a, c.body_b, uid,
+                               static, rows.order, rows.normal_row, rows.friction_row, rows.lam, hit)
+        return hit, hits
 
-    def store(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, impact: np.ndarray) -> None:
-        """Remember this tick's impulses (N s) for warm starting; ``keys`` must be sorted ascending.
-        A contact that met its partner fast within the tick (``impact``) took an event, not a
-        load: 0 is cached for it. Which contacts pushed at all is kept too (``unloaded_islands``).
-        The arrays are new: the ones handed to the user never feed the next warm start."""
+    def store_rows(self, keys: np.ndarray, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
+        """Remember this tick's impulses (N s), read off ``rows``, for warm starting; ``keys``
+        must be sorted ascending. A contact that met its partner fast within the tick (an
+        impact) took an event, not a load: 0 is cached for it. Which contacts pushed at all
+        is kept too (``unloaded_islands``). Returns (lambda_n, lambda_t) in contact order for
+        the contacts: arrays of their own, so the ones handed to the user never feed the
+        next warm start."""
+        k = keys.shape[0]
         self.keys = keys.copy()
-        self.lambda_n = np.where(impact, 0.0, lambda_n)
-        self.lambda_t = np.where(impact, 0.0, lambda_t)
-        self.pushed = lambda_n > 0.0
+        self.lambda_n, self.lambda_t, self.pushed = np.empty(k), np.empty(k), np.empty(k, np.bool_)
+        lambda_n, lambda_t = np.empty(k), np.empty(k)
+        impulses_to_contacts_and_cache(rows.order, rows.normal_row, rows.friction_row, rows.lam, rows.impact, lambda_n,
+                                       lambda_t, self.lambda_n, self.lambda_t, self.pushed)
+        return lambda_n, lambda_t

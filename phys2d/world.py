@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import fits_inside, sweep_and_prune, update_geometry
+from .collision.broadphase import sweep_and_prune, update_geometry_in
 from .collision.narrowphase import collide_pairs
 from .constraints.joints import (
     AngleJoint,
@@ -35,13 +35,15 @@ from .constraints.order import colour_pairs, solve_order
 from .constraints.rows import FRICTION_LECTURE, RowBuffer, Rows, contact_rows
 from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
-from .responders.base import Responder, StepContext, StepReport
+from .responders.base import EMPTY, Responder, StepContext, StepReport
 from .responders.pgs import PGS
 from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
 
 _J = TypeVar("_J", bound=Joint)
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
+NOT_COUNTED = np.ones(0)  # points per manifold, when the friction model does not need them
+NONE_WARM = np.zeros(0, np.bool_)  # placeholder until the step has warm started its contacts
 
 
 class SimulationError(RuntimeError):
@@ -67,7 +69,7 @@ class World:
 
     def __init__(self, gravity=(0.0, -10.0), responder: Responder | None = None, *,
                  contact_margin: float = 0.02, max_speed: float = 1e4) -> None:
-        self._gravity = vec2(gravity, "gravity")
+        self.gravity = gravity
         self._responder = self._check_responder(PGS() if responder is None else responder)
         self.contact_margin = contact_margin
         self.max_speed = max_speed
@@ -81,10 +83,12 @@ class World:
         self._n_pairs = 0
         self._pair_order = np.zeros(0, np.int32)  # pair indices in solve order (graph colouring)
         self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with
+        self._geometry: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._sweep_again = True  # bodies or exclusions changed since: the pairs must be found anew
         self._rows = RowBuffer()
-        self.contacts = Contacts().read_only()
-        self.last_step = StepReport().read_only()
+        self._contacts = Contacts().read_only()
+        self._contacts_sealed = True
+        self._last_step = StepReport().read_only()
         self.tick = 0
         self.time = 0.0
 
@@ -120,6 +124,7 @@ class World:
     @gravity.setter
     def gravity(self, value: ArrayLike) -> None:
         self._gravity = vec2(value, "gravity")
+        self._gravity_norm = float(math.hypot(*self._gravity))  # |g|, m/s^2
 
     @property
     def contact_margin(self) -> float:
@@ -245,8 +250,8 @@ class World:
         for h in self._handles[i:]:
             h._index -= 1
         item._index = -1
-        self.contacts = Contacts().read_only()  # its indices no longer match w.bodies
-        self.last_step = StepReport().read_only()  # nor does the last step's report
+        self._contacts = Contacts().read_only()  # its indices no longer match w.bodies
+        self._last_step = StepReport().read_only()  # nor does the last step's report
         self._joints_changed()
 
     # -- joints --------------------------------------------------------------------
@@ -344,38 +349,65 @@ class World:
         x, theta, V, M_inv = b.x, b.theta, b.V, b.M_inv
         responder = self._responder
         self._check_joints_supported(responder)
-        before = b.snapshot()
+        x0, theta0, V1 = x.copy(), theta.copy(), V.copy()  # the undo; V1 is also the velocity the tick began with
         try:
-            V1 = V.copy()
             apply_external_forces(V, M_inv, self._gravity, dt)
             c, order = self._collide(dt)
-            rows, hit = self._build_rows(c, order, V1, V, dt)
-            # the responders see contacts in row order: contact q of ctx is contact order[q]
-            rc = c.reordered(order) if responder.colour_order else c
-            ctx = StepContext(dt, x, theta, V, V1, M_inv, rows, len(c), rc.body_a, rc.body_b, rc.point,
-                              rc.normal, rc.separation, rc.restitution, gravity=self._gravity)
+            rows, hit, hits, deepest = self._build_rows(c, order, V1, V, dt)
+            ctx = self._context(c, order, rows, dt, V1)
             result = responder.respond(ctx)
             if not result.integrated:
                 integrate_positions(x, theta, V, dt)
             self._check_limits()
         except BaseException:
-            b.restore(before)
+            b.restore((x0, theta0, V1))
             raise
         k = len(c)
-        c.normal_impulse, c.tangent_impulse = rows.contact_impulses()
+        c.lambda_n, c.lambda_t = self._cache.store_rows(c.key, rows)
         c.warm_started = hit
-        self._cache.store(c.key, c.normal_impulse, c.tangent_impulse, rows.contact_impacts())
         self._store_joint_impulses(rows)
-        self.contacts = c.read_only()
-        self.last_step = StepReport(
-            responder=responder.name, dt=dt, iterations=result.iterations,
+        self._contacts, self._contacts_sealed = c, False  # sealed read-only when first looked at
+        self._last_step = StepReport(
+            responder=responder.name, dt=dt, iterations=result.iterations, counted=responder.counts,
             residuals=result.residuals,
-            max_penetration=float(max(0.0, -c.separation.min())) if k else 0.0,
-            contact_count=k, cache_hits=int(hit.sum()),
-            joint_impulses=rows.joint_impulses(), system=result.system, solve_order=order).read_only()
+            max_penetration=deepest, contact_count=k, cache_hits=hits,
+            joint_impulses=rows.joint_impulses() if self._joints else EMPTY, system=result.system,
+            solve_order=order)  # its arrays turn read-only when first looked at
         self.tick += 1
         self.time += dt
-        return self.last_step
+        return self._last_step
+
+    @property
+    def contacts(self) -> Contacts:
+        """The contact points of the last step (read-only arrays)."""
+        if not self._contacts_sealed:
+            self._contacts.read_only()
+            self._contacts_sealed = True
+        return self._contacts
+
+    @property
+    def last_step(self) -> StepReport:
+        """What the last step did (``StepReport``; read-only arrays)."""
+        return self._last_step
+
+    def _context(self, c: Contacts, order: np.ndarray, rows: Rows, dt: float, V1: np.ndarray) -> StepContext:
+        """What the responder sees: the contacts in row order (contact q of ctx is contact order[q])."""
+        b = self._bodies
+        if self._responder.colour_order:  # only the fields a responder reads, in row order
+            body_a, body_b, point, normal = c.body_a[order], c.body_b[order], c.point[order], c.normal[order]
+            separation, restitution = c.separation[order], c.restitution[order]
+        else:  # pair order: row order is contact order
+            body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
+            separation, restitution = c.separation, c.restitution
+        return StepContext(dt, b.x, b.theta, b.V, V1, b.M_inv, rows, len(c), body_a, body_b, point, normal,
+                           separation, restitution, gravity=self._gravity)
+
+    def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """World vertices, edge normals, AABBs and travel: kept while the bodies are the same."""
+        b = self._bodies
+        if self._geometry is None or self._geometry[0].shape[0] != b.n_verts or self._geometry[2].shape[0] != b.n:
+            self._geometry = (np.empty((b.n_verts, 2)), np.empty((b.n_verts, 2)), np.empty((b.n, 4)), np.empty(b.n))
+        return self._geometry
 
     def _collide(self, dt: float = 0.0) -> tuple[Contacts, np.ndarray]:
         """Broadphase and narrowphase at the current positions: this step's contacts, and
@@ -385,13 +417,10 @@ class World:
         velocities could close within dt (speculative contacts).
         """
         b = self._bodies
-        world_v = np.empty((b.n_verts, 2))
-        world_n = np.empty((b.n_verts, 2))
-        aabb = np.empty((b.n, 4))
-        travel = np.empty(b.n)
-        update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
-                        self.contact_margin, world_v, world_n, aabb, travel)
-        if self._sweep_again or not fits_inside(aabb, self._fat):  # something left its fat box: sweep again
+        world_v, world_n, aabb, travel = self._geometry_buffers()
+        fits = update_geometry_in(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
+                                  self._contact_margin, world_v, world_n, aabb, travel, self._fat)
+        if self._sweep_again or not fits:  # something left its fat box: sweep again
             fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
             n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
             if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
@@ -411,16 +440,18 @@ class World:
         else:
             order = np.arange(k, dtype=np.int32)
         return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
-                        feature=feature, key=key, friction=mu, restitution=e), order
+                        lambda_n=EMPTY, lambda_t=EMPTY, feature=feature, key=key, warm_started=NONE_WARM,
+                        friction=mu, restitution=e), order
 
     def _build_rows(self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
-                    ) -> tuple[Rows, np.ndarray]:
+                    ) -> tuple[Rows, np.ndarray, int, float]:
         """Constraint rows for this step: contacts (visited in ``order``), then the joints' rows.
 
         V1 is the velocity the tick began with, V the one after external forces.
 
         Returns the rows, lambda started from the contact cache when the responder
-        warm starts, and the mask of contacts found in the cache.
+        warm starts, the mask of contacts found in the cache and their number, and the
+        deepest overlap (m).
         """
         b = self._bodies
         r = self._responder
@@ -432,22 +463,20 @@ class World:
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
-            points_in_manifold = np.ones(k)
-        contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
+            points_in_manifold = NOT_COUNTED  # Coulomb friction does not look at it
+        deepest = contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
                      c.separation, c.friction, c.restitution, b.x, V1, V, b.M_inv, dt, r.beta, r.slop,
-                     r.push_max, r.restitution_threshold, r.friction_model,
-                     float(math.hypot(*self._gravity)), points_in_manifold,
-                     rows.i, rows.j, rows.J, rows.JM, rows.A_diag, rows.xi, rows.push, rows.bounce, rows.impact,
-                     rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+                     r.push_max, r.restitution_threshold, r.friction_model, self._gravity_norm,
+                     points_in_manifold, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.push,
+                     rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu)
         if r.warm_start:
-            hit, lambda_n, lambda_t = self._cache.warm_start(c, b.uid, b.static)
-            rows.start_contacts(lambda_n, lambda_t)
+            hit, hits = self._cache.warm_start(c, b.uid, b.static, rows)
         else:
-            hit = np.zeros(k, np.bool_)
+            hit, hits = np.zeros(k, np.bool_), 0
         if ja.n_rows:
             joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
-                       rows.first_joint_row, b.x, b.theta, b.M_inv, dt, r.beta, rows.i, rows.j, rows.J,
-                       rows.JM, rows.A_diag, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.kind)
+                       rows.first_joint_row, b.x, b.theta, b.M_inv, dt, r.beta, rows.body_a, rows.body_b, rows.J,
+                       rows.JM, rows.A_kk, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu)
             rows.push[rows.first_joint_row :] = 0.0  # joints keep their Baumgarte term in xi
             rows.bounce[rows.first_joint_row :] = 0.0
             rows.impact[rows.first_joint_row :] = False
@@ -455,7 +484,7 @@ class World:
                 for q, joint in enumerate(self._joints):
                     start = rows.first_joint_row + ja.row_offset[q]
                     rows.lam[start : start + joint.row_count] = joint._impulse
-        return rows, hit
+        return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, rows: Rows) -> None:
         """Hand each joint its rows and reactions of the step just taken."""

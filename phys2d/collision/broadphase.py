@@ -76,6 +76,16 @@ def fits_inside(aabb, fat):
 
 
 @njit(cache=True)
+def update_geometry_in(x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n,
+                       aabb, travel, fat):
+    """``update_geometry``, then whether every tight box still lies inside its fat box
+    (``fits_inside``): True when last step's pairs still hold."""
+    update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb,
+                    travel)
+    return fits_inside(aabb, fat)
+
+
+@njit(cache=True)
 def _excluded(excluded, a, b):
     """Binary search of the sorted pair keys a * 2^32 + b (a < b) of joined bodies."""
     key = (np.int64(a) << 32) | np.int64(b)

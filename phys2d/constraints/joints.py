@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from ..validation import finite_float, vec2
-from .rows import ROW_JOINT, fill_row
+from .rows import fill_row
 
 JOINT_DISTANCE = 0
 JOINT_PIN = 1
@@ -265,8 +265,7 @@ def _limit_xi(gap, beta, dt):
 
 @njit(cache=True)
 def joint_rows(kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta,
-               M_inv, dt, beta, out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu,
-               out_kind):
+               M_inv, dt, beta, out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu):
     """Rows first_row + row_offset[q] ... of joint q (see the module docstring)."""
     for q in range(kind.shape[0]):
         i, j = body_i[q], body_j[q]
@@ -323,4 +322,3 @@ def joint_rows(kind, body_i, body_j, local_i, local_j, params, row_offset, first
             out_j[k + m] = j
             bound_row[k + m] = -1
             out_mu[k + m] = 0.0
-            out_kind[k + m] = ROW_JOINT

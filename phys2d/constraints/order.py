@@ -1,8 +1,10 @@
-"""The order in which the responders visit contacts: graph colouring.
+"""The order in which the responders visit contacts: pair order, or graph colouring.
 
 Gauss-Seidel may visit rows in any order; the order changes which fixed point
-it creeps towards first, not the problem it solves. phys2d visits contact
-manifolds colour by colour: a greedy colouring gives each candidate pair the
+it creeps towards first, not the problem it solves. The lecture's PGS visits
+contacts in pair order, row by row (coloured, pyramid_40 toppled). A responder
+that sets ``colour_order`` (the soft step) visits contact manifolds colour by
+colour instead: a greedy colouring gives each candidate pair the
 smallest colour that neither of its dynamic bodies has used yet, so within one
 colour no two manifolds share a dynamic body (static bodies are shared freely:
 nothing moves them). Consecutive rows then touch different bodies, the

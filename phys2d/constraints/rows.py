@@ -1,11 +1,11 @@
 """Constraint rows: the lecture's J, one row per constraint, 6 non-zeros each.
 
-A row k couples bodies i and j. Everything the responders need is stored per row:
+A row k couples bodies a and b. Everything the responders need is stored per row:
 
-    i, j       the two bodies (indices into the body arrays)
-    J          (R, 6)  [J_i | J_j]: the row's only non-zero entries of the lecture's J
+    body_a, body_b  the two bodies (indices into the body arrays)
+    J          (R, 6)  [J_a | J_b]: the row's only non-zero entries of the lecture's J
     JM         (R, 6)  M^-1 J^T for the same entries: the velocity change per unit lambda
-    A_diag     (R,)    A_kk = J_k M^-1 J_k^T, the diagonal of A = J M^-1 J^T
+    A_kk       (R,)    J_k M^-1 J_k^T, the diagonal of A = J M^-1 J^T
     xi         (R,)    the velocity J_k V2 must reach: -C/dt for a speculative contact point
                        (close the gap, no more), 0 for a touching one, a joint's Baumgarte term
     push       (R,)    a touching contact point's Baumgarte push-out speed, capped (0 elsewhere);
@@ -23,7 +23,6 @@ A row k couples bodies i and j. Everything the responders need is stored per row
                        sets the bounds +-mu * lambda_n; -1 for rows with fixed bounds
     mu         (R,)    friction coefficient of a friction row
     lam        (R,)    lambda_k, impulses in N s: the warm start going in, the answer coming out
-    kind       (R,)    ROW_NORMAL, ROW_FRICTION, ROW_JOINT
 
 and the row map, the one place that says which rows belong to which contact:
 
@@ -32,19 +31,17 @@ and the row map, the one place that says which rows belong to which contact:
     friction_row  (K,)  its friction row
     first_joint_row     joint rows run from here to the end
 
-Contacts are stored in the order the responders visit them (pair order, or graph
-colouring: see ``constraints.order``); ``contact_impulses()`` gives lambda_n and
-lambda_t back in contact order.
+Rows are stored in the order the responders visit them: contact by contact in
+pair order (the lecture's PGS), or pair by pair in colour order for the responders
+that ask for it (``Responder.colour_order``, see ``constraints.order``); the joint
+rows come last. ``contact_impulses()`` gives lambda_n and lambda_t back in contact
+order.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
-
-ROW_NORMAL = 0
-ROW_FRICTION = 1
-ROW_JOINT = 2
 
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
@@ -57,18 +54,23 @@ def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:
     """The row map: the q-th visited contact owns rows 2q (normal) and 2q + 1 (friction);
     joint rows follow the last contact's. Returns (normal_row, friction_row, first_joint_row)."""
     q = np.arange(n_contacts, dtype=np.int32)
-    return 2 * q, 2 * q + 1, 2 * n_contacts
+    return 2 * q, 2 * q + 1, contact_row_count(n_contacts)
+
+
+def contact_row_count(n_contacts: int) -> int:
+    """How many rows n_contacts contacts own: the first joint row."""
+    return 2 * n_contacts
 
 
 class Rows:
     """The constraint rows of one step (arrays of length R) and the row map."""
 
     def __init__(self, n_rows: int) -> None:
-        self.i = np.zeros(n_rows, np.int32)
-        self.j = np.zeros(n_rows, np.int32)
+        self.body_a = np.zeros(n_rows, np.int32)
+        self.body_b = np.zeros(n_rows, np.int32)
         self.J = np.zeros((n_rows, 6))
         self.JM = np.zeros((n_rows, 6))
-        self.A_diag = np.zeros(n_rows)
+        self.A_kk = np.zeros(n_rows)
         self.xi = np.zeros(n_rows)
         self.push = np.zeros(n_rows)
         self.bounce = np.zeros(n_rows)
@@ -78,39 +80,46 @@ class Rows:
         self.bound_row = np.full(n_rows, -1, np.int32)
         self.mu = np.zeros(n_rows)
         self.lam = np.zeros(n_rows)
-        self.kind = np.zeros(n_rows, np.int8)
         self.map_contacts(np.zeros(0, np.int32))
 
-    _ARRAYS = ("i", "j", "J", "JM", "A_diag", "xi", "push", "bounce", "impact", "lo", "hi", "bound_row", "mu", "lam",
-               "kind")
+    _ARRAYS = ("body_a", "body_b", "J", "JM", "A_kk", "xi", "push", "bounce", "impact", "lo", "hi", "bound_row", "mu",
+               "lam")
+
+    @property
+    def i(self) -> np.ndarray:
+        """The older name of ``body_a``."""
+        return self.body_a
+
+    @property
+    def j(self) -> np.ndarray:
+        """The older name of ``body_b``."""
+        return self.body_b
+
+    @property
+    def A_diag(self) -> np.ndarray:
+        """The older name of ``A_kk``."""
+        return self.A_kk
 
     def __len__(self) -> int:
-        return int(self.i.shape[0])
+        return int(self.lam.shape[0])
 
-    def map_contacts(self, order: np.ndarray) -> None:
-        """Give the contacts, visited in ``order``, their rows (``contact_row_map``)."""
+    def map_contacts(self, order: np.ndarray, row_map: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Give the contacts, visited in ``order``, their rows (``contact_row_map``; ``row_map``:
+        that map made for at least as many contacts, to be cut to length)."""
         self.order = order
-        self.n_contacts = int(order.shape[0])
-        self.normal_row, self.friction_row, self.first_joint_row = contact_row_map(self.n_contacts)
-
-    def contact_impacts(self) -> np.ndarray:
-        """(K,) True for each contact that met its partner fast within the step, in contact order."""
-        out = np.empty(self.n_contacts, np.bool_)
-        out[self.order] = self.impact[self.normal_row]
-        return out
+        self.n_contacts = k = int(order.shape[0])
+        if row_map is None:
+            row_map = contact_row_map(k)[:2]
+        self.normal_row, self.friction_row = row_map[0][:k], row_map[1][:k]
+        self.first_joint_row = contact_row_count(k)
 
     def contact_impulses(self) -> tuple[np.ndarray, np.ndarray]:
         """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
-        lambda_n = np.empty(self.n_contacts)
-        lambda_t = np.empty(self.n_contacts)
-        lambda_n[self.order] = self.lam[self.normal_row]
-        lambda_t[self.order] = self.lam[self.friction_row]
+        k = self.n_contacts
+        lambda_n, lambda_t, impact = np.empty(k), np.empty(k), np.empty(k, np.bool_)
+        rows_to_contacts(self.order, self.normal_row, self.friction_row, self.lam, self.impact, lambda_n, lambda_t,
+                         impact)
         return lambda_n, lambda_t
-
-    def start_contacts(self, lambda_n: np.ndarray, lambda_t: np.ndarray) -> None:
-        """Start the contact rows from (lambda_n, lambda_t) given in contact order (warm starting)."""
-        self.lam[self.normal_row] = lambda_n[self.order]
-        self.lam[self.friction_row] = lambda_t[self.order]
 
     def joint_impulses(self) -> np.ndarray:
         """lambda of the joint rows, in joint order (a copy)."""
@@ -126,57 +135,72 @@ class Rows:
         return rows
 
 
+@njit(cache=True)
+def rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact):
+    """Contact c = order[q]'s lambda_n, lambda_t (N s) and impact flag, read off its rows."""
+    for q in range(order.shape[0]):
+        c = order[q]
+        lambda_n[c] = lam[normal_row[q]]
+        lambda_t[c] = lam[friction_row[q]]
+        impact[c] = row_impact[normal_row[q]]
+
+
 class RowBuffer:
     """Row storage reused from step to step, so a step allocates no row arrays."""
 
     def __init__(self) -> None:
         self._rows = Rows(0)
         self._head = self._rows.head(0)
+        self._map = contact_row_map(0)
 
     def take(self, order: np.ndarray, n_joint_rows: int) -> Rows:
         """Rows for the contacts visited in ``order`` and then the joints, lambda at 0
         (the same views as last step when the row count holds)."""
-        n_rows = contact_row_map(len(order))[2] + n_joint_rows
+        k = len(order)
+        if k > len(self._map[0]):  # the row map, made once for as many contacts as seen
+            self._map = contact_row_map(max(k, 2 * len(self._map[0])))
+        n_rows = contact_row_count(k) + n_joint_rows
         if n_rows > len(self._rows):
             self._rows = Rows(max(n_rows, 2 * len(self._rows)))
         if n_rows == len(self._head):
             self._head.lam[:] = 0.0
         else:
             self._head = self._rows.head(n_rows)
-        self._head.map_contacts(order)
+        self._head.map_contacts(order, self._map[:2])
         return self._head
 
 
 @njit(cache=True)
-def fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx, dy, M_inv, J, JM, A_diag):
-    """Row k of J for direction d acting at lever arms r_i, r_j: [-d, -(r_i x d) | d, r_j x d]."""
+def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
+    """Row k of J for direction d acting at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]."""
     J[k, 0] = -dx
     J[k, 1] = -dy
-    J[k, 2] = -(r_ix * dy - r_iy * dx)
+    J[k, 2] = -(r_ax * dy - r_ay * dx)
     J[k, 3] = dx
     J[k, 4] = dy
-    J[k, 5] = r_jx * dy - r_jy * dx
-    a = 0.0
+    J[k, 5] = r_bx * dy - r_by * dx
+    A = 0.0
     for c in range(3):
-        JM[k, c] = M_inv[i, c] * J[k, c]
-        JM[k, 3 + c] = M_inv[j, c] * J[k, 3 + c]
-        a += J[k, c] * JM[k, c] + J[k, 3 + c] * JM[k, 3 + c]
-    A_diag[k] = a
+        JM[k, c] = M_inv[a, c] * J[k, c]
+        JM[k, 3 + c] = M_inv[b, c] * J[k, 3 + c]
+        A += J[k, c] * JM[k, c] + J[k, 3 + c] * JM[k, 3 + c]
+    A_kk[k] = A
 
 
-@njit(cache=True)
-def row_velocity(k, i, j, J, V):
-    """J_k V: the row's relative velocity (m/s for contacts)."""
-    return (J[k, 0] * V[i, 0] + J[k, 1] * V[i, 1] + J[k, 2] * V[i, 2]
-            + J[k, 3] * V[j, 0] + J[k, 4] * V[j, 1] + J[k, 5] * V[j, 2])
+@njit(cache=True, inline="always")
+def row_velocity(k, a, b, J, V):
+    """J_k V: the row's relative velocity (m/s for contacts). Summed as a tree: in a sweep this
+    sum waits for the last row's impulse, and a tree waits three additions, not five."""
+    return ((J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1]) + (J[k, 2] * V[a, 2] + J[k, 5] * V[b, 2])
+            + (J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1]))
 
 
-@njit(cache=True)
-def apply_row_impulse(k, i, j, JM, impulse, V):
-    """V += M^-1 J_k^T impulse: what an impulse along row k does to bodies i and j."""
+@njit(cache=True, inline="always")
+def apply_row_impulse(k, a, b, JM, impulse, V):
+    """V += M^-1 J_k^T impulse: what an impulse along row k does to bodies a and b."""
     for c in range(3):
-        V[i, c] += JM[k, c] * impulse
-        V[j, c] += JM[k, 3 + c] * impulse
+        V[a, c] += JM[k, c] * impulse
+        V[b, c] += JM[k, 3 + c] * impulse
 
 
 @njit(cache=True)
@@ -227,9 +251,8 @@ def bounce_target(e, vn_impact, dvn):
 @njit(cache=True)
 def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1, V,
                  M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity,
-                 points_in_manifold, out_i, out_j, J, JM, A_diag, xi, push, bounce, impact, lo, hi, bound_row,
-                 out_mu, kind):
-    """The normal and friction rows of contact point c = order[q] (FORMULATION.md).
+                 points_in_manifold, out_a, out_b, J, JM, A_kk, xi, push, bounce, impact, lo, hi, bound_row, out_mu):
+    """The normal and friction rows of contact point c = order[q] (docs/formulation.md).
 
     Normal:   xi = -C/dt for a speculative point still C > 0 apart (it may close the gap
               within the step, no more), 0 when touching; push = min(-(beta/dt) min(0, C + slop),
@@ -240,20 +263,24 @@ def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal,
     Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of its normal row, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
+
+    Returns the deepest overlap, max(0, -min C) (m).
     """
+    deepest = 0.0
     for q in range(order.shape[0]):
         c = order[q]
-        i, j = body_a[c], body_b[c]
+        a, b = body_a[c], body_b[c]
+        deepest = max(deepest, -separation[c])
         nx, ny = normal[c, 0], normal[c, 1]
-        r_ix, r_iy = point[c, 0] - x[i, 0], point[c, 1] - x[i, 1]
-        r_jx, r_jy = point[c, 0] - x[j, 0], point[c, 1] - x[j, 1]
+        r_ax, r_ay = point[c, 0] - x[a, 0], point[c, 1] - x[a, 1]
+        r_bx, r_by = point[c, 0] - x[b, 0], point[c, 1] - x[b, 1]
         k = normal_row[q]
-        out_i[k] = i
-        out_j[k] = j
-        fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, nx, ny, M_inv, J, JM, A_diag)
+        out_a[k] = a
+        out_b[k] = b
+        fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, nx, ny, M_inv, J, JM, A_kk)
         xi[k] = speculative_target(separation[c], dt)
         push[k] = baumgarte_push(separation[c], dt, beta, slop, push_max)
-        vn_start, vn_forced = row_velocity(k, i, j, J, V1), row_velocity(k, i, j, J, V)
+        vn_start, vn_forced = row_velocity(k, a, b, J, V1), row_velocity(k, a, b, J, V)
         vn = approach_at_impact(separation[c], vn_start, vn_forced, dt)
         bounce[k] = 0.0
         impact[k] = separation[c] > MET and vn < -restitution_threshold
@@ -267,27 +294,26 @@ def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal,
         hi[k] = np.inf
         bound_row[k] = -1
         out_mu[k] = 0.0
-        kind[k] = ROW_NORMAL
         k = friction_row[q]
-        out_i[k] = i
-        out_j[k] = j
-        fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, -ny, nx, M_inv, J, JM, A_diag)
+        out_a[k] = a
+        out_b[k] = b
+        fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, -ny, nx, M_inv, J, JM, A_kk)
         xi[k] = 0.0
         push[k] = 0.0
         bounce[k] = 0.0
         impact[k] = False
         out_mu[k] = mu[c]
-        kind[k] = ROW_FRICTION
         if friction_model == FRICTION_COULOMB:
             bound_row[k] = normal_row[q]
             lo[k] = -np.inf
             hi[k] = np.inf
         else:
             # the reduced mass of the pair: a static partner counts as infinitely heavy
-            inv = M_inv[i, 0] + M_inv[j, 0]
+            inv = M_inv[a, 0] + M_inv[b, 0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
             # fixed: it does not look at lambda_n, so it acts on speculative points too
             bound = mu[c] * m_c * gravity * dt
             bound_row[k] = -1
             lo[k] = -bound
             hi[k] = bound
+    return deepest

@@ -149,8 +149,8 @@ class Sampler:
                      theta=np.array(w.theta, dtype=np.float64), V=np.array(w.V, dtype=np.float64),
                      key=np.array(c.key, dtype=np.int64), point=np.array(c.point, dtype=np.float64),
                      normal=np.array(c.normal, dtype=np.float64), separation=np.array(c.separation, dtype=np.float64),
-                     lambda_n=np.array(c.normal_impulse, dtype=np.float64),
-                     lambda_t=np.array(c.tangent_impulse, dtype=np.float64),
+                     lambda_n=np.array(c.lambda_n, dtype=np.float64),
+                     lambda_t=np.array(c.lambda_t, dtype=np.float64),
                      warm=np.array(c.warm_started, dtype=np.bool_), gravity=w.gravity, step=step,
                      residuals=np.array(s.residuals, dtype=np.float64))
         joints = w.joints

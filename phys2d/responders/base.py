@@ -10,7 +10,7 @@ starting, calls ``respond`` and reads the impulses back from ``rows.lam``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -55,33 +55,81 @@ class SolveResult:
     integrated: bool = False  # True if the responder moved the positions itself (sub-steps, or a pass after)
 
 
-@dataclass(eq=False)
+EMPTY = np.zeros(0)
+EMPTY.flags.writeable = False  # a read-only empty array, shared by every report that has nothing to show
+
+
 class StepReport:
     """What the last ``World.step`` did (``w.last_step``).
 
-    residuals[k] is the largest velocity correction |delta lambda_k| A_kk (m/s) any
-    row needed in sweep k: it falls towards 0 as the iterations converge.
+    responder        the responder's name
+    dt               the step, s
+    count            the work the responder did, counted in ``counted``: PGS sweeps,
+                     IterativeImpulse passes, SoftStep sub-steps (``Responder.counts``)
+    counted          which: 'sweeps', 'passes', 'substeps' (or 'iterations' for others)
+    iterations       ``count`` under its older name, whatever was counted
+    residuals        residuals[s] is the largest velocity correction |delta lambda_k| A_kk
+                     (m/s) any row needed in sweep (pass, sub-step) s: it falls towards 0
+                     as the iterations converge
+    max_penetration  m, the deepest overlap at collision time
+    contact_count, cache_hits   contacts of the step, and how many the cache warm started
+    joint_impulses   lambda of the joint rows, in joint order (N s)
+    system           the assembled matrix system, for responders that build one
+    solve_order      the q-th contact visited (and given the q-th pair of rows of the
+                     step's system) is solve_order[q]
+
+    Its arrays are read-only: the report describes a step taken.
     """
 
-    responder: str = "none"
-    dt: float = 0.0
-    iterations: int = 0
-    residuals: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    max_penetration: float = 0.0  # m, the deepest overlap at collision time
-    contact_count: int = 0
-    cache_hits: int = 0
-    joint_impulses: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    system: object = None
-    solve_order: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
-    # the q-th contact visited (and given the q-th pair of rows of the step's system) is solve_order[q]
+    __slots__ = ("responder", "dt", "count", "counted", "_residuals", "max_penetration", "contact_count", "cache_hits",
+                 "_joint_impulses", "system", "_solve_order", "_sealed")
+
+    def __init__(self, responder: str = "none", dt: float = 0.0, iterations: int = 0,
+                 residuals: np.ndarray = EMPTY, max_penetration: float = 0.0, contact_count: int = 0,
+                 cache_hits: int = 0, joint_impulses: np.ndarray = EMPTY, system: object = None,
+                 solve_order: np.ndarray = EMPTY, counted: str = "iterations") -> None:
+        self.responder = responder
+        self.dt = dt
+        self.count = iterations
+        self.counted = counted
+        self._residuals = residuals
+        self.max_penetration = max_penetration
+        self.contact_count = contact_count
+        self.cache_hits = cache_hits
+        self._joint_impulses = joint_impulses
+        self.system = system
+        self._solve_order = solve_order
+        self._sealed = False
 
     def read_only(self) -> StepReport:
         """Make the report's arrays (and its system's) read-only, and return self."""
-        for a in (self.residuals, self.joint_impulses, self.solve_order):
-            a.flags.writeable = False
-        if self.system is not None:
-            self.system.read_only()
+        if not self._sealed:
+            for a in (self._residuals, self._joint_impulses, self._solve_order):
+                a.flags.writeable = False
+            if self.system is not None:
+                self.system.read_only()  # type: ignore[attr-defined]
+            self._sealed = True
         return self
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """(count,) m/s, read-only."""
+        return self.read_only()._residuals
+
+    @property
+    def joint_impulses(self) -> np.ndarray:
+        """Joint rows' lambda (N s), read-only."""
+        return self.read_only()._joint_impulses
+
+    @property
+    def solve_order(self) -> np.ndarray:
+        """(K,) contact indices in the order visited, read-only."""
+        return self.read_only()._solve_order
+
+    @property
+    def iterations(self) -> int:
+        """``count``: the sweeps, passes or sub-steps of the step (see ``counted``)."""
+        return self.count
 
     @property
     def cache_hit_rate(self) -> float:
@@ -89,9 +137,9 @@ class StepReport:
         return self.cache_hits / self.contact_count if self.contact_count else 1.0
 
     def __repr__(self) -> str:
-        res = f"{self.residuals[-1]:.3g} m/s" if self.residuals.size else "-"
+        res = f"{self._residuals[-1]:.3g} m/s" if self._residuals.size else "-"
         return (f"<StepReport {self.responder}: {self.contact_count} contacts, "
-                f"{self.cache_hits} cached, {self.iterations} iterations, final residual {res}, "
+                f"{self.cache_hits} cached, {self.count} {self.counted}, final residual {res}, "
                 f"max penetration {self.max_penetration:.4g} m>")
 
 
@@ -104,11 +152,12 @@ class Responder:
     restitution_threshold  approach speed (m/s) above which contacts bounce
     warm_start  whether the world should start lambda from the contact cache
     handles_joints  whether joint rows may be given to this responder
+    counts  the word for the work ``SolveResult.iterations`` counts: 'sweeps', 'passes', 'substeps'
     colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
                     instead of in pair order: faster sweeps, a different Gauss-Seidel order
     """
 
-    name = "responder"
+    counts = "iterations"  # what StepReport.count counts for this responder
     beta = 0.2
     slop = 0.005
     push_max = 3.0
@@ -116,7 +165,16 @@ class Responder:
     warm_start = False
     handles_joints = False
     colour_order = False
-    friction_model = FRICTION_COULOMB
+
+    @property
+    def name(self) -> str:
+        """The responder's name in reports (a subclass may set a plain class attribute)."""
+        return "responder"
+
+    @property
+    def friction_model(self) -> int:
+        """FRICTION_COULOMB or FRICTION_LECTURE: how the rows bound friction."""
+        return FRICTION_COULOMB
 
     def respond(self, ctx: StepContext) -> SolveResult:  # pragma: no cover - interface
         raise NotImplementedError

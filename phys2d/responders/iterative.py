@@ -43,6 +43,7 @@ class IterativeImpulse(Responder):
     push_max (m/s) bounds how fast the push-apart may remove an overlap."""
 
     name = "iterative"
+    counts = "passes"
     warm_start = False
     handles_joints = False
 

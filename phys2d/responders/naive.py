@@ -38,7 +38,7 @@ support stacking". Joints are not pairs of colliding points: a world with joints
 refuses these responders.
 
 The impulses of a pair are reported on its colliding points, shared equally
-(``w.contacts.normal_impulse`` sums to the pair's f); other points report 0.
+(``w.contacts.lambda_n`` sums to the pair's f); other points report 0.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The lecture's PGS on A lambda = b, with A = J M^-1 J^T never formed: the term
 sum_l A_kl lambda_l - b_k is J_k V - xi_k, read off the velocities that every
-impulse applied so far has produced (FORMULATION.md, "Projected Gauss-Seidel").
+impulse applied so far has produced (docs/formulation.md, "Projected Gauss-Seidel").
 
 One step (``PGS.respond``):
 
@@ -13,6 +13,13 @@ One step (``PGS.respond``):
     restitution pass                  points that met their partner fast bounce (restitution.py)
 
 With split=False the push is part of xi, as the lecture has it, and stays in V.
+
+``sweep`` is the lecture's loop, one row at a time in pair order (rows are stored
+in it: each contact's normal row, then its friction row; joint rows last);
+``block_sweep`` is Box2D's block solver, which takes a two-point manifold's normal
+rows together (``lcp2``, shared with the soft step). ``pgs_step`` runs a whole
+``respond`` in one numba call: each call from Python costs a dispatch that grows
+with its arguments.
 """
 
 from __future__ import annotations
@@ -20,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import FRICTION_COULOMB, FRICTION_LECTURE
+from ..constraints.rows import FRICTION_COULOMB, FRICTION_LECTURE, apply_row_impulse, row_velocity
+from ..integrate import integrate_positions
 from ..validation import (
     Setting,
     check_bool,
@@ -32,19 +40,15 @@ from ..validation import (
 )
 from .base import Responder, SolveResult, StepContext
 from .pgs_matrix import solve_matrix_form
-from .restitution import bounce_after_moving
+from .restitution import bouncing_contacts, restitution_pass
 
 
 @njit(cache=True)
-def apply_impulses(i, j, JM, lam, V):
+def apply_impulses(body_a, body_b, JM, lam, V):
     """V += M^-1 J^T lambda: the warm start, one row at a time."""
     for k in range(lam.shape[0]):
-        if lam[k] == 0.0:
-            continue
-        a, b = i[k], j[k]
-        for c in range(3):
-            V[a, c] += JM[k, c] * lam[k]
-            V[b, c] += JM[k, 3 + c] * lam[k]
+        if lam[k] != 0.0:
+            apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
 
 @njit(cache=True)
@@ -73,111 +77,128 @@ def block_is_well_conditioned(K11, K12, K22):
     return K11 * K11 < 1000.0 * (K11 * K22 - K12 * K12)
 
 
-@njit(cache=True)
-def sweep(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, inv_A, xi, lo, hi, bound_row, mu,
-          lam, V, block):
-    """One projected Gauss-Seidel sweep over the rows; returns the largest |delta lambda_k| A_kk (m/s).
+@njit(cache=True, inline="always")
+def bounds(k, lo, hi, bound_row, mu, lam):
+    """(low, high) of lambda_k: the Coulomb cone +-mu lambda_n of its normal row, or fixed."""
+    if bound_row[k] >= 0:
+        top = mu[k] * lam[bound_row[k]]
+        return -top, top
+    return lo[k], hi[k]
 
-    Contacts in solve order: each one's normal row then its friction row (the
-    lecture's PGS, row by row), or with ``block`` each two-point manifold's normal
-    rows together as a 2x2 LCP (Box2D's block solver), then its two friction rows.
-    Joint rows (first_joint_row on) come last. A friction row of -1 is skipped (the
-    push pass sweeps normal rows only). The row update is written out here, not
-    called: a call per row costs more than the row.
+
+@njit(cache=True)
+def sweep(visit, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V):
+    """One projected Gauss-Seidel sweep over the rows ``visit``, one row at a time (the
+    lecture's loop); returns the largest velocity correction |delta lambda_k| A_kk (m/s).
+
+    J_k V is read off the current velocities, so it already holds every impulse applied
+    so far: sum_l A_kl lambda_l - b_k = J_k V - xi_k.
     """
     worst = 0.0
-    n_contacts = normal_row.shape[0]
-    n_steps = n_contacts + lam.shape[0] - first_joint_row
-    q = 0
-    while q < n_steps:
-        if q >= n_contacts:
-            k = first_joint_row + (q - n_contacts)
-            first, second, step = k, -1, 1  # a joint row
-        else:
-            k = normal_row[q]
-            first, second, step = k, friction_row[q], 1  # a contact's normal and friction rows
-        a, b = i[k], j[k]
-        if block and q + 1 < n_contacts and i[normal_row[q + 1]] == a and j[normal_row[q + 1]] == b:
-            n1, n2 = k, normal_row[q + 1]
-            K11, K22 = A_diag[n1], A_diag[n2]
-            K12 = 0.0
-            for c in range(6):
-                K12 += J[n1, c] * JM[n2, c]
-            if block_is_well_conditioned(K11, K12, K22):
-                a1, a2 = lam[n1], lam[n2]
-                vn1 = (J[n1, 0] * V[a, 0] + J[n1, 1] * V[a, 1] + J[n1, 2] * V[a, 2]
-                       + J[n1, 3] * V[b, 0] + J[n1, 4] * V[b, 1] + J[n1, 5] * V[b, 2])
-                vn2 = (J[n2, 0] * V[a, 0] + J[n2, 1] * V[a, 1] + J[n2, 2] * V[a, 2]
-                       + J[n2, 3] * V[b, 0] + J[n2, 4] * V[b, 1] + J[n2, 5] * V[b, 2])
-                # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
-                x1, x2 = lcp2(K11, K12, K22, vn1 - xi[n1] - (K11 * a1 + K12 * a2),
-                              vn2 - xi[n2] - (K12 * a1 + K22 * a2))
-                d1, d2 = x1 - a1, x2 - a2
-                lam[n1] = x1
-                lam[n2] = x2
-                for c in range(3):
-                    V[a, c] += JM[n1, c] * d1 + JM[n2, c] * d2
-                    V[b, c] += JM[n1, 3 + c] * d1 + JM[n2, 3 + c] * d2
-                worst = max(worst, abs(d1) * K11, abs(d2) * K22)
-                first, second, step = friction_row[q], friction_row[q + 1], 2  # then the two friction rows
-        for r in range(2):
-            kk = first if r == 0 else second
-            if kk < 0 or A_diag[kk] <= 0.0:
-                continue  # no row, or both bodies static: nothing can move
-            if bound_row[kk] >= 0 and lam[bound_row[kk]] == 0.0 and lam[kk] == 0.0:
-                continue  # friction of a point that does not push: its cone is [0, 0], nothing to do
-            jv = (J[kk, 0] * V[a, 0] + J[kk, 1] * V[a, 1] + J[kk, 2] * V[a, 2]
-                  + J[kk, 3] * V[b, 0] + J[kk, 4] * V[b, 1] + J[kk, 5] * V[b, 2])
-            delta = (xi[kk] - jv) * inv_A[kk]  # (b_k - sum_l A_kl lambda_l) / A_kk
-            if bound_row[kk] >= 0:  # Coulomb: the cone follows the current normal impulse
-                top = mu[kk] * lam[bound_row[kk]]
-                low = -top
-            else:
-                low = lo[kk]
-                top = hi[kk]
-            # clamp the accumulated impulse, not the increment
-            new = min(max(lam[kk] + delta, low), top)
-            delta = new - lam[kk]
-            lam[kk] = new
-            for c in range(3):
-                V[a, c] += JM[kk, c] * delta
-                V[b, c] += JM[kk, 3 + c] * delta
-            err = abs(delta) * A_diag[kk]
-            if err > worst:
-                worst = err
-        q += step
+    for q in range(visit.shape[0]):
+        k = visit[q]
+        if A_kk[k] <= 0.0:
+            continue  # both bodies static: nothing can move
+        low, high = bounds(k, lo, hi, bound_row, mu, lam)
+        if high == 0.0 and lam[k] == 0.0:
+            continue  # friction of a point that does not push: its cone [0, 0] is met already
+        a, b = body_a[k], body_b[k]
+        delta = (xi[k] - row_velocity(k, a, b, J, V)) * inv_A_kk[k]  # (xi_k - J_k V) / A_kk
+        new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
+        delta = new - lam[k]
+        lam[k] = new
+        apply_row_impulse(k, a, b, JM, delta, V)
+        worst = max(worst, abs(delta) * A_kk[k])
     return worst
 
 
-@njit(cache=True)
-def inverse_diagonal(A_diag):
-    """1 / A_kk (0 where A_kk = 0), once per step: sweeps multiply, never divide."""
-    inv_A = np.zeros(A_diag.shape[0])
-    for k in range(A_diag.shape[0]):
-        if A_diag[k] > 0.0:
-            inv_A[k] = 1.0 / A_diag[k]
-    return inv_A
+@njit(cache=True, inline="always")
+def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
+    """Both normal rows of a two-point manifold at once, as an exact 2x2 LCP (lcp2);
+    returns the largest |delta lambda| A_kk (m/s), or -1 when the pair is too
+    ill-conditioned to solve as a block (nothing is changed then)."""
+    K11, K22 = A_kk[n1], A_kk[n2]
+    K12 = 0.0
+    for c in range(6):
+        K12 += J[n1, c] * JM[n2, c]
+    if not block_is_well_conditioned(K11, K12, K22):
+        return -1.0
+    a1, a2 = lam[n1], lam[n2]
+    # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
+    x1, x2 = lcp2(K11, K12, K22, row_velocity(n1, a, b, J, V) - xi[n1] - (K11 * a1 + K12 * a2),
+                  row_velocity(n2, a, b, J, V) - xi[n2] - (K12 * a1 + K22 * a2))
+    lam[n1] = x1
+    lam[n2] = x2
+    apply_row_impulse(n1, a, b, JM, x1 - a1, V)
+    apply_row_impulse(n2, a, b, JM, x2 - a2, V)
+    return max(abs(x1 - a1) * K11, abs(x2 - a2) * K22)
 
 
 @njit(cache=True)
-def pgs_solve(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, xi, lo, hi, bound_row, mu, lam,
-              V, iterations, tolerance, residuals, block):
-    """Warm start from ``lam``, then sweep until the residual <= tolerance or out of sweeps.
+def block_sweep(normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row,
+                mu, lam, V):
+    """One block Gauss-Seidel sweep (Box2D's block solver): a two-point manifold's normal
+    rows together (``solve_normal_pair``), then its friction rows; other contacts and
+    the joints row by row (``sweep``). Returns the largest |delta lambda_k| A_kk (m/s).
+    With no friction rows (``friction_row`` empty) only the normal rows are swept."""
+    worst = 0.0
+    n_contacts = normal_row.shape[0]
+    frictionless = friction_row.shape[0] == 0
+    q = 0
+    while q < n_contacts:
+        n1 = normal_row[q]
+        a, b = body_a[n1], body_b[n1]
+        if q + 1 < n_contacts and body_a[normal_row[q + 1]] == a and body_b[normal_row[q + 1]] == b:
+            err = solve_normal_pair(n1, normal_row[q + 1], a, b, J, JM, A_kk, xi, lam, V)
+            if err >= 0.0:  # solved as a block: then the two friction rows
+                worst = max(worst, err)
+                if not frictionless:
+                    worst = max(worst, sweep(friction_row[q : q + 2], body_a, body_b, J, JM, A_kk, inv_A_kk, xi,
+                                             lo, hi, bound_row, mu, lam, V))
+                q += 2
+                continue
+        worst = max(worst, sweep(normal_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi,
+                                 bound_row, mu, lam, V))
+        if not frictionless:
+            worst = max(worst, sweep(friction_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi,
+                                     bound_row, mu, lam, V))
+        q += 1
+    return max(worst, sweep(joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V))
 
-    Returns the number of sweeps made; residuals[s] is the residual after sweep s.
-    """
-    apply_impulses(i, j, JM, lam, V)
-    inv_A = inverse_diagonal(A_diag)
+
+@njit(cache=True)
+def inverse_diagonal(A_kk):
+    """1 / A_kk (0 where A_kk = 0), once per step: the sweeps multiply, never divide."""
+    inv_A_kk = np.zeros(A_kk.shape[0])
+    for k in range(A_kk.shape[0]):
+        if A_kk[k] > 0.0:
+            inv_A_kk[k] = 1.0 / A_kk[k]
+    return inv_A_kk
+
+
+@njit(cache=True)
+def pgs_solve(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, A_kk, xi, lo, hi, bound_row, mu,
+              lam, V, iterations, tolerance, residuals, block):
+    """Warm start from ``lam``, then sweep all rows in solve order (rows are stored in it)
+    until the residual <= tolerance or out of sweeps. Returns the sweeps made;
+    residuals[s] is sweep s's."""
+    apply_impulses(body_a, body_b, JM, lam, V)
+    inv_A_kk = inverse_diagonal(A_kk)
+    all_rows = np.arange(lam.shape[0])
+    joint_rows = all_rows[first_joint_row:]
     for s in range(iterations):
-        residuals[s] = sweep(normal_row, friction_row, first_joint_row, i, j, J, JM, A_diag, inv_A, xi, lo, hi,
-                             bound_row, mu, lam, V, block)
+        if block:
+            residuals[s] = block_sweep(normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi,
+                                       lo, hi, bound_row, mu, lam, V)
+        else:
+            residuals[s] = sweep(all_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
 
 
 @njit(cache=True)
-def push_out(normal_row, i, j, J, JM, A_diag, push, lo, hi, bound_row, mu, lam_push, V_push, iterations,
+def push_out(normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, lam_push, V_push, iterations,
              tolerance, block):
     """Split impulses: sweep the contact normal rows for pseudo-velocities V_push that reach
     J_k V_push >= push_k (the capped Baumgarte push), lam_push >= 0, from V_push = 0.
@@ -187,19 +208,44 @@ def push_out(normal_row, i, j, J, JM, A_diag, push, lo, hi, bound_row, mu, lam_p
     Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
     """
     pushing = False
-    for q in range(normal_row.shape[0]):
-        pushing = pushing or push[normal_row[q]] > 0.0
+    for k in normal_row:
+        pushing = pushing or push[k] > 0.0
     if not pushing:
         return 0
-    inv_A = inverse_diagonal(A_diag)
-    no_friction = np.full(normal_row.shape[0], -1, np.int32)
+    inv_A_kk = inverse_diagonal(A_kk)
+    none = normal_row[:0]  # no friction rows, no joint rows: the normal rows only
     for s in range(iterations):
-        # first_joint_row = the row count: no joint rows, normal rows only
-        worst = sweep(normal_row, no_friction, lam_push.shape[0], i, j, J, JM, A_diag, inv_A, push, lo, hi,
-                      bound_row, mu, lam_push, V_push, block)
+        if block:
+            worst = block_sweep(normal_row, none, none, body_a, body_b, J, JM, A_kk, inv_A_kk, push, lo, hi,
+                                bound_row, mu, lam_push, V_push)
+        else:
+            worst = sweep(normal_row, body_a, body_b, J, JM, A_kk, inv_A_kk, push, lo, hi, bound_row, mu, lam_push,
+                          V_push)
         if worst <= tolerance:
             return s + 1
     return iterations
+
+
+@njit(cache=True)
+def pgs_step(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, A_kk, xi, push, bounce, lo, hi,
+             bound_row, mu, lam, x, theta, V, separation, dt, iterations, tolerance, block, split, residuals):
+    """``PGS.respond`` in one call: warm start and sweeps on V, the push pass (split) or
+    the push inside xi (not split), positions moved, then the restitution pass.
+    Returns the sweeps made on A lambda = b."""
+    target = xi if split else xi + push  # the lecture: the push is part of the target
+    n = pgs_solve(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, A_kk, target, lo, hi,
+                  bound_row, mu, lam, V, iterations, tolerance, residuals, block)
+    V_move = V
+    if split:
+        V_push = np.zeros_like(V)
+        push_out(normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, np.zeros(lam.shape[0]),
+                 V_push, iterations, tolerance, block)
+        V_move = V + V_push  # what the positions move with; V_push is then dropped
+    bouncing = bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separation, V, dt)
+    integrate_positions(x, theta, V_move, dt)
+    restitution_pass(normal_row, friction_row, bouncing, body_a, body_b, J, JM, A_kk, bounce, bound_row, mu, lam, V,
+                     iterations, tolerance)
+    return n
 
 
 FORMS = ("impulse", "matrix")
@@ -247,6 +293,7 @@ class PGS(Responder):
     """
 
     handles_joints = True
+    counts = "sweeps"
 
     iterations = Setting(lambda v, name: check_int(v, name, 1), "sweeps per step")
     warm_start = Setting(check_bool, "start from last tick's impulses")
@@ -319,19 +366,13 @@ class PGS(Responder):
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
         tol = -1.0 if self.tolerance is None else self.tolerance
-        xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
         if self.form == "matrix":
+            xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
             return solve_matrix_form(ctx, xi, self.iterations, tol, self.split)
         residuals = np.zeros(self.iterations)
-        n = pgs_solve(r.normal_row, r.friction_row, r.first_joint_row, r.i, r.j, r.J, r.JM, r.A_diag, xi,
-                      r.lo, r.hi, r.bound_row, r.mu, r.lam, ctx.V, self.iterations, tol, residuals, self.block)
-        V_move = ctx.V
-        if self.split:
-            V_push = np.zeros_like(ctx.V)
-            push_out(r.normal_row, r.i, r.j, r.J, r.JM, r.A_diag, r.push, r.lo, r.hi, r.bound_row, r.mu,
-                     np.zeros(len(r)), V_push, self.iterations, tol, self.block)
-            V_move = ctx.V + V_push  # what the positions move with; V_push is then dropped
-        bounce_after_moving(ctx, V_move, self.iterations, tol)
+        n = pgs_step(r.normal_row, r.friction_row, r.first_joint_row, r.body_a, r.body_b, r.J, r.JM, r.A_kk, r.xi,
+                     r.push, r.bounce, r.lo, r.hi, r.bound_row, r.mu, r.lam, ctx.x, ctx.theta, ctx.V, ctx.separation,
+                     ctx.dt, self.iterations, tol, self.block, self.split, residuals)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
@@ -341,4 +382,4 @@ class PGS(Responder):
                 f"block={self.block}, push_max={self.push_max:g}, split={self.split})")
 
 
-__all__ = ["PGS", "apply_impulses", "lcp2", "pgs_solve", "sweep"]
+__all__ = ["PGS", "apply_impulses", "block_sweep", "lcp2", "pgs_solve", "pgs_step", "sweep"]

@@ -1,8 +1,8 @@
 """Projected Gauss-Seidel, matrix form: the lecture's A x = b, assembled and swept.
 
-Each step this builds, exactly as FORMULATION.md writes them,
+Each step this builds, exactly as docs/formulation.md writes them,
 
-    J      (R, 3N)  sparse: row k has its 6 non-zeros in the columns of bodies i and j
+    J      (R, 3N)  sparse: row k has its 6 non-zeros in the columns of bodies a and b
     M^-1   (3N,)    the diagonal [1/m_1, 1/m_1, 1/I_1, ...] (0 for static bodies)
     A      (R, R)   J M^-1 J^T, sparse: A_kl != 0 only where rows k and l share a
                     dynamic body (static bodies have M^-1 = 0 and couple nothing)
@@ -112,7 +112,7 @@ def _csr_dot_transposed(indptr, indices, data, v, out):
 
 @dataclass(eq=False)
 class MatrixSystem:
-    """The system one step solved: A lam = b with lo <= lam <= hi (FORMULATION.md).
+    """The system one step solved: A lam = b with lo <= lam <= hi (docs/formulation.md).
 
     J (R x 3N) and A (R x R) are ``SparseMatrix``; M_inv, V1, F_ext are flat (3N,)
     vectors in the lecture's order [.., vx_b, vy_b, omega_b, ..]. lo, hi are the
@@ -172,17 +172,17 @@ def jacobian(rows: Rows, n_bodies: int) -> SparseMatrix:
     R = len(rows)
     indices = np.zeros(6 * R, np.int64)
     data = np.zeros(6 * R)
-    _jacobian_entries(rows.i, rows.j, rows.J, indices, data)
+    _jacobian_entries(rows.body_a, rows.body_b, rows.J, indices, data)
     return SparseMatrix(np.arange(0, 6 * R + 1, 6, dtype=np.int64), indices, data,
                         (R, 3 * n_bodies))
 
 
 @njit(cache=True)
-def _jacobian_entries(i, j, J, indices, data):
+def _jacobian_entries(body_a, body_b, J, indices, data):
     """Each row's 6 entries, the lower-numbered body's block first (columns ascending)."""
-    for k in range(i.shape[0]):
-        first, second = (0, 3) if i[k] < j[k] else (3, 0)
-        lo_body, hi_body = min(i[k], j[k]), max(i[k], j[k])
+    for k in range(body_a.shape[0]):
+        first, second = (0, 3) if body_a[k] < body_b[k] else (3, 0)
+        lo_body, hi_body = min(body_a[k], body_b[k]), max(body_a[k], body_b[k])
         for c in range(3):
             indices[6 * k + c] = 3 * lo_body + c
             data[6 * k + c] = J[k, first + c]
@@ -191,19 +191,19 @@ def _jacobian_entries(i, j, J, indices, data):
 
 
 @njit(cache=True)
-def rows_of_bodies(i, j, M_inv):
+def rows_of_bodies(body_a, body_b, M_inv):
     """For each dynamic body b, the rows that touch it (ascending): CSR (start, rows)."""
     n = M_inv.shape[0]
     count = np.zeros(n + 1, np.int64)
-    for k in range(i.shape[0]):
-        for b in (i[k], j[k]):
+    for k in range(body_a.shape[0]):
+        for b in (body_a[k], body_b[k]):
             if M_inv[b, 0] > 0.0 or M_inv[b, 2] > 0.0:
                 count[b + 1] += 1
     start = np.cumsum(count)
     fill = start[:-1].copy()
     out = np.zeros(start[-1], np.int64)
-    for k in range(i.shape[0]):
-        for b in (i[k], j[k]):
+    for k in range(body_a.shape[0]):
+        for b in (body_a[k], body_b[k]):
             if M_inv[b, 0] > 0.0 or M_inv[b, 2] > 0.0:
                 out[fill[b]] = k
                 fill[b] += 1
@@ -211,13 +211,13 @@ def rows_of_bodies(i, j, M_inv):
 
 
 @njit(cache=True)
-def coupling(k, l, i, j, J, M_inv):
+def coupling(k, l, body_a, body_b, J, M_inv):
     """A_kl = J_k M^-1 J_l^T: the sum over the bodies rows k and l share (1/s per kg...)."""
     a = 0.0
     for s in range(2):
-        bk = i[k] if s == 0 else j[k]
+        bk = body_a[k] if s == 0 else body_b[k]
         for t in range(2):
-            bl = i[l] if t == 0 else j[l]
+            bl = body_a[l] if t == 0 else body_b[l]
             if bk == bl:
                 for c in range(3):
                     a += J[k, 3 * s + c] * M_inv[bk, c] * J[l, 3 * t + c]
@@ -225,9 +225,9 @@ def coupling(k, l, i, j, J, M_inv):
 
 
 @njit(cache=True)
-def _neighbours(k, i, j, start, body_rows, out):
+def _neighbours(k, body_a, body_b, start, body_rows, out):
     """Rows sharing a dynamic body with row k, ascending and without repeats; returns the count."""
-    a, b = i[k], j[k]
+    a, b = body_a[k], body_b[k]
     p, p_end = start[a], start[a + 1]
     q, q_end = start[b], start[b + 1]
     n = 0
@@ -248,22 +248,22 @@ def _neighbours(k, i, j, start, body_rows, out):
 
 
 @njit(cache=True)
-def assemble_A(i, j, J, M_inv):
+def assemble_A(body_a, body_b, J, M_inv):
     """A = J M^-1 J^T in CSR, one entry per pair of rows sharing a dynamic body."""
-    R = i.shape[0]
-    start, body_rows = rows_of_bodies(i, j, M_inv)
+    R = body_a.shape[0]
+    start, body_rows = rows_of_bodies(body_a, body_b, M_inv)
     buf = np.zeros(max(1, body_rows.shape[0]), np.int64)
     indptr = np.zeros(R + 1, np.int64)
     for k in range(R):
-        indptr[k + 1] = indptr[k] + _neighbours(k, i, j, start, body_rows, buf)
+        indptr[k + 1] = indptr[k] + _neighbours(k, body_a, body_b, start, body_rows, buf)
     indices = np.zeros(indptr[R], np.int64)
     data = np.zeros(indptr[R])
     for k in range(R):
-        n = _neighbours(k, i, j, start, body_rows, buf)
+        n = _neighbours(k, body_a, body_b, start, body_rows, buf)
         for e in range(n):
             l = buf[e]
             indices[indptr[k] + e] = l
-            data[indptr[k] + e] = coupling(k, l, i, j, J, M_inv)
+            data[indptr[k] + e] = coupling(k, l, body_a, body_b, J, M_inv)
     return indptr, indices, data
 
 
@@ -286,7 +286,7 @@ def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
     J = jacobian(r, n)
     M_inv = ctx.M_inv.reshape(-1).copy()
     V1, F_ext = ctx.V1.reshape(-1).copy(), ctx.F_ext.reshape(-1).copy()
-    indptr, indices, data = assemble_A(r.i, r.j, r.J, ctx.M_inv)
+    indptr, indices, data = assemble_A(r.body_a, r.body_b, r.J, ctx.M_inv)
     A = SparseMatrix(indptr, indices, data, (len(r), len(r)))
     b = xi - J.dot(V1) - ctx.dt * J.dot(M_inv * F_ext)
     R = len(r)

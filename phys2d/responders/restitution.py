@@ -25,20 +25,20 @@ from .base import StepContext
 
 
 @njit(cache=True)
-def bouncing_contacts(normal_row, i, j, J, A_diag, bounce, lam, separation, V, dt):
+def bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separation, V, dt):
     """True for each contact with a bounce target that met its partner in this step's solve:
     it pushed, or its gap C closes with the solve's velocities (C + dt J V <= MET; this way
     the answer does not hang on how a converged solve shared lambda among redundant rows)."""
     out = np.zeros(normal_row.shape[0], np.bool_)
     for q in range(normal_row.shape[0]):
         k = normal_row[q]
-        if bounce[k] > 0.0 and A_diag[k] > 0.0:
-            out[q] = lam[k] > 0.0 or separation[q] + dt * row_velocity(k, i[k], j[k], J, V) <= MET
+        if bounce[k] > 0.0 and A_kk[k] > 0.0:
+            out[q] = lam[k] > 0.0 or separation[q] + dt * row_velocity(k, body_a[k], body_b[k], J, V) <= MET
     return out
 
 
 @njit(cache=True)
-def restitution_pass(normal_row, friction_row, bouncing, i, j, J, JM, A_diag, bounce, bound_row, mu, lam, V,
+def restitution_pass(normal_row, friction_row, bouncing, body_a, body_b, J, JM, A_kk, bounce, bound_row, mu, lam, V,
                      iterations, tolerance):
     """Restitution, once positions have moved: sweep the bouncing contacts' normal rows towards
     J_k V = bounce_k (lambda_n >= 0), keeping each one's Coulomb friction inside mu lambda_n.
@@ -55,12 +55,12 @@ def restitution_pass(normal_row, friction_row, bouncing, i, j, J, JM, A_diag, bo
             if not bouncing[q]:
                 continue
             k, kt = normal_row[q], friction_row[q]
-            a, b = i[k], j[k]
-            new = max(lam[k] + (bounce[k] - row_velocity(k, a, b, J, V)) / A_diag[k], 0.0)
+            a, b = body_a[k], body_b[k]
+            new = max(lam[k] + (bounce[k] - row_velocity(k, a, b, J, V)) / A_kk[k], 0.0)
             d = new - lam[k]
             lam[k] = new
             apply_row_impulse(k, a, b, JM, d, V)
-            worst = max(worst, abs(d) * A_diag[k])
+            worst = max(worst, abs(d) * A_kk[k])
             if bound_row[kt] >= 0:  # a smaller lambda_n shrinks the cone: pull friction back inside
                 top = mu[kt] * lam[k]
                 d = min(max(lam[kt], -top), top) - lam[kt]
@@ -75,7 +75,8 @@ def bounce_after_moving(ctx: StepContext, V_move: np.ndarray, iterations: int, t
     """Move the positions with V_move (m/s), then bounce the points that met their partner within
     the step (``restitution_pass`` on ctx.V and ctx.rows.lam; PGS in both forms)."""
     r = ctx.rows
-    bouncing = bouncing_contacts(r.normal_row, r.i, r.j, r.J, r.A_diag, r.bounce, r.lam, ctx.separation, ctx.V, ctx.dt)
+    bouncing = bouncing_contacts(r.normal_row, r.body_a, r.body_b, r.J, r.A_kk, r.bounce, r.lam, ctx.separation, ctx.V,
+                                 ctx.dt)
     integrate_positions(ctx.x, ctx.theta, V_move, ctx.dt)
-    restitution_pass(r.normal_row, r.friction_row, bouncing, r.i, r.j, r.J, r.JM, r.A_diag, r.bounce, r.bound_row,
-                     r.mu, r.lam, ctx.V, iterations, tolerance)
+    restitution_pass(r.normal_row, r.friction_row, bouncing, r.body_a, r.body_b, r.J, r.JM, r.A_kk, r.bounce,
+                     r.bound_row, r.mu, r.lam, ctx.V, iterations, tolerance)

@@ -288,6 +288,7 @@ class SoftStep(Responder):
     """
 
     name = "soft-step"
+    counts = "substeps"
     handles_joints = False
     colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
     beta = 0.0  # the rows' Baumgarte terms are not used: the push is soft

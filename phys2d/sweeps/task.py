@@ -114,7 +114,7 @@ class LoadWatch:
         hi = np.maximum(ct.body_a, ct.body_b)
         adjacent = hi == lo + 1
         total = np.zeros(self.carried.size)
-        np.add.at(total, hi[adjacent] - 1, ct.normal_impulse[adjacent])
+        np.add.at(total, hi[adjacent] - 1, ct.lambda_n[adjacent])
         exact = self.carried * self.g * w.last_step.dt
         return float(np.max(np.abs(total - exact) / exact))
 
