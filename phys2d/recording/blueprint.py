@@ -89,12 +89,20 @@ class _Layout:
     def __init__(self) -> None:
         self.rows: list[Row] = []
 
-    def view(self, kind: str, name: str, origin: str, queries: list[str] | None = None,
-             bounds: tuple[float, float, float, float] | None = None, legend: bool = True) -> str:
+    def view(
+        self,
+        kind: str,
+        name: str,
+        origin: str,
+        queries: list[str] | None = None,
+        bounds: tuple[float, float, float, float] | None = None,
+        legend: bool = True,
+    ) -> str:
         path = f"view/{uuid.uuid4()}"
         self.rows.append((f"{path}/ViewContents", {VIEW_QUERY: _strings(*(queries or ["$origin/**"]))}, False))
-        self.rows.append((path, {VIEW_CLASS: _strings(kind), VIEW_NAME: _strings(name),
-                                 VIEW_ORIGIN: _strings(origin)}, False))
+        self.rows.append(
+            (path, {VIEW_CLASS: _strings(kind), VIEW_NAME: _strings(name), VIEW_ORIGIN: _strings(origin)}, False)
+        )
         if bounds is not None:
             x0, x1, y0, y1 = bounds
             rng = pa.array([{"x_range": [x0, x1], "y_range": [-y1, -y0]}], _BOUNDS_TYPE)  # the view is y-down
@@ -103,8 +111,9 @@ class _Layout:
             self.rows.append((f"{path}/PlotLegend", {LEGEND_VISIBLE: pa.array([False])}, False))
         return path
 
-    def container(self, kind: int, contents: list[str], active_tab: str | None = None,
-                  col_shares: list[float] | None = None) -> str:
+    def container(
+        self, kind: int, contents: list[str], active_tab: str | None = None, col_shares: list[float] | None = None
+    ) -> str:
         ident = uuid.uuid4()
         path = f"container/{ident}"
         comps = {CONTAINER_KIND: _u8(kind), CONTAINER_CONTENTS: _strings(*contents)}
@@ -118,8 +127,12 @@ class _Layout:
 
 
 def _world(layout: _Layout, r: RunView) -> str:
-    return layout.view("2D", f"world {r.label}" if r.label else "world", f"/{schema.run_prefix(r.label)}{schema.WORLD}",
-                       bounds=r.bounds)
+    return layout.view(
+        "2D",
+        f"world {r.label}" if r.label else "world",
+        f"/{schema.run_prefix(r.label)}{schema.WORLD}",
+        bounds=r.bounds,
+    )
 
 
 def _plot(layout: _Layout, key: str, paths: list[str], legend: bool = True) -> str:
@@ -138,28 +151,35 @@ def build(runs: list[RunView]) -> list[Row]:
             left = layout.container(TABS, [world, table], active_tab=world)
             plots = []
             if r.plotted:
-                plots += [_plot(layout, "lambda", [f"{p}{schema.LAMBDA}/**"]),
-                          _plot(layout, "penetration", [f"{p}{schema.PENETRATION}/**"])]
+                plots += [
+                    _plot(layout, "lambda", [f"{p}{schema.LAMBDA}/**"]),
+                    _plot(layout, "penetration", [f"{p}{schema.PENETRATION}/**"]),
+                ]
             if r.has_joints:
                 plots.append(_plot(layout, "reaction", [f"{p}{schema.REACTION}/**"], legend=False))
-            plots += [_plot(layout, "residual", [f"{p}{schema.RESIDUAL}"]),
-                      _plot(layout, "energy", [f"{p}{schema.STATS_ROOT}/energy/**"])]
+            plots += [
+                _plot(layout, "residual", [f"{p}{schema.RESIDUAL}"]),
+                _plot(layout, "energy", [f"{p}{schema.STATS_ROOT}/energy/**"]),
+            ]
         else:
             left = layout.container(GRID, [_world(layout, r) for r in runs])
             prefixes = [schema.run_prefix(r.label) for r in runs]
-            plots = [_plot(layout, "max_penetration", [f"{p}{schema.STATS_ROOT}/max_penetration" for p in prefixes]),
-                     _plot(layout, "kinetic", [f"{p}{schema.STATS_ROOT}/energy/kinetic" for p in prefixes]),
-                     _plot(layout, "residual", [f"{p}{schema.RESIDUAL}" for p in prefixes]),
-                     _plot(layout, "contacts", [f"{p}{schema.STATS_ROOT}/contact_count" for p in prefixes])]
+            plots = [
+                _plot(layout, "max_penetration", [f"{p}{schema.STATS_ROOT}/max_penetration" for p in prefixes]),
+                _plot(layout, "kinetic", [f"{p}{schema.STATS_ROOT}/energy/kinetic" for p in prefixes]),
+                _plot(layout, "residual", [f"{p}{schema.RESIDUAL}" for p in prefixes]),
+                _plot(layout, "contacts", [f"{p}{schema.STATS_ROOT}/contact_count" for p in prefixes]),
+            ]
         right = layout.container(VERTICAL, plots)
         layout.container(HORIZONTAL, [left, right], col_shares=[3.0, 2.0])
         root = pa.FixedSizeListArray.from_arrays(pa.array(list(layout.root.bytes), pa.uint8()), type=_UUID_TYPE)
-        layout.rows += [("viewport", {ROOT_CONTAINER: root}, False),
-                        ("blueprint_panel", {PANEL_STATE: _u8(COLLAPSED)}, False),
-                        ("selection_panel", {PANEL_STATE: _u8(COLLAPSED)}, False),
-                        ("time_panel", {TIME_PANEL_STATE: _u8(COLLAPSED),
-                                        TIME_PANEL_TIMELINE: _strings(schema.TICK)}, False),
-                        ("time_panel", {TIME_PANEL_PLAY: _u8(FOLLOWING)}, True)]
+        layout.rows += [
+            ("viewport", {ROOT_CONTAINER: root}, False),
+            ("blueprint_panel", {PANEL_STATE: _u8(COLLAPSED)}, False),
+            ("selection_panel", {PANEL_STATE: _u8(COLLAPSED)}, False),
+            ("time_panel", {TIME_PANEL_STATE: _u8(COLLAPSED), TIME_PANEL_TIMELINE: _strings(schema.TICK)}, False),
+            ("time_panel", {TIME_PANEL_PLAY: _u8(FOLLOWING)}, True),
+        ]
     else:
         layout.rows.append(("time_panel", {TIME_PANEL_TIMELINE: _strings(schema.TICK)}, False))
     return layout.rows

@@ -61,8 +61,10 @@ class ContactChoice:
     def keys(cls, names) -> ContactChoice:
         if isinstance(names, str):
             names = [n for n in names.split(",") if n.strip()]
-        keys = tuple(int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool)
-                     else schema.parse_contact(n) for n in names)
+        keys = tuple(
+            int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) else schema.parse_contact(n)
+            for n in names
+        )
         if not keys:
             raise ValueError("keys must name at least one contact, like 'b3-b7/f512'")
         return cls("keys", keys=keys)
@@ -216,8 +218,7 @@ class RunBuffer:
         if contact_series:
             keep = self.choice.mask(s.key, self.chosen)
             sel = slice(None) if keep is None else keep
-            values = np.stack([s.lambda_n[sel], s.lambda_t[sel], -s.separation[sel] * schema.PENETRATION_SCALE],
-                              axis=1)
+            values = np.stack([s.lambda_n[sel], s.lambda_t[sel], -s.separation[sel] * schema.PENETRATION_SCALE], axis=1)
             self.contacts.append(s.tick, s.time, s.key[sel], values)
             if keep is None and self.choice.kind == "deepest":  # choosing: rank as the ticks arrive
                 k, p = self.choice.candidates(s.key, values[:, 2])

@@ -37,15 +37,20 @@ def _strips_column(points: np.ndarray, lengths: np.ndarray) -> pa.Array:
 
 def _table(fields: tuple[schema.Field, ...], values: dict[str, np.ndarray], lengths: np.ndarray) -> dict:
     """AnyValues columns named by ``fields``, cast to their dtypes, partitioned by ``lengths``."""
-    return {native.any_value(f.name): native.lists(np.ascontiguousarray(values[f.name], dtype=f.dtype), lengths)
-            for f in fields}
+    return {
+        native.any_value(f.name): native.lists(np.ascontiguousarray(values[f.name], dtype=f.dtype), lengths)
+        for f in fields
+    }
 
 
-def _series_style(names: list[str], colours: list[tuple[int, int, int]], widths: list[float],
-                  visible: list[bool] | None = None) -> dict:
-    comps = {native.SERIES_COLORS: pa.array([native.rgba(c) for c in colours], pa.uint32()),
-             native.SERIES_WIDTHS: pa.array(widths, pa.float32()),
-             native.SERIES_NAMES: pa.array(names, pa.string())}
+def _series_style(
+    names: list[str], colours: list[tuple[int, int, int]], widths: list[float], visible: list[bool] | None = None
+) -> dict:
+    comps = {
+        native.SERIES_COLORS: pa.array([native.rgba(c) for c in colours], pa.uint32()),
+        native.SERIES_WIDTHS: pa.array(widths, pa.float32()),
+        native.SERIES_NAMES: pa.array(names, pa.string()),
+    }
     if visible is not None:
         comps[native.SERIES_VISIBLE] = pa.array(visible, pa.bool_())
     return comps
@@ -56,16 +61,34 @@ def write_start(rec: Stream, b: RunBuffer, colour: tuple[int, int, int]) -> None
     names and colours (a named run's plots carry its label and ``colour``, so runs overlaid in
     one plot stay apart)."""
     p = b.prefix
-    context = [{"class_id": k, "class_description": {"info": {"id": k, "label": label, "color": native.rgba(c)},
-                                                     "keypoint_annotations": [], "keypoint_connections": []}}
-               for k, label, c in schema.ANNOTATIONS]
+    context = [
+        {
+            "class_id": k,
+            "class_description": {
+                "info": {"id": k, "label": label, "color": native.rgba(c)},
+                "keypoint_annotations": [],
+                "keypoint_connections": [],
+            },
+        }
+        for k, label, c in schema.ANNOTATIONS
+    ]
     rec.static(f"{p}{schema.WORLD}", {native.ANNOTATION_CONTEXT: pa.array([context], native.ANNOTATION_TYPE)})
     rec.static(f"{p}{schema.SIM}", {native.TRANSFORM_SCALE: pa.array([[1.0, -1.0, 1.0]], native.SCALE3D_TYPE)})
     for path in (schema.BODIES, schema.STATIC, schema.JOINTS):  # physics is y-up
-        rec.static(f"{p}{path}", {native.STRIP_RADII: pa.array([schema.LINE_RADIUS], pa.float32()),
-                                  native.STRIP_SHOW_LABELS: pa.array([False])})
-    rec.static(f"{p}{schema.CONTACTS}", {native.ARROW_RADII: pa.array([schema.ARROW_RADIUS], pa.float32()),
-                                         native.ARROW_SHOW_LABELS: pa.array([False])})
+        rec.static(
+            f"{p}{path}",
+            {
+                native.STRIP_RADII: pa.array([schema.LINE_RADIUS], pa.float32()),
+                native.STRIP_SHOW_LABELS: pa.array([False]),
+            },
+        )
+    rec.static(
+        f"{p}{schema.CONTACTS}",
+        {
+            native.ARROW_RADII: pa.array([schema.ARROW_RADIUS], pa.float32()),
+            native.ARROW_SHOW_LABELS: pa.array([False]),
+        },
+    )
     for st in schema.STATS:
         if b.label:
             names, colours = [f"{b.label} {st.label}"], [colour]
@@ -107,33 +130,52 @@ def write_stats(rec: Stream, b: RunBuffer) -> None:
         index = _index(ticks, times)
         ones = _ones(ticks.size)
         for k, st in enumerate(schema.STATS):
-            rec.send(f"{b.prefix}{schema.STATS_ROOT}/{st.name}", index,
-                     {native.SCALARS: native.lists(np.ascontiguousarray(stats[:, k]), ones)})
+            rec.send(
+                f"{b.prefix}{schema.STATS_ROOT}/{st.name}",
+                index,
+                {native.SCALARS: native.lists(np.ascontiguousarray(stats[:, k]), ones)},
+            )
     if b.residuals:
         t, tm, sweep, res = (np.concatenate(parts) for parts in zip(*b.residuals, strict=True))
         index = {**_index(t, tm), schema.SWEEP: native.sequence(sweep)}
         ones = _ones(res.size)
-        rec.send(f"{b.prefix}{schema.RESIDUAL}", index, {
-            native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
-            native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones)})
+        rec.send(
+            f"{b.prefix}{schema.RESIDUAL}",
+            index,
+            {
+                native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
+                native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones),
+            },
+        )
     b.stats, b.residuals, b.stats_ticks = [], [], 0
 
 
-def _body_values(lay_rows: np.ndarray, uid: np.ndarray, X: np.ndarray, TH: np.ndarray,
-                 VV: np.ndarray) -> dict[str, np.ndarray]:
+def _body_values(
+    lay_rows: np.ndarray, uid: np.ndarray, X: np.ndarray, TH: np.ndarray, VV: np.ndarray
+) -> dict[str, np.ndarray]:
     S = X.shape[0]
-    return {"uid": np.broadcast_to(uid[lay_rows], (S, lay_rows.size)).reshape(-1),
-            "x": X[:, lay_rows, 0].reshape(-1), "y": X[:, lay_rows, 1].reshape(-1),
-            "angle": TH[:, lay_rows].reshape(-1), "vx": VV[:, lay_rows, 0].reshape(-1),
-            "vy": VV[:, lay_rows, 1].reshape(-1), "omega": VV[:, lay_rows, 2].reshape(-1)}
+    return {
+        "uid": np.broadcast_to(uid[lay_rows], (S, lay_rows.size)).reshape(-1),
+        "x": X[:, lay_rows, 0].reshape(-1),
+        "y": X[:, lay_rows, 1].reshape(-1),
+        "angle": TH[:, lay_rows].reshape(-1),
+        "vx": VV[:, lay_rows, 0].reshape(-1),
+        "vy": VV[:, lay_rows, 1].reshape(-1),
+        "omega": VV[:, lay_rows, 2].reshape(-1),
+    }
 
 
 def _labels(rec: Stream, path: str, t: np.ndarray, tm: np.ndarray, classes: np.ndarray, labels: list[str]) -> None:
     """Classes and labels of a body set, on one row: the viewer carries them on (latest-at)."""
     n = np.array([len(labels)])
-    rec.send(path, _index(t[:1], tm[:1]), {
-        native.STRIP_CLASS_IDS: native.lists(np.asarray(classes, dtype=np.uint16), n),
-        native.STRIP_LABELS: native.lists(pa.array(labels, pa.string()), n)})
+    rec.send(
+        path,
+        _index(t[:1], tm[:1]),
+        {
+            native.STRIP_CLASS_IDS: native.lists(np.asarray(classes, dtype=np.uint16), n),
+            native.STRIP_LABELS: native.lists(pa.array(labels, pa.string()), n),
+        },
+    )
 
 
 def _write_bodies(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
@@ -147,9 +189,14 @@ def _write_bodies(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm
     VV = np.stack([s.V for s in ss])
     S, D = len(ss), lay.dynamic.size
     lengths = np.full(S, D)
-    rec.send(path, _index(t, tm), {
-        native.STRIPS: _strips_column(lay.dynamic_strips.world_points(X, TH), lay.dynamic_strips.lengths),
-        **_table(schema.BODY_FIELDS, _body_values(lay.dynamic, lay.uid, X, TH, VV), lengths)})
+    rec.send(
+        path,
+        _index(t, tm),
+        {
+            native.STRIPS: _strips_column(lay.dynamic_strips.world_points(X, TH), lay.dynamic_strips.lengths),
+            **_table(schema.BODY_FIELDS, _body_values(lay.dynamic, lay.uid, X, TH, VV), lengths),
+        },
+    )
 
 
 def _write_static(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
@@ -174,10 +221,18 @@ def _write_static(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
         _labels(rec, path, t, tm, lay.static_class, lay.static_labels)
         strips: Strips = lay.static_strips
         pts = strips.world_points(s.x[None], s.theta[None])
-        rec.send(path, _index(t, tm), {
-            native.STRIPS: _strips_column(pts, strips.lengths),
-            **_table(schema.BODY_FIELDS, _body_values(lay.static, lay.uid, s.x[None], s.theta[None], s.V[None]),
-                     np.array([lay.static.size]))})
+        rec.send(
+            path,
+            _index(t, tm),
+            {
+                native.STRIPS: _strips_column(pts, strips.lengths),
+                **_table(
+                    schema.BODY_FIELDS,
+                    _body_values(lay.static, lay.uid, s.x[None], s.theta[None], s.V[None]),
+                    np.array([lay.static.size]),
+                ),
+            },
+        )
 
 
 def _write_contacts(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
@@ -187,16 +242,27 @@ def _write_contacts(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, 
     warm = np.concatenate([s.warm for s in ss])
     origins = on_grid(np.concatenate([s.point for s in ss]).reshape(-1, 2), schema.DRAW_GRID)
     normals = on_grid(np.concatenate([s.normal for s in ss]).reshape(-1, 2), schema.NORMAL_GRID)
-    values = {"body_a": uid_a, "body_b": uid_b, "feature": feature,
-              "lambda_n": np.concatenate([s.lambda_n for s in ss]),
-              "lambda_t": np.concatenate([s.lambda_t for s in ss]),
-              "separation": np.concatenate([s.separation for s in ss]), "warm_started": warm}
-    rec.send(f"{b.prefix}{schema.CONTACTS}", _index(t, tm), {
-        native.ARROW_ORIGINS: native.lists(native.points2(origins), lengths),
-        native.ARROW_VECTORS: native.lists(native.points2(normals * np.float32(schema.NORMAL_LENGTH)), lengths),
-        native.ARROW_CLASS_IDS: native.lists(np.where(warm, schema.CLASS_WARM, schema.CLASS_COLD).astype(np.uint16),
-                                             lengths),
-        **_table(schema.CONTACT_FIELDS, values, lengths)})
+    values = {
+        "body_a": uid_a,
+        "body_b": uid_b,
+        "feature": feature,
+        "lambda_n": np.concatenate([s.lambda_n for s in ss]),
+        "lambda_t": np.concatenate([s.lambda_t for s in ss]),
+        "separation": np.concatenate([s.separation for s in ss]),
+        "warm_started": warm,
+    }
+    rec.send(
+        f"{b.prefix}{schema.CONTACTS}",
+        _index(t, tm),
+        {
+            native.ARROW_ORIGINS: native.lists(native.points2(origins), lengths),
+            native.ARROW_VECTORS: native.lists(native.points2(normals * np.float32(schema.NORMAL_LENGTH)), lengths),
+            native.ARROW_CLASS_IDS: native.lists(
+                np.where(warm, schema.CLASS_WARM, schema.CLASS_COLD).astype(np.uint16), lengths
+            ),
+            **_table(schema.CONTACT_FIELDS, values, lengths),
+        },
+    )
 
 
 def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
@@ -208,11 +274,19 @@ def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
     lengths = np.fromiter((len(e) for e in all_ends), dtype=np.int64, count=len(all_ends))
     t = np.fromiter((s.tick for s in js), dtype=np.int64, count=len(js))
     tm = np.fromiter((s.time for s in js), dtype=np.float64, count=len(js))
-    strips = pa.ListArray.from_arrays(pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)),
-                                      native.points2(ends.reshape(-1, 2)), type=native.STRIP_TYPE)
-    rec.send(f"{b.prefix}{schema.JOINTS}", _index(t, tm), {
-        native.STRIPS: native.lists(strips, lengths),
-        native.STRIP_CLASS_IDS: native.lists(np.full(len(ends), schema.CLASS_JOINT, np.uint16), lengths)})
+    strips = pa.ListArray.from_arrays(
+        pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)),
+        native.points2(ends.reshape(-1, 2)),
+        type=native.STRIP_TYPE,
+    )
+    rec.send(
+        f"{b.prefix}{schema.JOINTS}",
+        _index(t, tm),
+        {
+            native.STRIPS: native.lists(strips, lengths),
+            native.STRIP_CLASS_IDS: native.lists(np.full(len(ends), schema.CLASS_JOINT, np.uint16), lengths),
+        },
+    )
 
 
 def _keep_residuals(b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
@@ -250,16 +324,28 @@ def write_series(rec: Stream, b: RunBuffer) -> None:
             w.values = np.split(np.concatenate(w.values)[keep], cuts)
         new = _style_contacts(rec, b, w)
         b.plotted = b.plotted or bool(new) or bool(b.styled)
-        batches.append((w, [(f"{b.prefix}{schema.LAMBDA}", (0, 1)), (f"{b.prefix}{schema.PENETRATION}", (2,))],
-                        schema.contact_entity))
+        batches.append(
+            (
+                w,
+                [(f"{b.prefix}{schema.LAMBDA}", (0, 1)), (f"{b.prefix}{schema.PENETRATION}", (2,))],
+                schema.contact_entity,
+            )
+        )
     if b.joints.ticks:
-        batches.append((b.joints, [(f"{b.prefix}{schema.REACTION}", (0,))],
-                        lambda k: schema.joint_entity(int(k) >> 16, int(k) & 0xFFFF)))
+        batches.append(
+            (
+                b.joints,
+                [(f"{b.prefix}{schema.REACTION}", (0,))],
+                lambda k: schema.joint_entity(int(k) >> 16, int(k) & 0xFFFF),
+            )
+        )
     for window, families, entity_of in batches:
         ticks = np.asarray(window.ticks, dtype=np.int64)
         times = np.asarray(window.times, dtype=np.float64)
-        index = {schema.TICK: native.sequence(ticks),
-                 schema.SIM_TIME: pa.array(np.round(times * 1e9).astype("timedelta64[ns]"), pa.duration("ns"))}
+        index = {
+            schema.TICK: native.sequence(ticks),
+            schema.SIM_TIME: pa.array(np.round(times * 1e9).astype("timedelta64[ns]"), pa.duration("ns")),
+        }
         for entity, column in _series_columns(window, families, entity_of):
             rec.send(entity, index, {native.SCALARS: column})
         window.clear()
@@ -275,16 +361,21 @@ def _style_contacts(rec: Stream, b: RunBuffer, w: SeriesWindow) -> list[int]:
         colour = schema.PALETTE[len(b.colours) % len(schema.PALETTE)]
         b.colours[k] = colour
         name = schema.contact_label(k)
-        rec.static(f"{b.prefix}{schema.LAMBDA}/{schema.contact_entity(k)}",
-                   _series_style([f"{tag}{name} λn", f"{tag}{name} λt"], [colour, schema.lighter(colour)], [2.0, 1.0]))
-        rec.static(f"{b.prefix}{schema.PENETRATION}/{schema.contact_entity(k)}",
-                   _series_style([f"{tag}{name}"], [colour], [2.0]))
+        rec.static(
+            f"{b.prefix}{schema.LAMBDA}/{schema.contact_entity(k)}",
+            _series_style([f"{tag}{name} λn", f"{tag}{name} λt"], [colour, schema.lighter(colour)], [2.0, 1.0]),
+        )
+        rec.static(
+            f"{b.prefix}{schema.PENETRATION}/{schema.contact_entity(k)}",
+            _series_style([f"{tag}{name}"], [colour], [2.0]),
+        )
         b.styled.add(k)
     return new
 
 
-def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]],
-                    entity_of: Callable[[int], str]) -> list[tuple[str, pa.Array]]:
+def _series_columns(
+    w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]], entity_of: Callable[[int], str]
+) -> list[tuple[str, pa.Array]]:
     """One list<f64> column per (family, identity) over the window's T ticks; an identity that
     ends gets one NaN row, so the plot shows a gap instead of a line across it."""
     T = len(w.ticks)
@@ -296,7 +387,7 @@ def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]]
     if keys.size == 0 and gone0.size == 0:
         return []
     uniq, col = np.unique(np.concatenate([keys, gone0]), return_inverse=True)
-    col, col0 = col[: keys.size], col[keys.size:]
+    col, col0 = col[: keys.size], col[keys.size :]
     U = uniq.size
     present = np.zeros((U, T), dtype=np.bool_)
     present[col, row] = True
@@ -322,11 +413,21 @@ def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]]
         v = np.ascontiguousarray(np.stack([dense[q][present] for q in which], axis=1).reshape(-1))
         offsets = offsets_1 * np.int32(m)
         for j, name in enumerate(names):
-            child = pa.Array.from_buffers(pa.float64(), int(count[j]) * m,
-                                          [None, pa.py_buffer(v[m * start[j]: m * start[j + 1]])])
-            out.append((f"/{family}/{name}",
-                        pa.Array.from_buffers(list_type, T, [pa.py_buffer(bits[j]), pa.py_buffer(offsets[j])],
-                                              null_count=int(nulls[j]), children=[child])))
+            child = pa.Array.from_buffers(
+                pa.float64(), int(count[j]) * m, [None, pa.py_buffer(v[m * start[j] : m * start[j + 1]])]
+            )
+            out.append(
+                (
+                    f"/{family}/{name}",
+                    pa.Array.from_buffers(
+                        list_type,
+                        T,
+                        [pa.py_buffer(bits[j]), pa.py_buffer(offsets[j])],
+                        null_count=int(nulls[j]),
+                        children=[child],
+                    ),
+                )
+            )
     return out
 
 

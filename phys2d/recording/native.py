@@ -55,17 +55,42 @@ TRANSFORM_SCALE = archetype_field("Transform3D", "scale", "rerun.components.Scal
 # exactly rerun's arrow types: the viewer skips a column whose type or nullability differs
 F32_2 = pa.list_(pa.field("item", pa.float32(), nullable=False), 2)
 STRIP_TYPE = pa.list_(pa.field("item", F32_2, nullable=False))
-_KEYPOINT = pa.struct([pa.field("id", pa.uint16(), nullable=False), pa.field("label", pa.string()),
-                       pa.field("color", pa.uint32())])
-_CONNECTION = pa.struct([pa.field("keypoint0", pa.uint16(), nullable=False),
-                         pa.field("keypoint1", pa.uint16(), nullable=False)])
-ANNOTATION_TYPE = pa.list_(pa.field("item", pa.struct([
-    pa.field("class_id", pa.uint16(), nullable=False),
-    pa.field("class_description", pa.struct([
-        pa.field("info", _KEYPOINT, nullable=False),
-        pa.field("keypoint_annotations", pa.list_(pa.field("item", _KEYPOINT, nullable=False)), nullable=False),
-        pa.field("keypoint_connections", pa.list_(pa.field("item", _CONNECTION, nullable=False)), nullable=False),
-    ]), nullable=False)]), nullable=False))
+_KEYPOINT = pa.struct(
+    [pa.field("id", pa.uint16(), nullable=False), pa.field("label", pa.string()), pa.field("color", pa.uint32())]
+)
+_CONNECTION = pa.struct(
+    [pa.field("keypoint0", pa.uint16(), nullable=False), pa.field("keypoint1", pa.uint16(), nullable=False)]
+)
+ANNOTATION_TYPE = pa.list_(
+    pa.field(
+        "item",
+        pa.struct(
+            [
+                pa.field("class_id", pa.uint16(), nullable=False),
+                pa.field(
+                    "class_description",
+                    pa.struct(
+                        [
+                            pa.field("info", _KEYPOINT, nullable=False),
+                            pa.field(
+                                "keypoint_annotations",
+                                pa.list_(pa.field("item", _KEYPOINT, nullable=False)),
+                                nullable=False,
+                            ),
+                            pa.field(
+                                "keypoint_connections",
+                                pa.list_(pa.field("item", _CONNECTION, nullable=False)),
+                                nullable=False,
+                            ),
+                        ]
+                    ),
+                    nullable=False,
+                ),
+            ]
+        ),
+        nullable=False,
+    )
+)
 SCALE3D_TYPE = pa.list_(pa.field("item", pa.float32(), nullable=False), 3)
 
 
@@ -110,15 +135,26 @@ class Stream:
     than one of many short chunks (tests/test_web_viewer.py; benchmarks/RECORDING.md).
     """
 
-    def __init__(self, application_id: str, recording_id: str | None, path: str | None,
-                 stream_to: str | None, coalesce_bytes: int = 0) -> None:
+    def __init__(
+        self,
+        application_id: str,
+        recording_id: str | None,
+        path: str | None,
+        stream_to: str | None,
+        coalesce_bytes: int = 0,
+    ) -> None:
         self.application_id = application_id
         self.coalesce_bytes = coalesce_bytes
         # per entity: the column names of the held sends, the sends, their bytes
         self.held: dict[str, tuple[tuple, list[tuple[dict, dict]], int]] = {}
-        self.rec = rb.new_recording(application_id=application_id, recording_id=recording_id or str(uuid.uuid4()),
-                                    make_default=False, make_thread_default=False, default_enabled=True,
-                                    send_properties=True)
+        self.rec = rb.new_recording(
+            application_id=application_id,
+            recording_id=recording_id or str(uuid.uuid4()),
+            make_default=False,
+            make_thread_default=False,
+            default_enabled=True,
+            send_properties=True,
+        )
         sinks: list[Any] = []
         if path is not None:
             sinks.append(rb.FileSink(path))
@@ -178,8 +214,9 @@ class Stream:
 
     def blueprint(self, rows: list[tuple[str, dict[Descriptor, pa.Array], bool]]) -> None:
         """Send a blueprint given as (entity, components, static) rows: the layout the viewer opens."""
-        bp = rb.new_blueprint(application_id=self.application_id, make_default=False, make_thread_default=False,
-                              default_enabled=True)
+        bp = rb.new_blueprint(
+            application_id=self.application_id, make_default=False, make_thread_default=False, default_enabled=True
+        )
         rb.set_time_sequence("blueprint", 0, recording=bp)
         for entity, components, static in rows:
             rb.log_arrow_msg(entity, components=components, static_=static, recording=bp)

@@ -114,8 +114,9 @@ class _Background:
         ctx = mp.get_context("fork")
         self.queue = ctx.Queue()
         self.reply, child = ctx.Pipe(duplex=False)
-        self.proc = ctx.Process(target=serve, args=(self.queue, child, kwargs), daemon=True,
-                                name="phys2d-recording-writer")
+        self.proc = ctx.Process(
+            target=serve, args=(self.queue, child, kwargs), daemon=True, name="phys2d-recording-writer"
+        )
         self.proc.start()
         child.close()
         self.window = window
@@ -138,8 +139,15 @@ class _Background:
                 runs.setdefault(label, []).append(s)
                 if info is not None:
                     infos[label] = info
-            self.queue.put(("add", [(label, pack(ss, self.sent.setdefault(label, set())), infos.get(label))
-                                    for label, ss in runs.items()]))
+            self.queue.put(
+                (
+                    "add",
+                    [
+                        (label, pack(ss, self.sent.setdefault(label, set())), infos.get(label))
+                        for label, ss in runs.items()
+                    ],
+                )
+            )
             self.pending = []
 
     def close(self) -> dict[str | None, list[str]]:
@@ -201,14 +209,26 @@ class Recorder:
     Use as a context manager, or call ``close()``. ``schema`` describes the file.
     """
 
-    def __init__(self, path: str | os.PathLike | None, *, name: str | None = None, scene: str | None = None,
-                 application_id: str = "phys2d", recording_id: str | None = None,
-                 contact_series: bool = True, plot: ContactChoice | str | None = None, flush_every: int = 60,
-                 series_every: int = 600, blueprint: bool = True, stream_to: str | None = None,
-                 background: bool = False) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike | None,
+        *,
+        name: str | None = None,
+        scene: str | None = None,
+        application_id: str = "phys2d",
+        recording_id: str | None = None,
+        contact_series: bool = True,
+        plot: ContactChoice | str | None = None,
+        flush_every: int = 60,
+        series_every: int = 600,
+        blueprint: bool = True,
+        stream_to: str | None = None,
+        background: bool = False,
+    ) -> None:
         if stream_to is not None and (not isinstance(stream_to, str) or "://" not in stream_to):
-            raise TypeError(f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', "
-                            f"got {stream_to!r}")
+            raise TypeError(
+                f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', got {stream_to!r}"
+            )
         p = None if path is None and stream_to is not None else _checked_path(path)
         for value, arg in ((name, "name"), (scene, "scene"), (recording_id, "recording_id")):
             if value is not None and not isinstance(value, str):
@@ -222,13 +242,22 @@ class Recorder:
         flush_every = _check_count(flush_every, "flush_every")
         series_every = _check_count(series_every, "series_every")
         self.path = p
-        kwargs = dict(path=p, name=name, scene=scene, application_id=application_id, recording_id=recording_id,
-                      contact_series=bool(contact_series), choice=choice, flush_every=flush_every,
-                      series_every=series_every, blueprint=bool(blueprint), stream_to=stream_to)
+        kwargs = dict(
+            path=p,
+            name=name,
+            scene=scene,
+            application_id=application_id,
+            recording_id=recording_id,
+            contact_series=bool(contact_series),
+            choice=choice,
+            flush_every=flush_every,
+            series_every=series_every,
+            blueprint=bool(blueprint),
+            stream_to=stream_to,
+        )
         self._samplers: dict[str | None, Sampler] = {}
         forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
-        backend = _Background({**kwargs, "long_chunks": True}, flush_every) if background and forks \
-            else _Local(kwargs)
+        backend = _Background({**kwargs, "long_chunks": True}, flush_every) if background and forks else _Local(kwargs)
         self._state = _State(backend)
         self._finalizer = weakref.finalize(self, _State.close, self._state)
 
@@ -249,8 +278,12 @@ class Recorder:
             if label is not None and None in self._samplers:
                 raise ValueError("this recorder holds an unnamed run: log() without run= only")
             sampler = self._samplers[label] = Sampler()
-            info = dict(responder=repr(world.responder), responder_name=str(getattr(world.responder, "name", "")),
-                        bodies=len(world), first_tick=int(world.tick))
+            info = dict(
+                responder=repr(world.responder),
+                responder_name=str(getattr(world.responder, "name", "")),
+                bodies=len(world),
+                first_tick=int(world.tick),
+            )
         self._state.backend.add(label, sampler.sample(world), info)
 
     @property

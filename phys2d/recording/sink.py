@@ -22,9 +22,21 @@ COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about 
 class Sink:
     """The stream and the runs' buffers; closed once, by ``Recorder.close`` or a finalizer."""
 
-    def __init__(self, path: str | None, name: str | None, scene: str | None, application_id: str,
-                 recording_id: str | None, contact_series: bool, choice: ContactChoice, flush_every: int,
-                 series_every: int, blueprint: bool, stream_to: str | None, long_chunks: bool = False) -> None:
+    def __init__(
+        self,
+        path: str | None,
+        name: str | None,
+        scene: str | None,
+        application_id: str,
+        recording_id: str | None,
+        contact_series: bool,
+        choice: ContactChoice,
+        flush_every: int,
+        series_every: int,
+        blueprint: bool,
+        stream_to: str | None,
+        long_chunks: bool = False,
+    ) -> None:
         self.scene = scene
         self.contact_series = contact_series
         self.choice = choice
@@ -40,8 +52,9 @@ class Sink:
         # writes what it holds, where an in-process writer loses it (then every window is written
         # at once: a hard kill loses at most flush_every ticks).
         self.long_chunks = long_chunks and stream_to is None
-        self.rec = Stream(application_id, recording_id, path, stream_to,
-                          coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0)
+        self.rec = Stream(
+            application_id, recording_id, path, stream_to, coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0
+        )
         if name:
             self.rec.recording_name(name)
         from .. import __version__
@@ -55,8 +68,9 @@ class Sink:
             b = self.runs[label] = RunBuffer(label, schema.run_prefix(label), self.choice)
             columns.write_start(self.rec, b, schema.PALETTE[(len(self.runs) - 1) % len(schema.PALETTE)])
         if info is not None:
-            self.rec.property(schema.run_property(label), scene=self.scene, run=label, plotted=repr(self.choice),
-                              **info)
+            self.rec.property(
+                schema.run_property(label), scene=self.scene, run=label, plotted=repr(self.choice), **info
+            )
         b.add(s, self.contact_series)
         if len(b.samples) >= self.flush_every:
             if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
@@ -76,8 +90,9 @@ class Sink:
         """
         if not self.blueprint:
             return
-        views = [bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r),
-                            r.has_joints) for r in self.runs.values()]
+        views = [
+            bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r), r.has_joints) for r in self.runs.values()
+        ]
         if views != self.sent_views:
             self.rec.blueprint(bp.build(views))
             self.sent_views = views
