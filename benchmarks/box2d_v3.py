@@ -57,8 +57,10 @@ class V3Build:
 
     def label(self) -> str:
         """One line for RESULTS.md: the commit and how it was built."""
-        return (f"erincatto/box2d {self.commit[:8]} ({self.describe}), CMake Release, default SIMD "
-                f"(SSE2 on x86-64), static library linked into the ctypes harness; {self.compiler}")
+        return (
+            f"erincatto/box2d {self.commit[:8]} ({self.describe}), CMake Release, default SIMD "
+            f"(SSE2 on x86-64), static library linked into the ctypes harness; {self.compiler}"
+        )
 
 
 def _run(cmd: list[str], what: str, log_path: Path, cwd: Path | None = None) -> str:
@@ -86,12 +88,15 @@ def check_source(source: Path) -> Path:
     """The resolved source tree, or BuildError if it does not look like Box2D v3."""
     source = Path(source).expanduser().resolve()
     if not (source / "CMakeLists.txt").is_file() or not (source / "include" / "box2d" / "box2d.h").is_file():
-        raise BuildError(f"--box2d-v3 {source}: not a Box2D v3 source tree "
-                         "(expected CMakeLists.txt and include/box2d/box2d.h)")
-    if not (source / "include" / "box2d" / "types.h").is_file() or \
-            "b2WorldDef" not in (source / "include" / "box2d" / "types.h").read_text(errors="replace"):
-        raise BuildError(f"--box2d-v3 {source}: include/box2d/types.h has no b2WorldDef: "
-                         "this looks like Box2D 2.x, not v3")
+        raise BuildError(
+            f"--box2d-v3 {source}: not a Box2D v3 source tree (expected CMakeLists.txt and include/box2d/box2d.h)"
+        )
+    if not (source / "include" / "box2d" / "types.h").is_file() or "b2WorldDef" not in (
+        source / "include" / "box2d" / "types.h"
+    ).read_text(errors="replace"):
+        raise BuildError(
+            f"--box2d-v3 {source}: include/box2d/types.h has no b2WorldDef: this looks like Box2D 2.x, not v3"
+        )
     return source
 
 
@@ -124,9 +129,26 @@ def build(source: Path, build_root: Path = DEFAULT_BUILD_ROOT, jobs: int = 2, lo
     library = out / LIBRARY_NAME
     newest = max(static[0].stat().st_mtime, HARNESS.stat().st_mtime)
     if not library.is_file() or library.stat().st_mtime < newest:
-        _run([cc, "-O2", "-fPIC", "-shared", "-Wall", "-Wextra", "-std=gnu17",
-              "-I", str(source / "include"), str(HARNESS), str(static[0]), "-lm", "-o", str(library)],
-             "compiling the harness", log_path)
+        _run(
+            [
+                cc,
+                "-O2",
+                "-fPIC",
+                "-shared",
+                "-Wall",
+                "-Wextra",
+                "-std=gnu17",
+                "-I",
+                str(source / "include"),
+                str(HARNESS),
+                str(static[0]),
+                "-lm",
+                "-o",
+                str(library),
+            ],
+            "compiling the harness",
+            log_path,
+        )
     version = _run([cc, "--version"], "the compiler's version", log_path).splitlines()
     commit = _git(source, "rev-parse", "HEAD")
     describe = _git(source, "describe", "--tags", "--always", "--dirty")

@@ -424,10 +424,13 @@ class Box2DV3Adapter:
             return index
 
         check(lib.harness_add_box(h, *GROUND_CENTER, *GROUND_HALF, 1.0, FRICTION, RESTITUTION, 0))
-        pivots = [check(lib.harness_add_circle(h, p.x, p.y, p.radius, 1.0, FRICTION, RESTITUTION, 0))
-                  for p in scene.pivots]
-        bodies = [check(lib.harness_add_box(h, b.x, b.y, b.hw, b.hh, b.density, FRICTION, RESTITUTION, 1))
-                  for b in scene.boxes]
+        pivots = [
+            check(lib.harness_add_circle(h, p.x, p.y, p.radius, 1.0, FRICTION, RESTITUTION, 0)) for p in scene.pivots
+        ]
+        bodies = [
+            check(lib.harness_add_box(h, b.x, b.y, b.hw, b.hh, b.density, FRICTION, RESTITUTION, 1))
+            for b in scene.boxes
+        ]
         for pin in scene.pins:
             a, b = (bodies[r] if r >= 0 else pivots[-1 - r] for r in (pin.a, pin.b))
             check(lib.harness_add_pin(h, a, b, pin.x, pin.y))

@@ -397,8 +397,10 @@ def speed(t) -> str:
 
 def fmt_gap(s) -> str:
     """The largest joint gap of a stability run, in mm."""
-    return (f"{1e3 * s['gap_run']:.1f} mm (joint {s['gap_joint']} of {s['joints']}, t = {s['gap_t']:.2f} s); "
-            f"{1e3 * s['gap_end']:.1f} mm at the end")
+    return (
+        f"{1e3 * s['gap_run']:.1f} mm (joint {s['gap_joint']} of {s['joints']}, t = {s['gap_t']:.2f} s); "
+        f"{1e3 * s['gap_end']:.1f} mm at the end"
+    )
 
 
 def fmt_fell(s) -> str:
@@ -602,7 +604,8 @@ def report(args, names, timing, stab, first, meta) -> str:
             "this run: Box2D",
             "this run: pymunk",
             "this run: phys2d",
-        ] + [f"this run: {v}" for v in variants],
+        ]
+        + [f"this run: {v}" for v in variants],
         target_rows(timing, stab, first, variants),
     )
     section(
@@ -672,27 +675,79 @@ def standing(stab, s, e) -> str:
 # Issue 11's figures (Box2D v3 617d32ab, pymunk 7.3.1 and phys2d a770bfe in one sitting).
 # (measure, kind, scene, issue: v3 s4, issue: pymunk, issue: phys2d, target)
 ISSUE11_TARGETS = [
-    ("vertical_stack_10, µs/step", "time", "vertical_stack_10", "5.2 (.59)", "8.8",
-     "PGS 38 (4.4), SoftStep(4) 63 (7.2)", "PGS and SoftStep(4) <= 2x pymunk"),
-    ("pyramid_20, µs/step", "time", "pyramid_20", "120 (.36)", "334",
-     "PGS 403 (1.20), SoftStep(4) 466 (1.40)",
-     "SoftStep(4) <= 1.0x, PGS <= 0.8x pymunk; stretch: within 2x of Box2D v3 s4"),
-    ("pyramid_40, µs/step", "time", "pyramid_40", "468 (.31)", "1529",
-     "PGS 1633 (1.06), SoftStep(4) 1827 (1.19)",
-     "SoftStep(4) <= 1.0x, PGS <= 0.8x pymunk; stretch: within 2x of Box2D v3 s4"),
-    ("mass_ratio_100, µs/step", "time", "mass_ratio_100", "3.3 (1.43)", "2.3",
-     "PGS 32 (14), SoftStep(4) 57 (25)", "-"),
-    ("vertical_stack_20, box i shifted by 0.1 mm * i, at 30 s", "stand", "vertical_stack_20_lean_0.1mm",
-     "holds, 0.006 m", "-", "SoftStep(4/6) fall at 9 s, PGS at 3 s", "-"),
-    ("vertical_stack_20, box i shifted by 1 mm * i, at 30 s", "stand", "vertical_stack_20_lean_1mm",
-     "holds, 0.07 m", "-", "SoftStep(4/6) fall at 6 s, PGS at 3 s",
-     "SoftStep(4) stands 30 s, sway < 0.1 m"),
-    ("pyramid_40, sideways movement at 30 s", "dx", "pyramid_40", "0.030 m", "-",
-     "PGS 0.117 m, SoftStep(4) 0.050 m, SoftStep(6) 0.004 m", "SoftStep(4) < 0.05 m"),
-    ("mass_ratio_100 at 30 s", "stand", "mass_ratio_100", "holds, 0.005 m", "-", "SoftStep holds",
-     "SoftStep(4) holds, < 0.01 m"),
-    ("heavy_chain_20: largest joint gap over 30 s (at the end)", "gap", "heavy_chain_20", "-", "-",
-     "SoftStep has no joints", "SoftStep(4) < 1 cm"),
+    (
+        "vertical_stack_10, µs/step",
+        "time",
+        "vertical_stack_10",
+        "5.2 (.59)",
+        "8.8",
+        "PGS 38 (4.4), SoftStep(4) 63 (7.2)",
+        "PGS and SoftStep(4) <= 2x pymunk",
+    ),
+    (
+        "pyramid_20, µs/step",
+        "time",
+        "pyramid_20",
+        "120 (.36)",
+        "334",
+        "PGS 403 (1.20), SoftStep(4) 466 (1.40)",
+        "SoftStep(4) <= 1.0x, PGS <= 0.8x pymunk; stretch: within 2x of Box2D v3 s4",
+    ),
+    (
+        "pyramid_40, µs/step",
+        "time",
+        "pyramid_40",
+        "468 (.31)",
+        "1529",
+        "PGS 1633 (1.06), SoftStep(4) 1827 (1.19)",
+        "SoftStep(4) <= 1.0x, PGS <= 0.8x pymunk; stretch: within 2x of Box2D v3 s4",
+    ),
+    ("mass_ratio_100, µs/step", "time", "mass_ratio_100", "3.3 (1.43)", "2.3", "PGS 32 (14), SoftStep(4) 57 (25)", "-"),
+    (
+        "vertical_stack_20, box i shifted by 0.1 mm * i, at 30 s",
+        "stand",
+        "vertical_stack_20_lean_0.1mm",
+        "holds, 0.006 m",
+        "-",
+        "SoftStep(4/6) fall at 9 s, PGS at 3 s",
+        "-",
+    ),
+    (
+        "vertical_stack_20, box i shifted by 1 mm * i, at 30 s",
+        "stand",
+        "vertical_stack_20_lean_1mm",
+        "holds, 0.07 m",
+        "-",
+        "SoftStep(4/6) fall at 6 s, PGS at 3 s",
+        "SoftStep(4) stands 30 s, sway < 0.1 m",
+    ),
+    (
+        "pyramid_40, sideways movement at 30 s",
+        "dx",
+        "pyramid_40",
+        "0.030 m",
+        "-",
+        "PGS 0.117 m, SoftStep(4) 0.050 m, SoftStep(6) 0.004 m",
+        "SoftStep(4) < 0.05 m",
+    ),
+    (
+        "mass_ratio_100 at 30 s",
+        "stand",
+        "mass_ratio_100",
+        "holds, 0.005 m",
+        "-",
+        "SoftStep holds",
+        "SoftStep(4) holds, < 0.01 m",
+    ),
+    (
+        "heavy_chain_20: largest joint gap over 30 s (at the end)",
+        "gap",
+        "heavy_chain_20",
+        "-",
+        "-",
+        "SoftStep has no joints",
+        "SoftStep(4) < 1 cm",
+    ),
 ]
 
 
@@ -712,8 +767,10 @@ def issue11_rows(timing, stab, cols) -> list[list[str]]:
             return f"{1e3 * r['gap_run']:.1f} mm ({1e3 * r['gap_end']:.1f} mm)"
         return standing(stab, s, e)
 
-    return [[what, v3, pm, p2, target] + [measured(kind, s, e) for e in cols]
-            for what, kind, s, v3, pm, p2, target in ISSUE11_TARGETS]
+    return [
+        [what, v3, pm, p2, target] + [measured(kind, s, e) for e in cols]
+        for what, kind, s, v3, pm, p2, target in ISSUE11_TARGETS
+    ]
 
 
 def update_readme(text: str, meta: dict) -> None:
@@ -925,9 +982,7 @@ def main(argv=None) -> int:
             scene = SCENES[sname]()
             t0 = time.perf_counter()
             timing[sname] = time_scene(scene, names, args, tmpdir)
-            line = ", ".join(
-                f"{e} {cell(timing[sname], e, speed)}" for e in timing[sname]
-            )
+            line = ", ".join(f"{e} {cell(timing[sname], e, speed)}" for e in timing[sname])
             print(f"{sname} ({len(scene.boxes)} boxes) speed: {line}", flush=True)
             stab[sname] = {}
             for e in names:

@@ -187,6 +187,7 @@ def kernel_calls_of_one_step(w: phys2d.World) -> list[tuple[str, tuple]]:
             continue
         for name, obj in list(vars(mod).items()):
             if isinstance(obj, CPUDispatcher):
+
                 def recorder(*args, _f=obj, _name=name):
                     seen.append((_name, args))
                     return _f(*args)
@@ -236,6 +237,7 @@ def calibrate(pc_ns: float, samples: int = 100_000, repeats: int = 7) -> float:
     Used to take the wrappers' cost out of the wrapped twin's step time, so that the
     stages and the Python left over come from the same timed steps.
     """
+
     def noop(*args):
         return None
 
@@ -341,10 +343,12 @@ def profile(scene: str, responder: str, args, pc_ns: float, added_ns: float, sin
 
 def git_rev() -> str:
     try:
-        rev = subprocess.run(["git", "-C", str(REPO_ROOT), "rev-parse", "--short", "HEAD"],
-                             capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(REPO_ROOT), "status", "--porcelain"],
-                               capture_output=True, text=True, check=True).stdout.strip()
+        rev = subprocess.run(
+            ["git", "-C", str(REPO_ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(REPO_ROOT), "status", "--porcelain"], capture_output=True, text=True, check=True
+        ).stdout.strip()
         return rev + (" (uncommitted changes)" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
         return "?"
@@ -361,8 +365,9 @@ def cpu() -> str:
 
 
 def table(header: list[str], rows: list[list[str]]) -> list[str]:
-    return ["| " + " | ".join(header) + " |", "| " + " | ".join("---" for _ in header) + " |"] + \
-        ["| " + " | ".join(r) + " |" for r in rows]
+    return ["| " + " | ".join(header) + " |", "| " + " | ".join("---" for _ in header) + " |"] + [
+        "| " + " | ".join(r) + " |" for r in rows
+    ]
 
 
 def pct(part: float, whole: float) -> str:
@@ -406,19 +411,29 @@ def report(results: dict, args, pc_ns: float, added_ns: float, command: str, loa
         L += ["", f"## {scene} ({per[names[0]]['contacts']} contact points at the end)", ""]
         rows = []
         for s in STAGE_ORDER:
-            rows.append([s] + [f"{per[r]['stages'][s]:.1f} ({pct(per[r]['stages'][s], per[r]['total'])})"
-                               for r in names])
-        rows.append(["Python left over"] + [f"{per[r]['left_over']:.1f} ({pct(per[r]['left_over'], per[r]['total'])})"
-                                            for r in names])
+            rows.append(
+                [s] + [f"{per[r]['stages'][s]:.1f} ({pct(per[r]['stages'][s], per[r]['total'])})" for r in names]
+            )
+        rows.append(
+            ["Python left over"]
+            + [f"{per[r]['left_over']:.1f} ({pct(per[r]['left_over'], per[r]['total'])})" for r in names]
+        )
         rows.append(["**step** (wrapped twin, less the wrappers)"] + [f"**{per[r]['total']:.1f}**" for r in names])
         rows.append(["step of the plain twin (a check)"] + [f"{per[r]['plain']:.1f}" for r in names])
         rows.append(["plain step / pymunk's step"] + [f"{per[r]['ratio']:.2f}x" for r in names])
         rows.append(["numba kernels called from Python per step"] + [str(per[r]["kernel_calls"]) for r in names])
-        rows.append(["numba dispatch, estimated (inside the stages above)"]
-                    + [f"{per[r]['dispatch']:.1f} ({pct(per[r]['dispatch'], per[r]['total'])})" for r in names])
-        rows.append(["**Python left over + dispatch** (the fixed cost, on a small scene)"]
-                    + [f"**{per[r]['left_over'] + per[r]['dispatch']:.1f}** "
-                       f"({pct(per[r]['left_over'] + per[r]['dispatch'], per[r]['total'])})" for r in names])
+        rows.append(
+            ["numba dispatch, estimated (inside the stages above)"]
+            + [f"{per[r]['dispatch']:.1f} ({pct(per[r]['dispatch'], per[r]['total'])})" for r in names]
+        )
+        rows.append(
+            ["**Python left over + dispatch** (the fixed cost, on a small scene)"]
+            + [
+                f"**{per[r]['left_over'] + per[r]['dispatch']:.1f}** "
+                f"({pct(per[r]['left_over'] + per[r]['dispatch'], per[r]['total'])})"
+                for r in names
+            ]
+        )
         rows.append(["one-box scene's step, same repeats"] + [f"{per[r]['one_box']:.1f}" for r in names])
         L += table(["stage", *names], rows)
         labels = list(per[names[0]]["labels"])
@@ -500,9 +515,12 @@ def main(argv=None) -> int:
             res = profile(scene, r, args, pc_ns, added_ns, sink)
             results[scene][r] = res
             stages = ", ".join(f"{s} {us:.1f}" for s, us in res["stages"].items())
-            print(f"{scene} {r}: step {res['total']:.1f} us (plain {res['plain']:.1f}) = {stages}, Python left "
-                  f"over {res['left_over']:.1f}; dispatch {res['dispatch']:.1f} us over {res['kernel_calls']} kernel "
-                  f"calls; one box {res['one_box']:.1f} us", flush=True)
+            print(
+                f"{scene} {r}: step {res['total']:.1f} us (plain {res['plain']:.1f}) = {stages}, Python left "
+                f"over {res['left_over']:.1f}; dispatch {res['dispatch']:.1f} us over {res['kernel_calls']} kernel "
+                f"calls; one box {res['one_box']:.1f} us",
+                flush=True,
+            )
     text = report(results, args, pc_ns, added_ns, command, (load_start, load_average()))
     if args.quick:
         print(text)

@@ -38,8 +38,11 @@ def normal_speed(x, V, p, n):
 def lecture_impulse(x, V, M_inv, p, n, e):
     """The lecture's f for bodies 0 and 1 at point p, normal n (0 -> 1), and V after it."""
     r_a, r_b = p - x[0], p - x[1]
-    f = -(1 + e) * normal_speed(x, V, p, n) / (
-        M_inv[0, 0] + M_inv[1, 0] + cross(r_a, n) ** 2 * M_inv[0, 2] + cross(r_b, n) ** 2 * M_inv[1, 2])
+    f = (
+        -(1 + e)
+        * normal_speed(x, V, p, n)
+        / (M_inv[0, 0] + M_inv[1, 0] + cross(r_a, n) ** 2 * M_inv[0, 2] + cross(r_b, n) ** 2 * M_inv[1, 2])
+    )
     V_after = V.copy()
     V_after[0] += M_inv[0] * np.array([-f * n[0], -f * n[1], -cross(r_a, f * n)])
     V_after[1] += M_inv[1] * np.array([f * n[0], f * n[1], cross(r_b, f * n)])
@@ -65,8 +68,9 @@ def pair(kind):
 
 
 args = c.options(__doc__)
-c.claim("the lecture's impulse is momentum conservation for one pair, yet applied pair by pair "
-        "it jitters and cannot stack")
+c.claim(
+    "the lecture's impulse is momentum conservation for one pair, yet applied pair by pair it jitters and cannot stack"
+)
 print("Part 1: the formula by hand against the engine (one step, zero gravity)")
 rows = []
 for kind in ("equal circles, e=1", "light vs heavy, e=0.5", "tilted box on its corner, e=0.3"):
@@ -78,8 +82,17 @@ for kind in ("equal circles, e=1", "light vs heavy, e=0.5", "tilted box on its c
     bounce = normal_speed(x0, w.V, ct.point[0], ct.normal[0]) / normal_speed(x0, V0, ct.point[0], ct.normal[0])
     dp = "static ground" if w.M_inv[0, 0] == 0 else np.abs(w.linear_momentum() - p0).max()
     rows.append([kind, f, ct.normal_impulse.sum(), np.abs(V_hand - w.V).max(), bounce, dp])
-c.table(["pair", "f by hand (N s)", "f engine (N s)", "max |V+ hand - V+ engine|", "J_n V+ / J_n V-",
-         "|momentum change| (kg m/s)"], rows)
+c.table(
+    [
+        "pair",
+        "f by hand (N s)",
+        "f engine (N s)",
+        "max |V+ hand - V+ engine|",
+        "J_n V+ / J_n V-",
+        "|momentum change| (kg m/s)",
+    ],
+    rows,
+)
 print("  (J_n V+ / J_n V- = -e: the pair leaves at e times the speed it came in)")
 seconds = 3.0 if args.quick else 10.0
 last = round(1.0 / c.DT)  # ticks in the last second
@@ -95,14 +108,21 @@ with c.recorder(args, __file__, "lesson 1: naive impulse") as rec:
     w = c.zigzag_stack(phys2d.NaiveImpulse())
     y0 = w.x[:, 1].copy()
     stack = c.simulate(w, seconds, rec, "stack", probe)
-print(f"drops: kinetic energy over the last second: mean {drops[-last:, 0].mean():.3g} J, "
-      f"max {drops[-last:, 0].max():.3g} J (at rest it would be 0)")
+print(
+    f"drops: kinetic energy over the last second: mean {drops[-last:, 0].mean():.3g} J, "
+    f"max {drops[-last:, 0].max():.3g} J (at rest it would be 0)"
+)
 print(f"drops: penetration over the last second: max {drops[-last:, 1].max():.3g} m")
-print(f"stack: top box height {y0[-1]:.3f} m -> {w.x[-1, 1]:.3f} m; boxes standing: "
-      f"{c.standing(w, y0)} of {len(w) - 1}")
-print(f"stack: max penetration {stack[:, 1].max():.3g} m; kinetic energy over the last second: "
-      f"mean {stack[-last:, 0].mean():.3g} J")
-print("TAKEAWAY: one exact impulse per pair and tick conserves momentum pair by pair, but the "
-      f"boxes never settle ({drops[-last:, 0].mean():.2g} J left) and the stack keeps "
-      f"{c.standing(w, y0)} of {len(w) - 1} boxes up")
+print(
+    f"stack: top box height {y0[-1]:.3f} m -> {w.x[-1, 1]:.3f} m; boxes standing: {c.standing(w, y0)} of {len(w) - 1}"
+)
+print(
+    f"stack: max penetration {stack[:, 1].max():.3g} m; kinetic energy over the last second: "
+    f"mean {stack[-last:, 0].mean():.3g} J"
+)
+print(
+    "TAKEAWAY: one exact impulse per pair and tick conserves momentum pair by pair, but the "
+    f"boxes never settle ({drops[-last:, 0].mean():.2g} J left) and the stack keeps "
+    f"{c.standing(w, y0)} of {len(w) - 1} boxes up"
+)
 c.done(rec)

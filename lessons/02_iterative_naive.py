@@ -27,8 +27,11 @@ last = round(1.0 / c.DT)
 c.claim("more passes of the naive impulse help a little, but still give no stacking and no guarantees")
 print(f"{seconds:g} s of each scene at dt = 1/60 s")
 
-responders = [("p1", phys2d.NaiveImpulse())] + [
-    (f"p{n}", phys2d.IterativeImpulse(passes=n)) for n in (2, 5, 10, 20)] + [("pgs", phys2d.PGS())]
+responders = (
+    [("p1", phys2d.NaiveImpulse())]
+    + [(f"p{n}", phys2d.IterativeImpulse(passes=n)) for n in (2, 5, 10, 20)]
+    + [("pgs", phys2d.PGS())]
+)
 
 
 def probe(w, y0=None):
@@ -47,16 +50,27 @@ with c.recorder(args, __file__, "lesson 2: iterative naive") as rec:
         stood = upright * c.DT
         name = repr(responder).split("(")[0] if label != "pgs" else "PGS (lesson 5)"
         passes = label[1:] if label != "pgs" else "10 sweeps"
-        rows.append([f"{name} {passes}", drops[-last:, 0].mean(), stood, stack[:upright, 1].max(),
-                     c.standing(w, y0)])
-c.table(["responder, passes", "drops: KE last s (J)", "stack stood for (s)", "max penetration meanwhile (m)",
-         "standing at the end"], rows)
+        rows.append([f"{name} {passes}", drops[-last:, 0].mean(), stood, stack[:upright, 1].max(), c.standing(w, y0)])
+c.table(
+    [
+        "responder, passes",
+        "drops: KE last s (J)",
+        "stack stood for (s)",
+        "max penetration meanwhile (m)",
+        "standing at the end",
+    ],
+    rows,
+)
 naive, passes, pgs = rows[0], rows[1:-1], rows[-1]
 stood = [r[2] for r in passes]
 pen = [r[3] for r in passes]
-print(f"naive (lesson 1): stood {naive[2]:.2f} s, penetrating up to {naive[3]:.3g} m; 2 to 20 passes: stood "
-      f"{min(stood):.2f} to {max(stood):.2f} s, penetrating up to {min(pen):.3g} to {max(pen):.3g} m")
-print(f"TAKEAWAY: more passes keep the stack up at best {max(stood) / naive[2]:.1f}x as long, but every naive take "
-      f"lets it fall ({max(r[4] for r in rows[:-1])} of 8 standing at most after {seconds:g} s) and sinks boxes "
-      f"{min(pen) / pgs[3]:.0f}x deeper than PGS, which keeps {pgs[4]} of 8 up")
+print(
+    f"naive (lesson 1): stood {naive[2]:.2f} s, penetrating up to {naive[3]:.3g} m; 2 to 20 passes: stood "
+    f"{min(stood):.2f} to {max(stood):.2f} s, penetrating up to {min(pen):.3g} to {max(pen):.3g} m"
+)
+print(
+    f"TAKEAWAY: more passes keep the stack up at best {max(stood) / naive[2]:.1f}x as long, but every naive take "
+    f"lets it fall ({max(r[4] for r in rows[:-1])} of 8 standing at most after {seconds:g} s) and sinks boxes "
+    f"{min(pen) / pgs[3]:.0f}x deeper than PGS, which keeps {pgs[4]} of 8 up"
+)
 c.done(rec)

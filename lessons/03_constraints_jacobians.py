@@ -51,11 +51,15 @@ t = np.array([-n[1], n[0]])
 dist, angle = w.joints
 k_dist = 2 * len(w.contacts)  # the joint rows follow the contact rows
 names = {0: "contact", 1: "friction", k_dist: "distance", k_dist + 1: "angle"}
-print(f"bodies i=0, j=1; rows 0, 1: contact point {first}, p = ({p[0]:.3f}, {p[1]:.3f}) m, "
-      f"n = ({n[0]:.3f}, {n[1]:.3f}), separation C = {s:.4f} m")
-c.table(["row", "J_i: x", "y", "omega", "J_j: x", "y", "omega"],
-        [[name] + list(J[k]) for k, name in names.items()], "{:+.3f}")
-
+print(
+    f"bodies i=0, j=1; rows 0, 1: contact point {first}, p = ({p[0]:.3f}, {p[1]:.3f}) m, "
+    f"n = ({n[0]:.3f}, {n[1]:.3f}), separation C = {s:.4f} m"
+)
+c.table(
+    ["row", "J_i: x", "y", "omega", "J_j: x", "y", "omega"],
+    [[name] + list(J[k]) for k, name in names.items()],
+    "{:+.3f}",
+)
 
 
 def world(x, th, b, q):
@@ -88,8 +92,10 @@ for k, name in names.items():
 c.table(["row", "J V", "dC/dt (finite difference)", "|difference|"], rows, "{:+.6g}")
 d = pb - pa
 lecture_row = np.concatenate([-d, [-cross(pa - x0[0], d)], d, [cross(pb - x0[1], d)]])
-print(f"distance: the lecture's row [-d, -(r_i x d) | d, r_j x d] / the engine's row = "
-      f"{np.mean(lecture_row / J[k_dist]):.4f} = L = {L:.4f} m")
+print(
+    f"distance: the lecture's row [-d, -(r_i x d) | d, r_j x d] / the engine's row = "
+    f"{np.mean(lecture_row / J[k_dist]):.4f} = L = {L:.4f} m"
+)
 worst = max(r[3] for r in rows)
 print(f"TAKEAWAY: J V matches dC/dt on every row to {worst:.1g} (finite differences with h = {h:g} s)")
 
@@ -99,6 +105,8 @@ w.V[:] = V
 dist, angle = w.joints
 with c.recorder(args, __file__, "lesson 3: constraints and Jacobians") as rec:
     gap = c.simulate(w, seconds, rec, probe=lambda w: [dist.gap(), abs(angle.offset())])
-print(f"moving for {seconds:g} s from that V: distance joint off by at most {gap[:, 0].max():.2g} m, "
-      f"angle joint by {gap[:, 1].max():.2g} rad")
+print(
+    f"moving for {seconds:g} s from that V: distance joint off by at most {gap[:, 0].max():.2g} m, "
+    f"angle joint by {gap[:, 1].max():.2g} rad"
+)
 c.done(rec)

@@ -45,8 +45,10 @@ def make(responder):
 
 
 args = c.options(__doc__)
-c.claim("M, M^-1, F_ext, J give A = J M^-1 J^T and b = xi - J V1 - dt J M^-1 F_ext, all of b in m/s; "
-        "PGS solves A lambda = b and V2 follows")
+c.claim(
+    "M, M^-1, F_ext, J give A = J M^-1 J^T and b = xi - J V1 - dt J M^-1 F_ext, all of b in m/s; "
+    "PGS solves A lambda = b and V2 follows"
+)
 w = make(phys2d.PGS(form="matrix", iterations=30, warm_start=False, split=False))
 w.step(c.DT)
 system = w.last_step.system
@@ -63,40 +65,58 @@ print(f"A equals J M^-1 J^T built densely here: max difference {np.abs(d.A - d.J
 
 JV1 = d.J @ system.V1
 JF = c.DT * d.J @ (system.M_inv * system.F_ext)
-c.table(["row", "xi (m/s)", "- J V1 (m/s)", "- dt J M^-1 F_ext (m/s)", "b (m/s)"],
-        [[labels[k], system.xi[k], -JV1[k], -JF[k], system.b[k]] for k in range(len(labels))], "{:+.4f}")
+c.table(
+    ["row", "xi (m/s)", "- J V1 (m/s)", "- dt J M^-1 F_ext (m/s)", "b (m/s)"],
+    [[labels[k], system.xi[k], -JV1[k], -JF[k], system.b[k]] for k in range(len(labels))],
+    "{:+.4f}",
+)
 k = int(np.argmax(system.xi))
-print(f"units: the lecture's b = eps/dt - J V1 - dt J M^-1 F_ext. With eps the row's target velocity, "
-      f"row {labels[k]}: xi = {system.xi[k]:.4f} m/s, but eps/dt = {system.xi[k] / c.DT:.3f} m/s^2 - "
-      f"{1 / c.DT:.0f} times larger and not a velocity, while dt J M^-1 F_ext = {JF[k]:+.4f} m/s is one")
-print(f"units: the lecture's V2 = J^T eps has {d.J.shape[1]} entries (a force direction per body), "
-      f"eps has {d.J.shape[0]}: V2 comes from M (V2 - V1) = dt F_ext + J^T lambda instead")
+print(
+    f"units: the lecture's b = eps/dt - J V1 - dt J M^-1 F_ext. With eps the row's target velocity, "
+    f"row {labels[k]}: xi = {system.xi[k]:.4f} m/s, but eps/dt = {system.xi[k] / c.DT:.3f} m/s^2 - "
+    f"{1 / c.DT:.0f} times larger and not a velocity, while dt J M^-1 F_ext = {JF[k]:+.4f} m/s is one"
+)
+print(
+    f"units: the lecture's V2 = J^T eps has {d.J.shape[1]} entries (a force direction per body), "
+    f"eps has {d.J.shape[0]}: V2 comes from M (V2 - V1) = dt F_ext + J^T lambda instead"
+)
 
 res = w.last_step.residuals
-print("PGS residual by sweep (m/s):", " ".join(f"{r:.2g}" for r in res[[0, 1, 2, 4, 9, 19, 29]]),
-      "(sweeps 1, 2, 3, 5, 10, 20, 30)")
+print(
+    "PGS residual by sweep (m/s):",
+    " ".join(f"{r:.2g}" for r in res[[0, 1, 2, 4, 9, 19, 29]]),
+    "(sweeps 1, 2, 3, 5, 10, 20, 30)",
+)
 lam = system.lam
 r = d.A @ lam - d.b  # J V2 - xi for each row
 at_lo, at_hi = lam <= d.lo + 1e-12, lam >= d.hi - 1e-12
 inside = ~at_lo & ~at_hi
 print(f"lambda (N s): {' '.join(f'{v:.4f}' for v in lam)}")
-print(f"complementarity: {inside.sum()} rows inside their bounds, |A lambda - b| <= "
-      f"{np.abs(r[inside]).max():.2g} m/s there (J V2 = xi up to the residual); {at_lo.sum()} at their "
-      f"lower bound (A lambda - b >= 0: they separate), {at_hi.sum()} at their upper bound (friction slides)")
+print(
+    f"complementarity: {inside.sum()} rows inside their bounds, |A lambda - b| <= "
+    f"{np.abs(r[inside]).max():.2g} m/s there (J V2 = xi up to the residual); {at_lo.sum()} at their "
+    f"lower bound (A lambda - b >= 0: they separate), {at_hi.sum()} at their upper bound (friction slides)"
+)
 V2 = system.velocities()
-print(f"V2 = V1 + M^-1 (dt F_ext + J^T lambda) against the world's V after the step: "
-      f"max difference {np.abs(V2 - w.V.ravel()).max():.2g}")
+print(
+    f"V2 = V1 + M^-1 (dt F_ext + J^T lambda) against the world's V after the step: "
+    f"max difference {np.abs(V2 - w.V.ravel()).max():.2g}"
+)
 
 big = phys2d.scenes.pyramid(10, responder=phys2d.PGS(form="matrix"))
 big.step(c.DT)
 A = big.last_step.system.A
-print(f"sparsity: a 10-row pyramid has R = {A.shape[0]} rows; A stores {A.nnz} entries of "
-      f"{A.shape[0] ** 2} ({100 * A.nnz / A.shape[0] ** 2:.1f}%)")
+print(
+    f"sparsity: a 10-row pyramid has R = {A.shape[0]} rows; A stores {A.nnz} entries of "
+    f"{A.shape[0] ** 2} ({100 * A.nnz / A.shape[0] ** 2:.1f}%)"
+)
 
 seconds = 1.0 if args.quick else 3.0
 with c.recorder(args, __file__, "lesson 4: equations of motion") as rec:
     w = make(phys2d.PGS(form="matrix", iterations=30, split=False))
     pen = c.simulate(w, seconds, rec, probe=lambda w: w.last_step.max_penetration)
-print(f"TAKEAWAY: one system, one solve: the 2 cm overlaps shrink to {pen[-1] * 1000:.1f} mm "
-      f"in {seconds:g} s (slop 5 mm), pushed out at the Baumgarte rate beta/dt")
+print(
+    f"TAKEAWAY: one system, one solve: the 2 cm overlaps shrink to {pen[-1] * 1000:.1f} mm "
+    f"in {seconds:g} s (slop 5 mm), pushed out at the Baumgarte rate beta/dt"
+)
 c.done(rec)

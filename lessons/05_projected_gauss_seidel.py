@@ -50,8 +50,7 @@ def pgs(system, sweeps, project=True):
 
 args = c.options(__doc__)
 seconds = 3.0 if args.quick else 10.0
-c.claim("PGS converges on A lambda = b, its clamp keeps contacts pushing and friction in its cone, "
-        "and boxes stack")
+c.claim("PGS converges on A lambda = b, its clamp keeps contacts pushing and friction in its cone, and boxes stack")
 
 # 1. the residual by sweep, on a settled stack, solved cold with the pseudocode and by the engine
 w = c.zigzag_stack(phys2d.PGS())
@@ -60,9 +59,11 @@ w.responder = phys2d.PGS(form="matrix", warm_start=False, iterations=200)
 w.step(c.DT)
 system = w.last_step.system
 lam, residuals = pgs(system, 200)
-print(f"the pseudocode above against the engine, 200 sweeps, {len(lam)} rows: max |lambda difference| "
-      f"{np.abs(lam - system.lam).max():.2g} N s, "
-      f"residuals differ by {np.abs(residuals - w.last_step.residuals).max():.2g} m/s")
+print(
+    f"the pseudocode above against the engine, 200 sweeps, {len(lam)} rows: max |lambda difference| "
+    f"{np.abs(lam - system.lam).max():.2g} N s, "
+    f"residuals differ by {np.abs(residuals - w.last_step.residuals).max():.2g} m/s"
+)
 sweeps = [1, 2, 5, 10, 20, 50, 100, 200]
 c.table(["sweep"] + [str(s) for s in sweeps], [["residual (m/s)"] + [residuals[s - 1] for s in sweeps]], "{:.2g}")
 
@@ -73,9 +74,11 @@ w.add_box(position=(0, 0.5), velocity=(0, 1.0))
 w.step(c.DT)
 free, _ = pgs(w.last_step.system, 50, project=False)
 clamped, _ = pgs(w.last_step.system, 50)
-print(f"box thrown up at 1 m/s: Gauss-Seidel without the clamp gives lambda_n = "
-      f"{' '.join(f'{v:+.3f}' for v in free[0::2])} N s (it pulls the box back to the ground); "
-      f"with the clamp {' '.join(f'{v:+.3f}' for v in clamped[0::2])} N s")
+print(
+    f"box thrown up at 1 m/s: Gauss-Seidel without the clamp gives lambda_n = "
+    f"{' '.join(f'{v:+.3f}' for v in free[0::2])} N s (it pulls the box back to the ground); "
+    f"with the clamp {' '.join(f'{v:+.3f}' for v in clamped[0::2])} N s"
+)
 
 
 # 3. the bounds on every contact of a pyramid, and 4. lesson 1's stack
@@ -92,13 +95,19 @@ with c.recorder(args, __file__, "lesson 5: projected Gauss-Seidel") as rec:
     w = c.zigzag_stack(phys2d.PGS())
     y0 = w.x[:, 1].copy()
     stack = c.simulate(w, seconds, rec, "stack", lambda w: [w.kinetic_energy(), w.last_step.max_penetration])
-print(f"pyramid, {len(b)} ticks, {int(b[:, 3].sum())} contact points: smallest lambda_n {b[:, 0].min():.3g} N s "
-      f"(never pulls); largest |lambda_t| / (mu lambda_n) {b[:, 1].max():.6f} (inside the cone); "
-      f"{100 * b[:, 2].mean():.1f}% of points on the cone's edge (sliding)")
-print(f"stack (lesson 1's 8 boxes): boxes standing {c.standing(w, y0)} of {len(w) - 1}; top box "
-      f"{y0[-1]:.3f} m -> {w.x[-1, 1]:.3f} m; max penetration {stack[:, 1].max():.3g} m; "
-      f"kinetic energy at the end {stack[-1, 0]:.2g} J")
-print(f"TAKEAWAY: the residual falls from {residuals[0]:.2g} to {residuals[-1]:.2g} m/s in 200 sweeps, "
-      f"the clamp turns a pull of {free[0::2].min():+.2f} N s into 0, and the stack lesson 1 lost stands "
-      f"({c.standing(w, y0)} of {len(w) - 1})")
+print(
+    f"pyramid, {len(b)} ticks, {int(b[:, 3].sum())} contact points: smallest lambda_n {b[:, 0].min():.3g} N s "
+    f"(never pulls); largest |lambda_t| / (mu lambda_n) {b[:, 1].max():.6f} (inside the cone); "
+    f"{100 * b[:, 2].mean():.1f}% of points on the cone's edge (sliding)"
+)
+print(
+    f"stack (lesson 1's 8 boxes): boxes standing {c.standing(w, y0)} of {len(w) - 1}; top box "
+    f"{y0[-1]:.3f} m -> {w.x[-1, 1]:.3f} m; max penetration {stack[:, 1].max():.3g} m; "
+    f"kinetic energy at the end {stack[-1, 0]:.2g} J"
+)
+print(
+    f"TAKEAWAY: the residual falls from {residuals[0]:.2g} to {residuals[-1]:.2g} m/s in 200 sweeps, "
+    f"the clamp turns a pull of {free[0::2].min():+.2f} N s into 0, and the stack lesson 1 lost stands "
+    f"({c.standing(w, y0)} of {len(w) - 1})"
+)
 c.done(rec)

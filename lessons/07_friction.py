@@ -26,8 +26,10 @@ import phys2d
 MU, G, V0 = 0.5, 10.0, 4.0
 args = c.options(__doc__)
 ramp_time, slide_time = (1.5, 2.5) if args.quick else (4.0, 4.0)
-c.claim("Coulomb's bound mu lambda_n gives the textbook ramp and sliding figures; the lecture's fixed "
-        "mu m_c g ignores slope and load")
+c.claim(
+    "Coulomb's bound mu lambda_n gives the textbook ramp and sliding figures; the lecture's fixed "
+    "mu m_c g ignores slope and load"
+)
 
 
 def R(a):
@@ -61,8 +63,9 @@ with c.recorder(args, __file__, "lesson 7: friction") as rec:
             v = c.simulate(w, ramp_time, rec, f"ramp{deg}-{friction}", lambda w, down=down: w.V[1, :2] @ down)
             accel = (v[-1] - v[round(0.5 / c.DT)]) / (ramp_time - 0.5 - c.DT)  # after half a second
             rows.append([f"{deg} deg, {friction}", accel, expect[friction]])
-    print(f"ramp, mu = {MU}: tan(28 deg) = {np.tan(np.radians(28)):.3f} > mu > sin(28 deg) = "
-          f"{np.sin(np.radians(28)):.3f}")
+    print(
+        f"ramp, mu = {MU}: tan(28 deg) = {np.tan(np.radians(28)):.3f} > mu > sin(28 deg) = {np.sin(np.radians(28)):.3f}"
+    )
     c.table(["ramp, bound", "measured accel (m/s^2)", "analytic (m/s^2)"], rows, "{:.4f}")
 
     rows = []
@@ -73,17 +76,31 @@ with c.recorder(args, __file__, "lesson 7: friction") as rec:
             # decelerating force on the bottom box from the ground: Coulomb mu m_all g; the lecture's
             # bound mu m_c g with m_c = m1 (the static ground's partner), whatever rides on top
             decel = MU * G * (1.0 if friction == "coulomb" else m1 / m_all)
-            vx = c.simulate(w, slide_time, rec, f"slide-{'loaded' if loaded else 'alone'}-{friction}",
-                            lambda w: w.V[1, 0])
+            vx = c.simulate(
+                w, slide_time, rec, f"slide-{'loaded' if loaded else 'alone'}-{friction}", lambda w: w.V[1, 0]
+            )
             stopped = np.flatnonzero(np.abs(vx) < 1e-6)
             d = V0**2 / (2 * decel)
-            rows.append([f"{'loaded' if loaded else 'alone'}, {friction}", w.x[1, 0], d, d - V0 * c.DT / 2,
-                         (stopped[0] + 1) * c.DT if stopped.size else np.nan, V0 / decel])
+            rows.append(
+                [
+                    f"{'loaded' if loaded else 'alone'}, {friction}",
+                    w.x[1, 0],
+                    d,
+                    d - V0 * c.DT / 2,
+                    (stopped[0] + 1) * c.DT if stopped.size else np.nan,
+                    V0 / decel,
+                ]
+            )
 print(f"sliding at {V0} m/s on flat ground, mu = {MU}, dt = 1/60 s:")
-c.table(["box, bound", "stopped after (m)", "v^2/(2 a) (m)", "minus v dt/2 (m)", "stop time (s)",
-         "v / a (s)"], rows, "{:.4f}")
+c.table(
+    ["box, bound", "stopped after (m)", "v^2/(2 a) (m)", "minus v dt/2 (m)", "stop time (s)", "v / a (s)"],
+    rows,
+    "{:.4f}",
+)
 alone, loaded = rows[0], rows[3]
-print(f"TAKEAWAY: Coulomb matches the analytic ramp accelerations and stops the box at {alone[1]:.4f} m = "
-      f"v^2/(2 mu g) - v dt/2 = {alone[3]:.4f} m; the lecture's bound lets a loaded box slide "
-      f"{loaded[1]:.3f} m instead of {rows[2][1]:.3f} m, because it never sees the load")
+print(
+    f"TAKEAWAY: Coulomb matches the analytic ramp accelerations and stops the box at {alone[1]:.4f} m = "
+    f"v^2/(2 mu g) - v dt/2 = {alone[3]:.4f} m; the lecture's bound lets a loaded box slide "
+    f"{loaded[1]:.3f} m instead of {rows[2][1]:.3f} m, because it never sees the load"
+)
 c.done(rec)

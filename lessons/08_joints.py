@@ -25,8 +25,9 @@ import phys2d
 G, THETA0 = 10.0, 0.1
 args = c.options(__doc__)
 seconds = 6.0 if args.quick else 20.0
-c.claim("joints as Jacobian rows give the analytic pendulum periods, hold a chain together and stop a hinge "
-        "at its limit")
+c.claim(
+    "joints as Jacobian rows give the analytic pendulum periods, hold a chain together and stop a hinge at its limit"
+)
 
 
 def period(t, x):
@@ -45,8 +46,7 @@ def pendulum(kind):
         T = 2 * np.pi * np.sqrt(L / G)
     else:  # a 2 m rod pinned at its top end: a physical pendulum
         d = 1.0
-        bob = w.add_box(position=(d * np.sin(THETA0), 5 - d * np.cos(THETA0)), half_extents=(0.05, d),
-                        angle=THETA0)
+        bob = w.add_box(position=(d * np.sin(THETA0), 5 - d * np.cos(THETA0)), half_extents=(0.05, d), angle=THETA0)
         joint = w.add_pin_joint(pivot, bob, anchor=(0, 5))
         T = 2 * np.pi * np.sqrt((bob.inertia + bob.mass * d**2) / (bob.mass * G * d))
     return w, joint, T * (1 + THETA0**2 / 16)
@@ -65,18 +65,22 @@ with c.recorder(args, __file__, "lesson 8: joints") as rec:
         T_run, swings = period(out[:, 0], out[:, 1])
         rows.append([kind, T_run, T, abs(T_run / T - 1), swings, out[:, 2].max(), 1 - out[-1, 3] / E0])
     print(f"pendulums released at theta_0 = {THETA0} rad, {seconds:g} s, dt = 1/60 s, PGS(iterations=10):")
-    c.table(["joint", "period (s)", "analytic (s)", "relative error", "swings", "max gap (m)",
-             "energy lost"], rows)
+    c.table(["joint", "period (s)", "analytic (s)", "relative error", "swings", "max gap (m)", "energy lost"], rows)
     pend = rows
 
     rows = []
     for iterations, hz in ((10, 60), (50, 60), (10, 240)):
         w = phys2d.scenes.pendulum_chain(10, responder=phys2d.PGS(iterations=iterations))
         E0 = energy(w)
-        out = c.simulate(w, seconds, rec, f"chain-{iterations}-{hz}hz",
-                         lambda w: [max(q.gap() for q in w.joints), energy(w)], dt=1 / hz)
-        rows.append([f"PGS({iterations}), dt = 1/{hz} s", out[:, 0].max(), np.median(out[:, 0]),
-                     1 - out[-1, 1] / E0])
+        out = c.simulate(
+            w,
+            seconds,
+            rec,
+            f"chain-{iterations}-{hz}hz",
+            lambda w: [max(q.gap() for q in w.joints), energy(w)],
+            dt=1 / hz,
+        )
+        rows.append([f"PGS({iterations}), dt = 1/{hz} s", out[:, 0].max(), np.median(out[:, 0]), 1 - out[-1, 1] / E0])
     print(f"a chain of 10 pinned links (0.5 m each) swinging down from horizontal, {seconds:g} s:")
     c.table(["solver, tick", "max pin gap (m)", "median pin gap (m)", "energy lost"], rows)
     chain = rows
@@ -87,10 +91,14 @@ with c.recorder(args, __file__, "lesson 8: joints") as rec:
     w.add_pin_joint(wall, door, anchor=(0.1, 5))
     hinge = w.add_angle_joint(wall, door, lower=-0.5, upper=0.5)
     out = c.simulate(w, seconds, rec, "hinge", lambda w: hinge.offset())
-print(f"hinge limited to [-0.5, +0.5] rad, door released horizontal: lowest angle {out.min():+.4f} rad, "
-      f"after {seconds:g} s {out[-1]:+.4f} rad")
-print(f"TAKEAWAY: periods within {max(r[3] for r in pend):.1e} of the analytic ones; the whipping chain's pins "
-      f"open up to {chain[0][1]:.3f} m at 10 sweeps, {chain[1][1]:.3f} m at 50 and {chain[2][1]:.3f} m with a 4x "
-      f"shorter tick (the drift of a velocity-level solve, not a lack of sweeps); the hinge stops at "
-      f"{out.min():+.3f} rad")
+print(
+    f"hinge limited to [-0.5, +0.5] rad, door released horizontal: lowest angle {out.min():+.4f} rad, "
+    f"after {seconds:g} s {out[-1]:+.4f} rad"
+)
+print(
+    f"TAKEAWAY: periods within {max(r[3] for r in pend):.1e} of the analytic ones; the whipping chain's pins "
+    f"open up to {chain[0][1]:.3f} m at 10 sweeps, {chain[1][1]:.3f} m at 50 and {chain[2][1]:.3f} m with a 4x "
+    f"shorter tick (the drift of a velocity-level solve, not a lack of sweeps); the hinge stops at "
+    f"{out.min():+.3f} rad"
+)
 c.done(rec)

@@ -80,7 +80,7 @@ def load_error_1d(masses, sweeps: int, top_first: bool = False) -> float:
     exact = G * c.DT * np.cumsum(masses[::-1])[::-1]
     lam = np.zeros(n)
     for _ in range(sweeps):
-        for k in (range(n - 1, -1, -1) if top_first else range(n)):
+        for k in range(n - 1, -1, -1) if top_first else range(n):
             lam[k] = max(0.0, lam[k] + (b[k] - A[k] @ lam) / A[k, k])
     return float(np.max(np.abs(lam - exact) / exact))
 
@@ -100,8 +100,11 @@ def stack(size: int, ratio: float) -> list:
 def fewest(rows, column: str, overlap: float | None = None):
     """The smallest count among rows (count -> row) whose ``column`` is within the tolerance
     (and whose deepest overlap is within ``overlap`` m, when given), or None."""
-    ok = [k for k, r in rows.items()
-          if r[column] <= TOLERANCE and (overlap is None or (r["max_overlap"] <= overlap and r["outcome"] == "stood"))]
+    ok = [
+        k
+        for k, r in rows.items()
+        if r[column] <= TOLERANCE and (overlap is None or (r["max_overlap"] <= overlap and r["outcome"] == "stood"))
+    ]
     return min(ok) if ok else None
 
 
@@ -114,19 +117,22 @@ def show(value, most: int | None = None) -> str:
 
 def main() -> None:
     args = c.options(__doc__)
-    c.claim("the iterations Gauss-Seidel needs to reach 95 % of the exact impulse grow with the mass ratio as "
-            "3 x ratio + 2 (Catto, GDC 2014); warm starting and sub-steps (after 2014) hold the load with far "
-            "fewer per tick")
+    c.claim(
+        "the iterations Gauss-Seidel needs to reach 95 % of the exact impulse grow with the mass ratio as "
+        "3 x ratio + 2 (Catto, GDC 2014); warm starting and sub-steps (after 2014) hold the load with far "
+        "fewer per tick"
+    )
 
     grids = phys2d.sweeps.load_toml(os.path.join(c.LESSONS, "11_catto.toml"))
     if args.quick:  # fewer counts and mass ratios; the first-tick tables still reach every count they need
         first, regression, hold = grids[:2], grids[2], grids[3:]
-        grids = [replace(g, iterations=tuple(range(1, 35)), substeps=tuple(range(1, 9))) for g in first] + \
-                [replace(regression, mass_ratio=(0.5, 1, 2, 5, 10), iterations=tuple(range(1, 35)))] + \
-                [replace(g, iterations=tuple(range(1, 21)), substeps=tuple(range(1, 9))) for g in hold]
+        grids = (
+            [replace(g, iterations=tuple(range(1, 35)), substeps=tuple(range(1, 9))) for g in first]
+            + [replace(regression, mass_ratio=(0.5, 1, 2, 5, 10), iterations=tuple(range(1, 35)))]
+            + [replace(g, iterations=tuple(range(1, 21)), substeps=tuple(range(1, 9))) for g in hold]
+        )
     os.makedirs(args.out, exist_ok=True)
-    result = phys2d.sweep(grids, out=os.path.join(args.out, "11_catto_figures.parquet"), resume=False,
-                          progress=False)
+    result = phys2d.sweep(grids, out=os.path.join(args.out, "11_catto_figures.parquet"), resume=False, progress=False)
     print(f"sweep: {result.ran} runs on {result.where} in {result.seconds:.1f} s -> {result.path}")
 
     runs: dict = {}  # (circles, top mass, responder, steps) -> {count: row}
@@ -143,16 +149,22 @@ def main() -> None:
         analysis = count_1d(stack(size, ratio))
         first = [fewest(of(size, ratio, name, 1), "load_error_first_tick") for name in names]
         rows1.append([label, show(catto), show(line), show(analysis), *map(show, first)])
-        held = [show(fewest(of(size, ratio, name), "load_error_second_half", OVERLAP), max(of(size, ratio, name)))
-                for name in names]
+        held = [
+            show(fewest(of(size, ratio, name), "load_error_second_half", OVERLAP), max(of(size, ratio, name)))
+            for name in names
+        ]
         rows2.append([label, *held])
 
-    print(f"first tick from rest, lambda from 0: sweeps until every contact is within {TOLERANCE:.0%} of the "
-          "exact impulse (soft-step: sub-steps; '-' none in the sweep)")
+    print(
+        f"first tick from rest, lambda from 0: sweeps until every contact is within {TOLERANCE:.0%} of the "
+        "exact impulse (soft-step: sub-steps; '-' none in the sweep)"
+    )
     c.table(["case", "Catto 2014 (about)", "3 r + 2", "1D Gauss-Seidel", "pgs-cold", "pgs (warm)", "soft-step"], rows1)
-    print(f"holding the load: fewest sweeps (soft-step: sub-steps, 2 sweeps each) per tick with every contact within "
-          f"{TOLERANCE:.0%} of its load through the second half-second and no overlap past {1e3 * OVERLAP:g} mm "
-          f"in 1 s")
+    print(
+        f"holding the load: fewest sweeps (soft-step: sub-steps, 2 sweeps each) per tick with every contact within "
+        f"{TOLERANCE:.0%} of its load through the second half-second and no overlap past {1e3 * OVERLAP:g} mm "
+        f"in 1 s"
+    )
     c.table(["case", "pgs-cold", "pgs (warm)", "soft-step"], rows2)
 
     # Catto's line against the analysis: where the 95 % count comes from
@@ -160,23 +172,39 @@ def main() -> None:
     measured = {r: fewest(of(2, r, "pgs-cold", 1), "load_error_first_tick") for r in ratios}
     analysis = {r: count_1d(stack(2, r)) for r in ratios}
     print("regression over mass ratios (first tick, pgs-cold; 1D analysis; Catto's 3 r + 2; ln 20 / ln(1 + 1/r)):")
-    c.table(["top / bottom mass r", "engine", "1D Gauss-Seidel", "3 r + 2", "ln 20 / ln(1 + 1/r)"],
-            [[f"{r:g}", show(measured[r]), show(analysis[r]), f"{3 * r + 2:g}",
-              f"{math.log(20) / math.log1p(1 / r):.1f}"] for r in ratios])
+    c.table(
+        ["top / bottom mass r", "engine", "1D Gauss-Seidel", "3 r + 2", "ln 20 / ln(1 + 1/r)"],
+        [
+            [
+                f"{r:g}",
+                show(measured[r]),
+                show(analysis[r]),
+                f"{3 * r + 2:g}",
+                f"{math.log(20) / math.log1p(1 / r):.1f}",
+            ]
+            for r in ratios
+        ],
+    )
     slope, intercept = np.polyfit([r for r in ratios if r >= 1], [measured[r] for r in ratios if r >= 1], 1)
     print(f"least-squares line through the engine's counts for r >= 1: {slope:.2f} r + {intercept:.2f}")
     strict = {r: count_1d(stack(2, r), 0.01) for r in (1.0, 10.0)}
-    print(f"why Catto's 50 at 10:1 is off his own line: with a 99 % target the 1D count at 10:1 is {strict[10.0]}, "
-          f"near his 50, but then equal masses need {strict[1.0]}, not his 5; no one target gives both, and "
-          f"3 x 10 + 2 = 32 is what we measure")
+    print(
+        f"why Catto's 50 at 10:1 is off his own line: with a 99 % target the 1D count at 10:1 is {strict[10.0]}, "
+        f"near his 50, but then equal masses need {strict[1.0]}, not his 5; no one target gives both, and "
+        f"3 x 10 + 2 = 32 is what we measure"
+    )
 
     other = [count_1d(stack(size, ratio), top_first=True) for _, size, ratio, _, _ in CASES]
-    print(f"visiting the top contact first instead (a solver's choice), the 1D counts are "
-          f"{', '.join(map(str, other))}: the order moves a count by a sweep or three, not to 50")
+    print(
+        f"visiting the top contact first instead (a solver's choice), the 1D counts are "
+        f"{', '.join(map(str, other))}: the order moves a count by a sweep or three, not to 50"
+    )
     pairs = [(r[4], r[3]) for r in rows1] + [(show(measured[r]), show(analysis[r])) for r in ratios]
     same = sum(a == b for a, b in pairs)
-    print(f"2D against 1D: the circles touch along vertical normals through their centres, so nothing turns and "
-          f"no friction acts; the engine's counts equal the 1D analysis in {same} of {len(pairs)} cases")
+    print(
+        f"2D against 1D: the circles touch along vertical normals through their centres, so nothing turns and "
+        f"no friction acts; the engine's counts equal the 1D analysis in {same} of {len(pairs)} cases"
+    )
 
     figures = plot(args, ratios, measured, analysis, of)
     rid = c.new_recording_id()
@@ -191,10 +219,12 @@ def main() -> None:
 
     heavy = rows1[2]
     held = rows2[2]
-    print(f"TAKEAWAY: on the first tick the count follows 3 r + 2 (engine {heavy[4]} at 10 kg on 1 kg, the 1D "
-          f"analysis {heavy[3]}, Catto's line 32; his 'about 50' is off his own line); warm starting carries the "
-          f"work over ticks, so the 10:1 pair holds its load without sinking past {1e3 * OVERLAP:g} mm with "
-          f"{held[2]} sweeps per tick where cold PGS needs {held[1]}, and the soft step with {held[3]} sub-steps")
+    print(
+        f"TAKEAWAY: on the first tick the count follows 3 r + 2 (engine {heavy[4]} at 10 kg on 1 kg, the 1D "
+        f"analysis {heavy[3]}, Catto's line 32; his 'about 50' is off his own line); warm starting carries the "
+        f"work over ticks, so the 10:1 pair holds its load without sinking past {1e3 * OVERLAP:g} mm with "
+        f"{held[2]} sweeps per tick where cold PGS needs {held[1]}, and the soft step with {held[3]} sub-steps"
+    )
     c.done(rec)
 
 
@@ -210,10 +240,22 @@ def plot(args, ratios, measured, analysis, of) -> list:
     fig, ax = plt.subplots(figsize=(7, 4.5), layout="constrained")
     r = np.linspace(min(ratios), max(ratios), 200)
     ax.plot(r, 3 * r + 2, "k--", label="Catto's regression 3 r + 2")
-    ax.plot(r, [math.log(20) / math.log1p(1 / x) for x in r], ":", color="tab:gray",
-            label="ln 20 / ln(1 + 1/r) (Gauss-Seidel rate)")
-    ax.plot(ratios, [analysis[x] for x in ratios], "s", mfc="none", ms=9, color="tab:blue",
-            label="1D Gauss-Seidel (second method)")
+    ax.plot(
+        r,
+        [math.log(20) / math.log1p(1 / x) for x in r],
+        ":",
+        color="tab:gray",
+        label="ln 20 / ln(1 + 1/r) (Gauss-Seidel rate)",
+    )
+    ax.plot(
+        ratios,
+        [analysis[x] for x in ratios],
+        "s",
+        mfc="none",
+        ms=9,
+        color="tab:blue",
+        label="1D Gauss-Seidel (second method)",
+    )
     ax.plot(ratios, [measured[x] for x in ratios], "o", color="tab:orange", label="phys2d, first tick (sweep)")
     ax.plot([1, 0.5, 10], [5, 3, 50], "x", ms=10, mew=2, color="tab:red", label="Catto 2014 (reported)")
     ax.set_xlabel("mass ratio r = top mass / bottom mass")
@@ -232,8 +274,14 @@ def plot(args, ratios, measured, analysis, of) -> list:
         for name, colour in (("pgs-cold", "tab:red"), ("pgs", "tab:blue"), ("soft-step", "tab:green")):
             rows = of(size, ratio, name)
             counts = sorted(rows)
-            ax.semilogy(counts, [max(1e3 * rows[k]["max_overlap"], 1e-3) for k in counts], "-o", ms=3,
-                        color=colour, label=name + (" (sub-steps)" if name == "soft-step" else ""))
+            ax.semilogy(
+                counts,
+                [max(1e3 * rows[k]["max_overlap"], 1e-3) for k in counts],
+                "-o",
+                ms=3,
+                color=colour,
+                label=name + (" (sub-steps)" if name == "soft-step" else ""),
+            )
         ax.axhline(1e3 * OVERLAP, color="k", lw=0.8, label=f"{1e3 * OVERLAP:g} mm (PGS slop)")
         ax.set_title(label)
         ax.set_xlabel("sweeps per tick (soft-step: sub-steps)")

@@ -39,8 +39,11 @@ def in_notebook() -> bool:
 def _notebook_file() -> str:
     """The .py of the lesson this notebook is (PHYS2D_LESSON, the notebook's name, or a stand-in)."""
     shell = sys.modules["IPython"].get_ipython()
-    for given in (os.environ.get("PHYS2D_LESSON"), os.environ.get("JPY_SESSION_NAME"),
-                  shell.user_ns.get("__vsc_ipynb_file__")):
+    for given in (
+        os.environ.get("PHYS2D_LESSON"),
+        os.environ.get("JPY_SESSION_NAME"),
+        shell.user_ns.get("__vsc_ipynb_file__"),
+    ):
         stem = os.path.splitext(os.path.basename(given or ""))[0]
         if stem:
             return os.path.join(LESSONS, stem + ".py")
@@ -59,8 +62,11 @@ def options(doc: str | None) -> argparse.Namespace:
     lines = (doc or "").strip().splitlines()
     p = argparse.ArgumentParser(description=lines[0] if lines else None)
     p.add_argument("--quick", action="store_true", help="a short run of a few seconds (for the tests)")
-    p.add_argument("--out", default=os.path.join(ROOT, "recordings") if in_notebook() else "recordings",
-                   help="folder for the recording (default: recordings/)")
+    p.add_argument(
+        "--out",
+        default=os.path.join(ROOT, "recordings") if in_notebook() else "recordings",
+        help="folder for the recording (default: recordings/)",
+    )
     if in_notebook():
         return p.parse_args(shlex.split(os.environ.get("PHYS2D_LESSON_ARGS", "")))
     return p.parse_args()
@@ -101,8 +107,9 @@ def new_recording_id() -> str:
     return str(uuid.uuid4())
 
 
-def simulate(w: phys2d.World, seconds: float, rec=None, run: str | None = None, probe=None,
-             dt: float = DT) -> np.ndarray:
+def simulate(
+    w: phys2d.World, seconds: float, rec=None, run: str | None = None, probe=None, dt: float = DT
+) -> np.ndarray:
     """Step w for ``seconds``, logging each tick to rec (as ``run``); returns probe(w) per tick."""
     out = []
     for _ in range(round(seconds / dt)):

@@ -113,8 +113,18 @@ class BodyArrays:
         self.local_v = self._local_v[: self.n_verts]
         self.local_n = self._local_n[: self.n_verts]
 
-    def append(self, spec: ShapeSpec, x: ArrayLike, theta: float, V: ArrayLike, mass: float, inertia: float,
-               friction: float, restitution: float, static: bool) -> int:
+    def append(
+        self,
+        spec: ShapeSpec,
+        x: ArrayLike,
+        theta: float,
+        V: ArrayLike,
+        mass: float,
+        inertia: float,
+        friction: float,
+        restitution: float,
+        static: bool,
+    ) -> int:
         """Add a body's row (values already checked): x (m), theta (rad), V = (vx, vy, omega)
         (m/s, rad/s), mass (kg), inertia (kg m^2); returns its row index."""
         if self.next_uid > MAX_BODY_UID:
@@ -339,8 +349,10 @@ class Body:
         kind = "static " if a.static[i] else ""
         shape = f"circle r={a.radius[i]:.3g}" if a.kind[i] == CIRCLE else f"polygon {a.vcount[i]} vertices"
         x, y = a.x[i]
-        return (f"<Body {i}: {kind}{shape}, position=({x:.4g}, {y:.4g}) m, "
-                f"angle={a.theta[i]:.4g} rad, mass={a.mass[i]:.4g} kg>")
+        return (
+            f"<Body {i}: {kind}{shape}, position=({x:.4g}, {y:.4g}) m, "
+            f"angle={a.theta[i]:.4g} rad, mass={a.mass[i]:.4g} kg>"
+        )
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Body) and other._world is self._world and other._uid == self._uid

@@ -123,11 +123,14 @@ def default_size(builder: Callable[..., World]) -> Any:
 
 def requested_count(args: argparse.Namespace) -> tuple[str, int] | None:
     """(option, value) of the one count option given (``iterations`` or a registry count), or None."""
-    given = [(name, getattr(args, name)) for name in ("iterations", *COUNT_OPTIONS)
-             if getattr(args, name, None) is not None]
+    given = [
+        (name, getattr(args, name)) for name in ("iterations", *COUNT_OPTIONS) if getattr(args, name, None) is not None
+    ]
     if len(given) > 1:
-        raise CLIError(f"give one of --iterations, --sweeps, --passes, --substeps, not {len(given)} "
-                       f"({', '.join('--' + n for n, _ in given)})")
+        raise CLIError(
+            f"give one of --iterations, --sweeps, --passes, --substeps, not {len(given)} "
+            f"({', '.join('--' + n for n, _ in given)})"
+        )
     return given[0] if given else None
 
 
@@ -190,8 +193,11 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
         def on_start(self, ev: event.Event) -> None:
             if not Notice.said:
                 Notice.said = True
-                print("phys2d: compiling the numba kernels (first run only, about 10-60 s; cached after that) ...",
-                      file=out, flush=True)
+                print(
+                    "phys2d: compiling the numba kernels (first run only, about 10-60 s; cached after that) ...",
+                    file=out,
+                    flush=True,
+                )
 
         def on_end(self, ev: event.Event) -> None:
             pass
@@ -205,8 +211,17 @@ def progress(total: int, initial: int, enabled: bool):
     """A tqdm bar on stderr; created after the first step, so its rate and ETA leave out compiling."""
     from tqdm import tqdm
 
-    return tqdm(total=total, initial=initial, desc="tick", unit="tick", disable=not enabled, file=sys.stderr,
-                mininterval=0.2, leave=True, dynamic_ncols=True)
+    return tqdm(
+        total=total,
+        initial=initial,
+        desc="tick",
+        unit="tick",
+        disable=not enabled,
+        file=sys.stderr,
+        mininterval=0.2,
+        leave=True,
+        dynamic_ncols=True,
+    )
 
 
 def _progress_enabled(flag: bool | None, steps: int) -> bool:
@@ -304,8 +319,10 @@ def has_display() -> bool:
 
 
 def _no_display(what: str) -> CLIError:
-    return CLIError(f"no display to open the viewer window on ($DISPLAY and $WAYLAND_DISPLAY are not set); "
-                    f"use {what} --web to view it in a browser instead")
+    return CLIError(
+        f"no display to open the viewer window on ($DISPLAY and $WAYLAND_DISPLAY are not set); "
+        f"use {what} --web to view it in a browser instead"
+    )
 
 
 def check_port_free(port: int, option: str) -> None:
@@ -315,8 +332,10 @@ def check_port_free(port: int, option: str) -> None:
         try:
             s.bind(("127.0.0.1", port))
         except OSError:
-            raise CLIError(f"port {port} is already in use (another viewer?); choose a free one with "
-                           f"{option} PORT, or stop what is using it") from None
+            raise CLIError(
+                f"port {port} is already in use (another viewer?); choose a free one with "
+                f"{option} PORT, or stop what is using it"
+            ) from None
 
 
 def _wait_listening(proc: subprocess.Popen, port: int, log: str, timeout: float = 30.0) -> None:
@@ -374,8 +393,14 @@ class Viewer:
             check_port_free(port, "--port")
             cmd = [exe, "--bind", "127.0.0.1", "--port", str(port)]
         with open(self.log, "w") as log:
-            self.proc = subprocess.Popen(cmd, env={**os.environ, "BROWSER": "true"}, stdin=subprocess.DEVNULL,
-                                         stdout=log, stderr=subprocess.STDOUT, start_new_session=kind != "web")
+            self.proc = subprocess.Popen(
+                cmd,
+                env={**os.environ, "BROWSER": "true"},
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                start_new_session=kind != "web",
+            )
         if kind == "web" or not files:
             _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
 
@@ -387,6 +412,7 @@ class Viewer:
 
     def wait(self) -> int:
         """Until the viewer exits or Ctrl-C / SIGTERM; then stop it."""
+
         def stop(*_: Any) -> NoReturn:
             raise KeyboardInterrupt
 
@@ -432,8 +458,10 @@ def start_live(target: str, web_port: int, port: int) -> tuple[str, Viewer | Non
 
 # -- commands --------------------------------------------------------------------------
 def cmd_scenes(args: argparse.Namespace) -> int:
-    rows = [(name, repr(default_size(cast(Callable[..., World], b))), meaning)
-            for name, (b, meaning) in scenes.SCENES.items()]
+    rows = [
+        (name, repr(default_size(cast(Callable[..., World], b))), meaning)
+        for name, (b, meaning) in scenes.SCENES.items()
+    ]
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     print(f"{'scene':<{w0}}  {'size':>{w1}}  --size means")
@@ -448,7 +476,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     count = requested_count(args)
     choice = plot_choice(args)  # checked even when nothing is recorded
     responder = make_responder(args.responder, count)
-    w = build_world(args.scene, args.size, responder)
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
     name = f"{args.scene}-{size}-{args.responder}{_count_tag(count, args.responder)}.rrd"
     path = None if args.no_record else (args.out or os.path.join(DEFAULT_DIR, name))
@@ -457,10 +484,31 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.live is not None:
         stream_to, viewer = start_live(args.live, args.web_port, args.port)
     rec = None
+    folder = os.path.dirname(os.path.abspath(path)) if path else None
+    new_folder = folder is not None and not os.path.isdir(folder)
     if path or stream_to:
-        rec = Recorder(path, name=f"{args.scene} {size} / {args.responder}", scene=args.scene,
-                       contact_series=not args.no_series, plot=choice, stream_to=stream_to,
-                       flush_every=6 if stream_to else 60, background=True)
+        # the writer process starts first, so that it loads rerun while this one builds the world
+        # and loads the numba kernels
+        rec = Recorder(
+            path,
+            name=f"{args.scene} {size} / {args.responder}",
+            scene=args.scene,
+            contact_series=not args.no_series,
+            plot=choice,
+            stream_to=stream_to,
+            flush_every=6 if stream_to else 60,
+            background=True,
+        )
+    try:
+        w = build_world(args.scene, args.size, responder)
+    except BaseException:
+        if rec is not None:  # nothing was recorded: leave no empty file (or folder) behind
+            rec.close()
+            if path is not None and os.path.isfile(path):
+                os.unlink(path)
+            if new_folder and folder is not None and not os.listdir(folder):
+                os.rmdir(folder)
+        raise
     watch = Watch(w)
     deepest = 0.0
     t0 = time.perf_counter()
@@ -496,10 +544,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     steady = time.perf_counter() - t_first
     print(f"{args.scene} (size {size}), {len(w)} bodies, responder {responder!r}")
     per = f"{1e3 * steady / (args.steps - 1):.3f} ms/step after the first" if args.steps > 1 else "1 step"
-    print(f"{plural(args.steps, 'steps')} of {args.dt:.4g} s in {elapsed:.2f} s ({per}"
-          f"{', recording included' if rec else ''})")
-    print(f"last step: {plural(len(w.contacts), 'contacts')}, cache hit rate {w.last_step.cache_hit_rate:.3f}, "
-          f"residual {_work_done(w, args.responder)}")
+    print(
+        f"{plural(args.steps, 'steps')} of {args.dt:.4g} s in {elapsed:.2f} s ({per}"
+        f"{', recording included' if rec else ''})"
+    )
+    print(
+        f"last step: {plural(len(w.contacts), 'contacts')}, cache hit rate {w.last_step.cache_hit_rate:.3f}, "
+        f"residual {_work_done(w, args.responder)}"
+    )
     print(f"verdict: {watch.verdict().line()}")
     if path:
         plotted = rec.plotted.get(None, []) if rec is not None else []
@@ -529,9 +581,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
     bar = None
     # its own application id: the viewer keeps one blueprint per application, and a comparison's
     # layout (a world per run) differs from a single run's
-    with Recorder(path, name=f"{args.scene} {size}: {' vs '.join(worlds)}", scene=args.scene,
-                  application_id="phys2d-compare", contact_series=not args.no_series, plot=plot_choice(args),
-                  background=True) as rec:
+    with Recorder(
+        path,
+        name=f"{args.scene} {size}: {' vs '.join(worlds)}",
+        scene=args.scene,
+        application_id="phys2d-compare",
+        contact_series=not args.no_series,
+        plot=plot_choice(args),
+        background=True,
+    ) as rec:
         for label, w in worlds.items():
             rec.log(w, run=label)
         try:
@@ -556,8 +614,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
         finally:
             if bar is not None:
                 bar.close()
-    print(f"{args.scene} (size {size}), {plural(args.steps, 'steps')} of {args.dt:.4g} s, every responder, "
-          f"same timelines (tick, sim_time)")
+    print(
+        f"{args.scene} (size {size}), {plural(args.steps, 'steps')} of {args.dt:.4g} s, every responder, "
+        f"same timelines (tick, sim_time)"
+    )
     width = max(len(label) for label in worlds)
     for label in worlds:
         v = watches[label].verdict()
@@ -572,10 +632,14 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from .recording import playback
 
     rec = playback.load(args.path)
-    print(f"{args.path}: {plural(len(rec.runs), 'runs')}, "
-          f"phys2d {rec.properties.get('phys2d', {}).get('engine_version', '?')}")
-    head = (f"{'run':<10} {'responder':<10} {'ticks':>11} {'bodies':>6} {'contacts':>8} {'max pen (mm)':>12} "
-            f"{'max lambda_n':>12} {'last residual':>13} {'KE end (J)':>11}")
+    print(
+        f"{args.path}: {plural(len(rec.runs), 'runs')}, "
+        f"phys2d {rec.properties.get('phys2d', {}).get('engine_version', '?')}"
+    )
+    head = (
+        f"{'run':<10} {'responder':<10} {'ticks':>11} {'bodies':>6} {'contacts':>8} {'max pen (mm)':>12} "
+        f"{'max lambda_n':>12} {'last residual':>13} {'KE end (J)':>11}"
+    )
     print(head)
     for label, r in rec.runs.items():
         c = r.contacts
@@ -588,8 +652,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         res = f"{last_res[-1]:.3g}" if last_res.size else "-"
         ke = f"{r.kinetic_energy[-1]:.4g}" if r.kinetic_energy.size else "-"
         responder = str(r.properties.get("responder_name", "?"))
-        print(f"{label or '-':<10} {responder:<10} {ticks:>11} {bodies:>6} {most:>8} {pen:>12.3f} "
-              f"{lam:>12} {res:>13} {ke:>11}")
+        print(
+            f"{label or '-':<10} {responder:<10} {ticks:>11} {bodies:>6} {most:>8} {pen:>12.3f} "
+            f"{lam:>12} {res:>13} {ke:>11}"
+        )
     return 0
 
 
@@ -614,20 +680,45 @@ def _common(q: argparse.ArgumentParser, default_steps: int) -> None:
     counts.add_argument("--sweeps", type=_count, default=None, help="PGS sweeps per tick (default 10)")
     counts.add_argument("--passes", type=_count, default=None, help="iterative passes per tick (default 10)")
     counts.add_argument("--substeps", type=_count, default=None, help="soft-step sub-steps per tick (default 4)")
-    counts.add_argument("--iterations", type=_count, default=None,
-                        help="alias: the sweeps, passes or sub-steps of whichever responder runs")
-    q.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress bar on stderr (default: when stderr is a terminal and the run is long)")
-    q.add_argument("--no-series", action="store_true",
-                   help="leave out the plotted per-contact lambda/penetration series; the per-tick contact "
-                        "table (every contact) is kept")
+    counts.add_argument(
+        "--iterations",
+        type=_count,
+        default=None,
+        help="alias: the sweeps, passes or sub-steps of whichever responder runs",
+    )
+    q.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal and the run is long)",
+    )
+    q.add_argument(
+        "--no-series",
+        action="store_true",
+        help="leave out the plotted per-contact lambda/penetration series; the per-tick contact "
+        "table (every contact) is kept",
+    )
     plot = q.add_mutually_exclusive_group()
-    plot.add_argument("--plot-deepest", type=_count, default=None, metavar="N",
-                      help="plot lambda and penetration of the N deepest contacts (default 4)")
-    plot.add_argument("--plot-body", type=int, default=None, metavar="UID",
-                      help="plot every contact of the body with this uid (its index in a stock scene)")
-    plot.add_argument("--plot-contacts", default=None, metavar="NAMES",
-                      help="plot these contacts, comma-separated, named as in the legends: b3-b7/f512,...")
+    plot.add_argument(
+        "--plot-deepest",
+        type=_count,
+        default=None,
+        metavar="N",
+        help="plot lambda and penetration of the N deepest contacts (default 4)",
+    )
+    plot.add_argument(
+        "--plot-body",
+        type=int,
+        default=None,
+        metavar="UID",
+        help="plot every contact of the body with this uid (its index in a stock scene)",
+    )
+    plot.add_argument(
+        "--plot-contacts",
+        default=None,
+        metavar="NAMES",
+        help="plot these contacts, comma-separated, named as in the legends: b3-b7/f512,...",
+    )
 
 
 def add_scenes(sub: Any) -> None:
@@ -638,18 +729,29 @@ def add_scenes(sub: Any) -> None:
 def add_run(sub: Any) -> None:
     r = sub.add_parser("run", help="run a scene and record it")
     _common(r, 600)
-    r.add_argument("--responder", choices=RESPONDERS, default="pgs",
-                   help="collision responder (default pgs): " + "; ".join(
-                       f"{n}: {e.description}" for n, e in REGISTRY.items()))
+    r.add_argument(
+        "--responder",
+        choices=RESPONDERS,
+        default="pgs",
+        help="collision responder (default pgs): " + "; ".join(f"{n}: {e.description}" for n, e in REGISTRY.items()),
+    )
     out = r.add_mutually_exclusive_group()
-    out.add_argument("--out", default=None,
-                     help=f"recording path (default {DEFAULT_DIR}/SCENE-SIZE-RESPONDER.rrd, so runs never overwrite "
-                          "each other)")
+    out.add_argument(
+        "--out",
+        default=None,
+        help=f"recording path (default {DEFAULT_DIR}/SCENE-SIZE-RESPONDER.rrd, so runs never overwrite each other)",
+    )
     out.add_argument("--no-record", action="store_true", help="run without writing a recording")
-    r.add_argument("--live", nargs="?", const="auto", default=None, metavar="spawn|web|URL",
-                   help="stream to a viewer while the simulation runs: a spawned native viewer, the web viewer "
-                        "on 127.0.0.1, or a running viewer's rerun+http://... URL (default: spawn if there is a "
-                        "display, else web)")
+    r.add_argument(
+        "--live",
+        nargs="?",
+        const="auto",
+        default=None,
+        metavar="spawn|web|URL",
+        help="stream to a viewer while the simulation runs: a spawned native viewer, the web viewer "
+        "on 127.0.0.1, or a running viewer's rerun+http://... URL (default: spawn if there is a "
+        "display, else web)",
+    )
     r.add_argument("--web-port", type=_port, default=9090, help="web viewer port for --live web (default 9090)")
     r.add_argument("--port", type=_port, default=9876, help="viewer data (gRPC) port for --live (default 9876)")
     r.set_defaults(func=cmd_run)
@@ -731,8 +833,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as e:  # a bug: still one line, unless asked for the traceback
         if os.environ.get("PHYS2D_DEBUG"):
             raise
-        print(f"{prog}: internal error: {type(e).__name__}: {e} (PHYS2D_DEBUG=1 shows the traceback)",
-              file=sys.stderr)
+        print(f"{prog}: internal error: {type(e).__name__}: {e} (PHYS2D_DEBUG=1 shows the traceback)", file=sys.stderr)
     return 1
 
 

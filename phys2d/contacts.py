@@ -94,8 +94,22 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
 
 
 @njit(cache=True)
-def warm_start_rows(cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed, keys, body_a, body_b, uid, static,
-                    order, normal_row, friction_row, lam, hit):
+def warm_start_rows(
+    cache_keys,
+    cache_lambda_n,
+    cache_lambda_t,
+    cache_pushed,
+    keys,
+    body_a,
+    body_b,
+    uid,
+    static,
+    order,
+    normal_row,
+    friction_row,
+    lam,
+    hit,
+):
     """Contact caching into the rows: contact c = order[q] starts its normal and friction rows
     from the impulses cached under its key (``warm_start_from_cache``), or from 0 when it is
     new or its island lost a load (``unloaded_islands``); hit[c] says which. Returns the hits."""
@@ -119,8 +133,9 @@ def warm_start_rows(cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed, ke
 
 
 @njit(cache=True)
-def impulses_to_contacts_and_cache(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t,
-                                   cache_lambda_n, cache_lambda_t, cache_pushed):
+def impulses_to_contacts_and_cache(
+    order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, cache_lambda_n, cache_lambda_t, cache_pushed
+):
     """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows, and what the cache
     keeps of them (``impulses_to_cache``)."""
     impact = np.empty(order.shape[0], np.bool_)
@@ -196,8 +211,10 @@ class Contacts:
         k = len(self)
         if k == 0:
             return "<Contacts: none>"
-        return (f"<Contacts: {k} points, deepest overlap {max(0.0, -self.separation.min()):.4g} m, "
-                f"{int(self.warm_started.sum())} warm started>")
+        return (
+            f"<Contacts: {k} points, deepest overlap {max(0.0, -self.separation.min()):.4g} m, "
+            f"{int(self.warm_started.sum())} warm started>"
+        )
 
 
 class ContactCache:
@@ -221,8 +238,22 @@ class ContactCache:
         contact of an island that lost a load 0. Returns the (K,) mask of contacts found,
         and how many."""
         hit = np.empty(len(c), np.bool_)
-        hits = warm_start_rows(self.keys, self.lambda_n, self.lambda_t, self.pushed, c.key, c.body_a, c.body_b, uid,
-                               static, rows.order, rows.normal_row, rows.friction_row, rows.lam, hit)
+        hits = warm_start_rows(
+            self.keys,
+            self.lambda_n,
+            self.lambda_t,
+            self.pushed,
+            c.key,
+            c.body_a,
+            c.body_b,
+            uid,
+            static,
+            rows.order,
+            rows.normal_row,
+            rows.friction_row,
+            rows.lam,
+            hit,
+        )
         return hit, hits
 
     def store_rows(self, keys: np.ndarray, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
@@ -236,6 +267,16 @@ class ContactCache:
         self.keys = keys.copy()
         self.lambda_n, self.lambda_t, self.pushed = np.empty(k), np.empty(k), np.empty(k, np.bool_)
         lambda_n, lambda_t = np.empty(k), np.empty(k)
-        impulses_to_contacts_and_cache(rows.order, rows.normal_row, rows.friction_row, rows.lam, rows.impact, lambda_n,
-                                       lambda_t, self.lambda_n, self.lambda_t, self.pushed)
+        impulses_to_contacts_and_cache(
+            rows.order,
+            rows.normal_row,
+            rows.friction_row,
+            rows.lam,
+            rows.impact,
+            lambda_n,
+            lambda_t,
+            self.lambda_n,
+            self.lambda_t,
+            self.pushed,
+        )
         return lambda_n, lambda_t

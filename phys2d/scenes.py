@@ -26,9 +26,12 @@ def _check_count(value, name: str, low: int = 1) -> int:
 
 def ground(w: World, friction: float = 0.6):
     """The static ground box: 200 m wide, top at y = 0."""
-    return w.add_box(position=(0.0, -GROUND_HALF_HEIGHT),
-                     half_extents=(GROUND_HALF_WIDTH, GROUND_HALF_HEIGHT), static=True,
-                     friction=friction)
+    return w.add_box(
+        position=(0.0, -GROUND_HALF_HEIGHT),
+        half_extents=(GROUND_HALF_WIDTH, GROUND_HALF_HEIGHT),
+        static=True,
+        friction=friction,
+    )
 
 
 def pyramid(rows: int = 20, responder: Responder | None = None, size: float = 1.0) -> World:
@@ -44,8 +47,7 @@ def pyramid(rows: int = 20, responder: Responder | None = None, size: float = 1.
     return w
 
 
-def vertical_stack(n: int = 10, responder: Responder | None = None, size: float = 1.0,
-                   lean: float = 0.0) -> World:
+def vertical_stack(n: int = 10, responder: Responder | None = None, size: float = 1.0, lean: float = 0.0) -> World:
     """n touching boxes of side ``size`` (m), one on another; box k (0 at the bottom) is
     centred at x = lean * k (m), so lean != 0 makes a stack that leans to one side
     (lean < 0: to the left). lean = 0 is the straight stack at x = 0.
@@ -62,8 +64,7 @@ def vertical_stack(n: int = 10, responder: Responder | None = None, size: float 
 
 def mass_ratio(ratio: float = 100.0, responder: Responder | None = None) -> World:
     """A 1 kg, 0.5 m box on the ground under a box of ``ratio`` kg, 1 m wide."""
-    if isinstance(ratio, bool) or not isinstance(ratio, (int, float)) or not ratio > 0 \
-            or not math.isfinite(ratio):
+    if isinstance(ratio, bool) or not isinstance(ratio, (int, float)) or not ratio > 0 or not math.isfinite(ratio):
         raise ValueError(f"ratio must be a finite number > 0, got {ratio!r}")
     w = World(responder=responder)
     ground(w)
@@ -79,8 +80,7 @@ def dominoes(n: int = 12, responder: Responder | None = None) -> World:
     ground(w)
     hx, hy, gap = 0.1, 0.5, 0.8
     for k in range(n):
-        w.add_box(position=(k * gap, hy), half_extents=(hx, hy),
-                  angular_velocity=-1.5 if k == 0 else 0.0)
+        w.add_box(position=(k * gap, hy), half_extents=(hx, hy), angular_velocity=-1.5 if k == 0 else 0.0)
     return w
 
 
@@ -106,8 +106,7 @@ def mixed_shapes(n: int = 12, responder: Responder | None = None) -> World:
     return w
 
 
-def pendulum_chain(links: int = 10, responder: Responder | None = None,
-                   link_length: float = 0.5) -> World:
+def pendulum_chain(links: int = 10, responder: Responder | None = None, link_length: float = 0.5) -> World:
     """A chain of ``links`` boxes pinned end to end, hung from a static pivot.
 
     The chain starts straight out to the right of the pivot (at height
@@ -116,8 +115,12 @@ def pendulum_chain(links: int = 10, responder: Responder | None = None,
     Needs a responder that solves joints (PGS): the naive takes raise ValueError.
     """
     links = _check_count(links, "links")
-    if isinstance(link_length, bool) or not isinstance(link_length, (int, float)) \
-            or not link_length > 0 or not math.isfinite(link_length):
+    if (
+        isinstance(link_length, bool)
+        or not isinstance(link_length, (int, float))
+        or not link_length > 0
+        or not math.isfinite(link_length)
+    ):
         raise ValueError(f"link_length must be a finite number > 0, got {link_length!r}")
     w = World(responder=responder)
     ground(w)
@@ -131,8 +134,9 @@ def pendulum_chain(links: int = 10, responder: Responder | None = None,
     return w
 
 
-def heavy_chain(links: int = 20, ratio: float = 100.0, responder: Responder | None = None,
-                link_length: float = 0.5) -> World:
+def heavy_chain(
+    links: int = 20, ratio: float = 100.0, responder: Responder | None = None, link_length: float = 0.5
+) -> World:
     """A chain of ``links`` boxes carrying a box ``ratio`` times as heavy as one link.
 
     As ``pendulum_chain``: links are link_length x link_length / 4 boxes of density
@@ -159,8 +163,9 @@ def heavy_chain(links: int = 20, ratio: float = 100.0, responder: Responder | No
         w.add_pin_joint(previous, link, anchor=(k * link_length, top))
         previous = link
     h = 0.5 * link_length
-    heavy = w.add_box(position=(links * link_length + h, top), half_extents=(h, h),
-                      density=ratio * link_mass / (4.0 * h * h))
+    heavy = w.add_box(
+        position=(links * link_length + h, top), half_extents=(h, h), density=ratio * link_mass / (4.0 * h * h)
+    )
     w.add_pin_joint(previous, heavy, anchor=(links * link_length, top))
     return w
 

@@ -119,8 +119,9 @@ def _convex_polygon(v: np.ndarray, name: str) -> ShapeSpec:
     centroid = np.sum((a + b) * cross[:, None], axis=0) / (6.0 * area)
     a, b = a - centroid, b - centroid
     cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    second = np.sum(cross * (np.einsum("ij,ij->i", a, a) + np.einsum("ij,ij->i", a, b)
-                             + np.einsum("ij,ij->i", b, b))) / 12.0
+    second = (
+        np.sum(cross * (np.einsum("ij,ij->i", a, a) + np.einsum("ij,ij->i", a, b) + np.einsum("ij,ij->i", b, b))) / 12.0
+    )
     if not (0.0 < second < math.inf):
         raise ValueError(f"{name} is too large: its moment of inertia overflows")
     normals = np.stack([e[:, 1], -e[:, 0]], axis=1) / length[:, None]
@@ -132,8 +133,12 @@ def mass_properties(spec: ShapeSpec, density: float) -> tuple[float, float]:
     mass = density * spec.area
     inertia = density * spec.unit_inertia
     # M^-1 = (1/m, 1/m, 1/I) must be finite too: a subnormal mass would give an infinite one
-    if not (0.0 < mass < math.inf and 0.0 < inertia < math.inf
-            and math.isfinite(1.0 / mass) and math.isfinite(1.0 / inertia)):
+    if not (
+        0.0 < mass < math.inf
+        and 0.0 < inertia < math.inf
+        and math.isfinite(1.0 / mass)
+        and math.isfinite(1.0 / inertia)
+    ):
         raise ValueError(
             f"density and size give a mass of {mass:.3g} kg and inertia {inertia:.3g} kg m^2: "
             "both must be finite and > 0, with finite inverses"

@@ -58,19 +58,26 @@ class Verdict:
             head = f"restless ({self.why})"
         else:
             head = "stood"
-        return (f"{head}: largest displacement {self.max_displacement:.3f} m, "
-                f"final kinetic energy {self.final_kinetic_energy:.3g} J, "
-                f"deepest overlap {1e3 * self.max_overlap:.1f} mm")
+        return (
+            f"{head}: largest displacement {self.max_displacement:.3f} m, "
+            f"final kinetic energy {self.final_kinetic_energy:.3g} J, "
+            f"deepest overlap {1e3 * self.max_overlap:.1f} mm"
+        )
 
     def as_row(self) -> dict[str, float | int | str | bool]:
         """The verdict as a flat table row (fell_at is nan when it stood)."""
         return {
-            "outcome": self.outcome, "stood": self.stood,
+            "outcome": self.outcome,
+            "stood": self.stood,
             "fell_at": math.nan if self.fell_at is None else self.fell_at,
-            "steps": self.steps, "seconds": self.seconds,
-            "max_displacement": self.max_displacement, "max_sideways": self.max_sideways,
-            "max_turn": self.max_turn, "max_overlap": self.max_overlap,
-            "final_kinetic_energy": self.final_kinetic_energy, "final_max_speed": self.final_max_speed,
+            "steps": self.steps,
+            "seconds": self.seconds,
+            "max_displacement": self.max_displacement,
+            "max_sideways": self.max_sideways,
+            "max_turn": self.max_turn,
+            "max_overlap": self.max_overlap,
+            "final_kinetic_energy": self.final_kinetic_energy,
+            "final_max_speed": self.final_max_speed,
             "final_residual": self.final_residual,
         }
 
@@ -87,15 +94,21 @@ def _check_limit(value: float, name: str) -> float:
 class Watch:
     """Follows a World; call :meth:`observe` after every step, then :meth:`verdict`.
 
-        watch = Watch(w)
-        for _ in range(600):
-            w.step(1 / 60)
-            watch.observe()
-        print(watch.verdict().line())
+    watch = Watch(w)
+    for _ in range(600):
+        w.step(1 / 60)
+        watch.observe()
+    print(watch.verdict().line())
     """
 
-    def __init__(self, world, *, fall_distance: float = FALL_DISTANCE, fall_turn: float = FALL_TURN,
-                 rest_speed: float = REST_SPEED) -> None:
+    def __init__(
+        self,
+        world,
+        *,
+        fall_distance: float = FALL_DISTANCE,
+        fall_turn: float = FALL_TURN,
+        rest_speed: float = REST_SPEED,
+    ) -> None:
         self.fall_distance = _check_limit(fall_distance, "fall_distance")
         self.fall_turn = _check_limit(fall_turn, "fall_turn")
         self.rest_speed = _check_limit(rest_speed, "rest_speed")
@@ -137,8 +150,9 @@ class Watch:
             return
         d = w.x[rows] - self._x0[which]
         move = np.hypot(d[:, 0], d[:, 1])
-        turn = np.abs(np.arctan2(np.sin(w.theta[rows] - self._theta0[which]),
-                                 np.cos(w.theta[rows] - self._theta0[which])))
+        turn = np.abs(
+            np.arctan2(np.sin(w.theta[rows] - self._theta0[which]), np.cos(w.theta[rows] - self._theta0[which]))
+        )
         self.max_displacement = max(self.max_displacement, float(move.max()))
         self.max_sideways = max(self.max_sideways, float(np.abs(d[:, 0]).max()))
         self.max_turn = max(self.max_turn, float(turn.max()))
@@ -168,11 +182,20 @@ class Watch:
             why = f"held its place, but body {j} still moves at {fastest:.2f} m/s"
         else:
             outcome, why = STOOD, ""
-        return Verdict(outcome=outcome, why=why, fell_at=self.fell_at, steps=self.steps,
-                       seconds=float(w.time) - self._t0, max_displacement=self.max_displacement,
-                       max_sideways=self.max_sideways, max_turn=self.max_turn, max_overlap=self.max_overlap,
-                       final_kinetic_energy=float(w.kinetic_energy()), final_max_speed=fastest,
-                       final_residual=final_residual)
+        return Verdict(
+            outcome=outcome,
+            why=why,
+            fell_at=self.fell_at,
+            steps=self.steps,
+            seconds=float(w.time) - self._t0,
+            max_displacement=self.max_displacement,
+            max_sideways=self.max_sideways,
+            max_turn=self.max_turn,
+            max_overlap=self.max_overlap,
+            final_kinetic_energy=float(w.kinetic_energy()),
+            final_max_speed=fastest,
+            final_residual=final_residual,
+        )
 
 
 __all__ = ["FALL_DISTANCE", "FALL_TURN", "FELL", "REST_SPEED", "RESTLESS", "STOOD", "Verdict", "Watch"]

@@ -23,8 +23,9 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def phys2d_cmd(*args: str, cwd, timeout: float = 300) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": REPO + os.pathsep + os.environ.get("PYTHONPATH", "")}
     env.pop("PHYS2D_DEBUG", None)
-    return subprocess.run([sys.executable, "-m", "phys2d", *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "phys2d", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout
+    )
 
 
 def verify(path) -> None:
@@ -63,9 +64,24 @@ def test_run_writes_the_default_recording_and_says_how_to_open_it(tmp_path):
 
 
 def test_run_options_reach_the_engine(tmp_path):
-    out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "20", "--dt", "0.01",
-                     "--responder", "pgs-cold", "--iterations", "4", "--out", "sub/stack.rrd", "--progress",
-                     cwd=tmp_path)
+    out = phys2d_cmd(
+        "run",
+        "vertical_stack",
+        "--size",
+        "3",
+        "--steps",
+        "20",
+        "--dt",
+        "0.01",
+        "--responder",
+        "pgs-cold",
+        "--iterations",
+        "4",
+        "--out",
+        "sub/stack.rrd",
+        "--progress",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     assert "tick" in out.stderr and "20/20" in out.stderr  # the progress bar, on stderr
     rec = playback.load(tmp_path / "sub" / "stack.rrd")
@@ -77,17 +93,29 @@ def test_run_options_reach_the_engine(tmp_path):
 
 def test_run_with_the_responders_beyond_the_lecture(tmp_path):
     for name, expected in (("pgs-block", "block=True"), ("soft-step", "SoftStep(substeps=2")):
-        out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "10", "--responder", name,
-                         *(["--iterations", "2"] if name == "soft-step" else []), "--out", f"{name}.rrd",
-                         cwd=tmp_path)
+        out = phys2d_cmd(
+            "run",
+            "vertical_stack",
+            "--size",
+            "3",
+            "--steps",
+            "10",
+            "--responder",
+            name,
+            *(["--iterations", "2"] if name == "soft-step" else []),
+            "--out",
+            f"{name}.rrd",
+            cwd=tmp_path,
+        )
         assert out.returncode == 0, out.stderr
         rec = playback.load(tmp_path / f"{name}.rrd")
         assert expected in rec.properties["run"]["responder"]
 
 
 def test_run_without_series_keeps_the_contact_table(tmp_path):
-    out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "15", "--no-series", "--out", "s.rrd",
-                     cwd=tmp_path)
+    out = phys2d_cmd(
+        "run", "vertical_stack", "--size", "3", "--steps", "15", "--no-series", "--out", "s.rrd", cwd=tmp_path
+    )
     assert out.returncode == 0, out.stderr
     rec = playback.load(tmp_path / "s.rrd")
     assert rec.series_keys("lambda") == [] and len(rec.contacts.key) > 0
@@ -143,24 +171,27 @@ def test_inspect_summarises_a_run(tmp_path):
     assert float(cols[6]) == pytest.approx(rec.contacts.normal_impulse.max(), rel=1e-3)
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["run", "pyrmid"], "unknown scene 'pyrmid'; did you mean 'pyramid'?"),
-    (["run", "pyramid", "--steps", "-5"], "--steps: must be a whole number >= 1, got '-5'"),
-    (["run", "pyramid", "--steps", "ten"], "--steps: must be a whole number >= 1"),
-    (["run", "pyramid", "--dt", "0"], "--dt: must be a number of seconds > 0"),
-    (["run", "pyramid", "--size", "0"], "--size 0 for scene 'pyramid' (rows of the pyramid): rows must be >= 1"),
-    (["run", "pyramid", "--size", "2.5"], "rows must be an integer"),
-    (["run", "pyramid", "--responder", "magic"], "invalid choice: 'magic'"),
-    (["run", "pyramid", "--out", "a.rrd", "--no-record"], "not allowed with argument"),
-    (["run", "pyramid", "--out", "blocker/x.rrd"], "is not writable"),
-    (["run", "pyramid", "--out", "x.txt"], "must name an .rrd file"),
-    (["compare", "nothing"], "unknown scene 'nothing'"),
-    (["inspect", "missing.rrd"], "no such recording file"),
-    (["inspect", "blocker"], "is not a readable .rrd file"),
-    (["view", "missing.rrd"], "no such recording: missing.rrd"),
-    (["fly"], "invalid choice: 'fly'"),
-    ([], "the following arguments are required"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["run", "pyrmid"], "unknown scene 'pyrmid'; did you mean 'pyramid'?"),
+        (["run", "pyramid", "--steps", "-5"], "--steps: must be a whole number >= 1, got '-5'"),
+        (["run", "pyramid", "--steps", "ten"], "--steps: must be a whole number >= 1"),
+        (["run", "pyramid", "--dt", "0"], "--dt: must be a number of seconds > 0"),
+        (["run", "pyramid", "--size", "0"], "--size 0 for scene 'pyramid' (rows of the pyramid): rows must be >= 1"),
+        (["run", "pyramid", "--size", "2.5"], "rows must be an integer"),
+        (["run", "pyramid", "--responder", "magic"], "invalid choice: 'magic'"),
+        (["run", "pyramid", "--out", "a.rrd", "--no-record"], "not allowed with argument"),
+        (["run", "pyramid", "--out", "blocker/x.rrd"], "is not writable"),
+        (["run", "pyramid", "--out", "x.txt"], "must name an .rrd file"),
+        (["compare", "nothing"], "unknown scene 'nothing'"),
+        (["inspect", "missing.rrd"], "no such recording file"),
+        (["inspect", "blocker"], "is not a readable .rrd file"),
+        (["view", "missing.rrd"], "no such recording: missing.rrd"),
+        (["fly"], "invalid choice: 'fly'"),
+        ([], "the following arguments are required"),
+    ],
+)
 def test_bad_arguments_give_one_clear_line_and_a_nonzero_exit(tmp_path, args, fragment):
     (tmp_path / "blocker").write_text("a file, not a folder or a recording")
     out = phys2d_cmd(*args, cwd=tmp_path)
@@ -200,23 +231,47 @@ def _free_port() -> int:
 
 
 # -- counts, plurals, version, notices ----------------------------------------------------------
-@pytest.mark.parametrize("responder, option, shown", [("pgs", "--sweeps", "PGS(iterations=3"),
-                                                      ("iterative", "--passes", "IterativeImpulse(passes=3"),
-                                                      ("soft-step", "--substeps", "SoftStep(substeps=3"),
-                                                      ("pgs-block", "--iterations", "iterations=3")])
+@pytest.mark.parametrize(
+    "responder, option, shown",
+    [
+        ("pgs", "--sweeps", "PGS(iterations=3"),
+        ("iterative", "--passes", "IterativeImpulse(passes=3"),
+        ("soft-step", "--substeps", "SoftStep(substeps=3"),
+        ("pgs-block", "--iterations", "iterations=3"),
+    ],
+)
 def test_each_count_reaches_the_responders_that_take_it(tmp_path, responder, option, shown):
-    out = phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "5", "--responder", responder, option, "3",
-                     "--out", "c.rrd", cwd=tmp_path)
+    out = phys2d_cmd(
+        "run",
+        "vertical_stack",
+        "--size",
+        "2",
+        "--steps",
+        "5",
+        "--responder",
+        responder,
+        option,
+        "3",
+        "--out",
+        "c.rrd",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     assert shown in playback.load(tmp_path / "c.rrd").properties["run"]["responder"]
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["--responder", "naive", "--sweeps", "3"], "--sweeps does not apply to the naive responder (it makes one pass)"),
-    (["--responder", "pgs", "--passes", "3"], "--passes does not apply to the pgs responder (it takes --sweeps)"),
-    (["--responder", "soft-step", "--sweeps", "3"], "(it takes --substeps)"),
-    (["--sweeps", "3", "--iterations", "3"], "give one of --iterations, --sweeps, --passes, --substeps"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (
+            ["--responder", "naive", "--sweeps", "3"],
+            "--sweeps does not apply to the naive responder (it makes one pass)",
+        ),
+        (["--responder", "pgs", "--passes", "3"], "--passes does not apply to the pgs responder (it takes --sweeps)"),
+        (["--responder", "soft-step", "--sweeps", "3"], "(it takes --substeps)"),
+        (["--sweeps", "3", "--iterations", "3"], "give one of --iterations, --sweeps, --passes, --substeps"),
+    ],
+)
 def test_a_count_the_responder_does_not_take_is_refused_by_name(tmp_path, args, fragment):
     out = phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "5", "--no-record", *args, cwd=tmp_path)
     assert out.returncode == 1
@@ -226,10 +281,16 @@ def test_a_count_the_responder_does_not_take_is_refused_by_name(tmp_path, args, 
 
 def test_output_names_include_the_responder_so_runs_do_not_overwrite_each_other(tmp_path):
     for responder in ("pgs", "pgs-cold"):
-        assert phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "5", "--responder", responder,
-                          cwd=tmp_path).returncode == 0
-    assert phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "5", "--sweeps", "2",
-                      cwd=tmp_path).returncode == 0
+        assert (
+            phys2d_cmd(
+                "run", "vertical_stack", "--size", "2", "--steps", "5", "--responder", responder, cwd=tmp_path
+            ).returncode
+            == 0
+        )
+    assert (
+        phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "5", "--sweeps", "2", cwd=tmp_path).returncode
+        == 0
+    )
     names = sorted(p.name for p in (tmp_path / "recordings").iterdir())
     assert names == ["vertical_stack-2-pgs-2sweeps.rrd", "vertical_stack-2-pgs-cold.rrd", "vertical_stack-2-pgs.rrd"]
     warm = playback.load(tmp_path / "recordings" / "vertical_stack-2-pgs.rrd")
@@ -238,8 +299,9 @@ def test_output_names_include_the_responder_so_runs_do_not_overwrite_each_other(
 
 
 def test_one_sweep_is_singular(tmp_path):
-    out = phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "1", "--sweeps", "1", "--no-record",
-                     cwd=tmp_path)
+    out = phys2d_cmd(
+        "run", "vertical_stack", "--size", "2", "--steps", "1", "--sweeps", "1", "--no-record", cwd=tmp_path
+    )
     assert out.returncode == 0, out.stderr
     assert "after 1 sweep;" not in out.stdout and re.search(r"after 1 sweep$", out.stdout, re.M), out.stdout
     assert re.search(r"^1 step of ", out.stdout, re.M), out.stdout
@@ -297,12 +359,20 @@ def test_the_eta_leaves_out_the_first_step(tmp_path, monkeypatch, capsys):
 
 # -- viewing ---------------------------------------------------------------------------------------
 def test_view_without_a_display_says_so_and_offers_web(tmp_path):
-    assert phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "3", "--out", "v.rrd",
-                      cwd=tmp_path).returncode == 0
+    assert (
+        phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "3", "--out", "v.rrd", cwd=tmp_path).returncode
+        == 0
+    )
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     env["PYTHONPATH"] = REPO
-    out = subprocess.run([sys.executable, "-m", "phys2d", "view", "v.rrd"], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, "-m", "phys2d", "view", "v.rrd"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert out.returncode == 1
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "no display" in lines[0] and "phys2d view v.rrd --web" in lines[0], out.stderr
@@ -310,17 +380,21 @@ def test_view_without_a_display_says_so_and_offers_web(tmp_path):
 
 @pytest.mark.parametrize("which", ["--web-port", "--port"])
 def test_view_web_on_a_busy_port_gets_a_clear_message(tmp_path, which):
-    assert phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "3", "--out", "v.rrd",
-                      cwd=tmp_path).returncode == 0
+    assert (
+        phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "3", "--out", "v.rrd", cwd=tmp_path).returncode
+        == 0
+    )
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
         other = _free_port()
-        ports = {"--web-port": port, "--port": other} if which == "--web-port" else {"--web-port": other,
-                                                                                     "--port": port}
-        out = phys2d_cmd("view", "v.rrd", "--web", *[str(a) for kv in ports.items() for a in kv], cwd=tmp_path,
-                         timeout=60)
+        ports = (
+            {"--web-port": port, "--port": other} if which == "--web-port" else {"--web-port": other, "--port": port}
+        )
+        out = phys2d_cmd(
+            "view", "v.rrd", "--web", *[str(a) for kv in ports.items() for a in kv], cwd=tmp_path, timeout=60
+        )
     assert out.returncode == 1
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and f"port {port} is already in use" in lines[0] and which in lines[0], out.stderr
@@ -344,15 +418,45 @@ def test_run_live_streams_to_a_viewer_while_the_simulation_runs(tmp_path):
 
     port = _free_port()
     saved = tmp_path / "received.rrd"
-    server = subprocess.Popen([os.path.join(os.path.dirname(rerun_cli.__file__), "rerun"), "--serve-grpc", "--bind",
-                               "127.0.0.1", "--port", str(port), "--save", str(saved)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    server = subprocess.Popen(
+        [
+            os.path.join(os.path.dirname(rerun_cli.__file__), "rerun"),
+            "--serve-grpc",
+            "--bind",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--save",
+            str(saved),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         _wait_port(port)
         env = {**os.environ, "PYTHONPATH": REPO}
-        run = subprocess.Popen([sys.executable, "-m", "phys2d", "run", "pyramid", "--size", "8", "--steps", "600",
-                                "--out", "live.rrd", "--live", f"rerun+http://127.0.0.1:{port}/proxy"],
-                               cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        run = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "phys2d",
+                "run",
+                "pyramid",
+                "--size",
+                "8",
+                "--steps",
+                "600",
+                "--out",
+                "live.rrd",
+                "--live",
+                f"rerun+http://127.0.0.1:{port}/proxy",
+            ],
+            cwd=tmp_path,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         sizes = []
         while run.poll() is None:
             sizes.append(saved.stat().st_size if saved.exists() else 0)
@@ -373,9 +477,31 @@ def test_run_live_streams_to_a_viewer_while_the_simulation_runs(tmp_path):
 def test_run_live_web_prints_the_viewer_url_and_serves_it(tmp_path):
     web, grpc = _free_port(), _free_port()
     env = {**os.environ, "PYTHONPATH": REPO}
-    run = subprocess.Popen([sys.executable, "-m", "phys2d", "run", "vertical_stack", "--size", "2", "--steps", "30",
-                            "--no-record", "--live", "web", "--web-port", str(web), "--port", str(grpc)],
-                           cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    run = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "phys2d",
+            "run",
+            "vertical_stack",
+            "--size",
+            "2",
+            "--steps",
+            "30",
+            "--no-record",
+            "--live",
+            "web",
+            "--web-port",
+            str(web),
+            "--port",
+            str(grpc),
+        ],
+        cwd=tmp_path,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         line = run.stdout.readline()
         assert line.startswith("live web viewer: http://127.0.0.1:"), line + run.stderr.read()
@@ -391,8 +517,9 @@ def test_run_live_web_prints_the_viewer_url_and_serves_it(tmp_path):
 
 
 def test_plot_options_choose_the_plotted_contacts(tmp_path):
-    out = phys2d_cmd("run", "vertical_stack", "--size", "3", "--steps", "20", "--plot-body", "2", "--out", "b.rrd",
-                     cwd=tmp_path)
+    out = phys2d_cmd(
+        "run", "vertical_stack", "--size", "3", "--steps", "20", "--plot-body", "2", "--out", "b.rrd", cwd=tmp_path
+    )
     assert out.returncode == 0, out.stderr
     w = phys2d.scenes.vertical_stack(3)  # the same run, in this process: every contact identity of body 2
     want = set()
@@ -402,6 +529,7 @@ def test_plot_options_choose_the_plotted_contacts(tmp_path):
     got = playback.load(tmp_path / "b.rrd").series_keys("lambda")
     assert want and set(got) == want
     assert "plotted contacts: " + ", ".join(sorted(want)) in out.stdout
-    bad = phys2d_cmd("run", "vertical_stack", "--steps", "2", "--plot-contacts", "b2-b1/f0", "--no-record",
-                     cwd=tmp_path)
+    bad = phys2d_cmd(
+        "run", "vertical_stack", "--steps", "2", "--plot-contacts", "b2-b1/f0", "--no-record", cwd=tmp_path
+    )
     assert bad.returncode == 1 and len(bad.stderr.strip().splitlines()) == 1 and "b2-b1/f0" in bad.stderr

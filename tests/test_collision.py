@@ -144,14 +144,39 @@ def test_broadphase_finds_the_same_pairs_as_all_pairs():
     from phys2d.collision.broadphase import update_geometry
 
     travel = np.zeros(n)
-    update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, 0.0, 0.0, wv, wn,
-                    aabb, travel)
+    update_geometry(
+        b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, 0.0, 0.0, wv, wn, aabb, travel
+    )
     m = 2 * len(pairs)
-    out = [np.empty(m, np.int32), np.empty(m, np.int32), np.empty((m, 2)), np.empty((m, 2)), np.empty(m),
-           np.empty(m, np.int32), np.empty(m, np.int64), np.empty(m), np.empty(m)]
-    k = collide_pairs(pairs, len(pairs), b.x, b.kind, b.radius, b.vstart, b.vcount, wv, wn, 0.0, travel, b.uid,
-                      b.friction,
-                      b.restitution, *out, np.empty(len(pairs) + 1, np.int64))
+    out = [
+        np.empty(m, np.int32),
+        np.empty(m, np.int32),
+        np.empty((m, 2)),
+        np.empty((m, 2)),
+        np.empty(m),
+        np.empty(m, np.int32),
+        np.empty(m, np.int64),
+        np.empty(m),
+        np.empty(m),
+    ]
+    k = collide_pairs(
+        pairs,
+        len(pairs),
+        b.x,
+        b.kind,
+        b.radius,
+        b.vstart,
+        b.vcount,
+        wv,
+        wn,
+        0.0,
+        travel,
+        b.uid,
+        b.friction,
+        b.restitution,
+        *out,
+        np.empty(len(pairs) + 1, np.int64),
+    )
     expected = set(zip(out[0][:k].tolist(), out[1][:k].tolist()))
     assert len(expected) > 10
     assert found == expected

@@ -56,8 +56,7 @@ def test_distance_pendulum_period(form):
     w = phys2d.World(gravity=(0.0, -G), responder=phys2d.PGS(form=form))
     pivot = np.array([0.0, 5.0])
     anchor = w.add_circle(position=pivot, radius=0.05, static=True)
-    bob = w.add_circle(position=pivot + L * np.array([math.sin(theta_0), -math.cos(theta_0)]),
-                       radius=0.1)
+    bob = w.add_circle(position=pivot + L * np.array([math.sin(theta_0), -math.cos(theta_0)]), radius=0.1)
     joint = w.add_distance_joint(anchor, bob, anchor_a=pivot, anchor_b=bob.position)
     assert joint.length == pytest.approx(L)
     t, angle = swing(w, bob, pivot, dt, 8.0)
@@ -75,8 +74,9 @@ def test_pin_joint_physical_pendulum_period():
     pivot = np.array([0.0, 5.0])
     base = w.add_circle(position=pivot, radius=0.05, static=True)
     direction = np.array([math.sin(theta_0), -math.cos(theta_0)])
-    rod = w.add_box(position=pivot + hx * direction, half_extents=(hx, hy),
-                    angle=theta_0 + math.pi / 2)  # its long axis along the hanging direction
+    rod = w.add_box(
+        position=pivot + hx * direction, half_extents=(hx, hy), angle=theta_0 + math.pi / 2
+    )  # its long axis along the hanging direction
     pin = w.add_pin_joint(base, rod, anchor=pivot)
     m = rod.mass
     I_p = m * ((2 * hx) ** 2 + (2 * hy) ** 2) / 12 + m * hx**2
@@ -146,8 +146,7 @@ def test_angle_joint_without_limits_keeps_the_relative_angle():
 
 def test_distance_joint_conserves_momentum_of_a_free_pair():
     w = phys2d.World(gravity=(0.0, 0.0))
-    a = w.add_box(position=(0.0, 0.0), half_extents=(0.3, 0.2), velocity=(1.0, 2.0),
-                  angular_velocity=3.0)
+    a = w.add_box(position=(0.0, 0.0), half_extents=(0.3, 0.2), velocity=(1.0, 2.0), angular_velocity=3.0)
     b = w.add_circle(position=(2.0, 0.5), radius=0.3, velocity=(-1.0, 0.5), density=2.0)
     joint = w.add_distance_joint(a, b, anchor_a=(0.2, 0.1), anchor_b=(1.8, 0.5))
     p0, L0 = w.linear_momentum(), w.angular_momentum()
@@ -176,8 +175,7 @@ def test_joint_reactions_of_a_hanging_body_at_rest():
     report = w.last_step.joint_impulses
     assert report.shape == (3,)
     np.testing.assert_allclose(report, np.concatenate([rod.impulse, pin.impulse]))
-    assert list(pin.row_range) == [2 * w.last_step.contact_count + 1,
-                                   2 * w.last_step.contact_count + 2]
+    assert list(pin.row_range) == [2 * w.last_step.contact_count + 1, 2 * w.last_step.contact_count + 2]
 
 
 def test_anchors_ride_with_the_bodies():

@@ -19,8 +19,16 @@ DT = 1 / 60
 
 def state(w) -> np.ndarray:
     """Positions, angles, velocities, contact impulses and joint impulses in one vector."""
-    return np.concatenate([w.x.ravel(), w.theta, w.V.ravel(), w.contacts.normal_impulse,
-                           w.contacts.tangent_impulse, w.last_step.joint_impulses])
+    return np.concatenate(
+        [
+            w.x.ravel(),
+            w.theta,
+            w.V.ravel(),
+            w.contacts.normal_impulse,
+            w.contacts.tangent_impulse,
+            w.last_step.joint_impulses,
+        ]
+    )
 
 
 def max_difference(make, steps: int) -> float:
@@ -44,8 +52,7 @@ def test_forms_agree_on_a_pyramid():
 
 
 def test_forms_agree_on_a_chain():
-    worst = max_difference(
-        lambda form: scenes.pendulum_chain(6, responder=phys2d.PGS(form=form)), 60)
+    worst = max_difference(lambda form: scenes.pendulum_chain(6, responder=phys2d.PGS(form=form)), 60)
     assert worst < 1e-9
 
 
@@ -57,19 +64,27 @@ def random_scene(draw):
     n = draw(st.integers(1, 7))
     bodies = []
     for k in range(n):
-        bodies.append(dict(
-            kind=draw(st.sampled_from(["box", "circle", "triangle"])),
-            x=-2.7 + 1.8 * (k % 4) + draw(st.floats(-0.04, 0.04)),
-            y=1.0 + 1.8 * (k // 4) + draw(st.floats(-0.04, 0.04)),
-            angle=draw(st.floats(-math.pi, math.pi)),
-            size=draw(st.floats(0.2, 0.7)),
-            vx=draw(st.floats(-3.0, 3.0)), vy=draw(st.floats(-3.0, 3.0)),
-            omega=draw(st.floats(-3.0, 3.0)),
-            friction=draw(st.floats(0.0, 1.0)), restitution=draw(st.floats(0.0, 1.0)),
-            density=draw(st.floats(0.5, 5.0))))
-    options = dict(iterations=draw(st.integers(1, 15)), warm_start=draw(st.booleans()),
-                   friction=draw(st.sampled_from(["coulomb", "lecture"])),
-                   beta=draw(st.floats(0.0, 1.0)))
+        bodies.append(
+            dict(
+                kind=draw(st.sampled_from(["box", "circle", "triangle"])),
+                x=-2.7 + 1.8 * (k % 4) + draw(st.floats(-0.04, 0.04)),
+                y=1.0 + 1.8 * (k // 4) + draw(st.floats(-0.04, 0.04)),
+                angle=draw(st.floats(-math.pi, math.pi)),
+                size=draw(st.floats(0.2, 0.7)),
+                vx=draw(st.floats(-3.0, 3.0)),
+                vy=draw(st.floats(-3.0, 3.0)),
+                omega=draw(st.floats(-3.0, 3.0)),
+                friction=draw(st.floats(0.0, 1.0)),
+                restitution=draw(st.floats(0.0, 1.0)),
+                density=draw(st.floats(0.5, 5.0)),
+            )
+        )
+    options = dict(
+        iterations=draw(st.integers(1, 15)),
+        warm_start=draw(st.booleans()),
+        friction=draw(st.sampled_from(["coulomb", "lecture"])),
+        beta=draw(st.floats(0.0, 1.0)),
+    )
     joint = draw(st.sampled_from([None, "distance", "pin", "angle", "limits"])) if n >= 2 else None
     return bodies, options, joint
 
@@ -80,9 +95,15 @@ def build(scene, form: str):
     w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)
     made = []
     for b in bodies:
-        common = dict(position=(b["x"], b["y"]), angle=b["angle"], velocity=(b["vx"], b["vy"]),
-                      angular_velocity=b["omega"], friction=b["friction"],
-                      restitution=b["restitution"], density=b["density"])
+        common = dict(
+            position=(b["x"], b["y"]),
+            angle=b["angle"],
+            velocity=(b["vx"], b["vy"]),
+            angular_velocity=b["omega"],
+            friction=b["friction"],
+            restitution=b["restitution"],
+            density=b["density"],
+        )
         s = b["size"]
         if b["kind"] == "box":
             made.append(w.add_box(half_extents=(s, 0.6 * s), **common))
@@ -206,8 +227,7 @@ def test_bad_forms_and_huge_dense_matrices_are_refused():
         phys2d.PGS(form="dense")
     with pytest.raises(ValueError, match="block"):
         phys2d.PGS(form="matrix", block=True)
-    huge = SparseMatrix(np.zeros(100_001, np.int64), np.zeros(0, np.int64), np.zeros(0),
-                        (100_000, 100_000))
+    huge = SparseMatrix(np.zeros(100_001, np.int64), np.zeros(0, np.int64), np.zeros(0), (100_000, 100_000))
     with pytest.raises(ValueError, match="too large"):
         huge.dense()
     with pytest.raises(ValueError, match="shape"):

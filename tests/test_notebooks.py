@@ -29,8 +29,13 @@ def run_notebook(name: str, out_dir: Path, monkeypatch) -> tuple[str, nbformat.N
     monkeypatch.setenv("MPLBACKEND", "Agg")  # no GUI in a headless kernel
     client = NotebookClient(nb, kernel_name="python3", timeout=600, resources={"metadata": {"path": str(LESSONS)}})
     client.execute()
-    stdout = "".join(o.get("text", "") for cell in nb.cells if cell.cell_type == "code" for o in cell.outputs
-                     if o.output_type == "stream" and o.name == "stdout")
+    stdout = "".join(
+        o.get("text", "")
+        for cell in nb.cells
+        if cell.cell_type == "code"
+        for o in cell.outputs
+        if o.output_type == "stream" and o.name == "stdout"
+    )
     return stdout, nb
 
 

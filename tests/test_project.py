@@ -27,8 +27,14 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 
 # -- the public API: everything after position (after the two bodies for joints) by keyword -----
 
-ADDERS = {"add_box": "position", "add_circle": "position", "add_polygon": "position",
-          "add_distance_joint": "b", "add_pin_joint": "b", "add_angle_joint": "b"}
+ADDERS = {
+    "add_box": "position",
+    "add_circle": "position",
+    "add_polygon": "position",
+    "add_distance_joint": "b",
+    "add_pin_joint": "b",
+    "add_angle_joint": "b",
+}
 
 
 @pytest.mark.parametrize("method, last", ADDERS.items())
@@ -46,12 +52,16 @@ def test_add_methods_take_keywords_after_position(method: str, last: str) -> Non
 TRIANGLE = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]
 
 
-@pytest.mark.parametrize("call", [
-    lambda w: w.add_box((0.0, 0.0), (0.5, 0.5)),
-    lambda w: w.add_circle((0.0, 0.0), 0.5),
-    lambda w: w.add_polygon((0.0, 0.0), TRIANGLE),
-    lambda w: w.add_box((0.0, 0.0), (0.5, 0.5), 0.0, 1.0),
-], ids=["box", "circle", "polygon", "box-four"])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda w: w.add_box((0.0, 0.0), (0.5, 0.5)),
+        lambda w: w.add_circle((0.0, 0.0), 0.5),
+        lambda w: w.add_polygon((0.0, 0.0), TRIANGLE),
+        lambda w: w.add_box((0.0, 0.0), (0.5, 0.5), 0.0, 1.0),
+    ],
+    ids=["box", "circle", "polygon", "box-four"],
+)
 def test_positional_arguments_past_position_are_refused(call) -> None:
     w = phys2d.World()
     with pytest.raises(TypeError, match="positional argument"):
@@ -63,8 +73,11 @@ def test_positional_joint_arguments_past_the_bodies_are_refused() -> None:
     w = phys2d.World()
     a = w.add_box(position=(0.0, 0.0))
     b = w.add_box(position=(2.0, 0.0))
-    for call in (lambda: w.add_distance_joint(a, b, (0.0, 0.0)), lambda: w.add_pin_joint(a, b, (1.0, 0.0)),
-                 lambda: w.add_angle_joint(a, b, -0.5, 0.5)):
+    for call in (
+        lambda: w.add_distance_joint(a, b, (0.0, 0.0)),
+        lambda: w.add_pin_joint(a, b, (1.0, 0.0)),
+        lambda: w.add_angle_joint(a, b, -0.5, 0.5),
+    ):
         with pytest.raises(TypeError, match="positional argument"):
             call()
         assert w.joints == ()
@@ -92,8 +105,11 @@ def test_the_version_is_written_once() -> None:
     assert PYPROJECT["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "phys2d.__version__"}
     # the second method: the assignment in phys2d/__init__.py, read as setuptools reads it
     tree = ast.parse((ROOT / "phys2d" / "__init__.py").read_text())
-    written = [n.value.value for n in tree.body if isinstance(n, ast.Assign)
-               and any(isinstance(t, ast.Name) and t.id == "__version__" for t in n.targets)]
+    written = [
+        n.value.value
+        for n in tree.body
+        if isinstance(n, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__version__" for t in n.targets)
+    ]
     assert written == [phys2d.__version__]
     assert re.fullmatch(r"\d+\.\d+\.\d+", phys2d.__version__)
     pyproject_config = pytest.importorskip("setuptools.config.pyprojecttoml")
@@ -101,8 +117,9 @@ def test_the_version_is_written_once() -> None:
         warnings.simplefilter("ignore")  # setuptools calls its [tool.setuptools] support beta
         built = pyproject_config.read_configuration(ROOT / "pyproject.toml", expand=True)
     assert built["project"]["version"] == phys2d.__version__
-    out = subprocess.run([sys.executable, "-m", "phys2d", "--version"], capture_output=True, text=True,
-                         cwd=ROOT, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "phys2d", "--version"], capture_output=True, text=True, cwd=ROOT, check=True
+    ).stdout
     assert out.startswith(f"phys2d {phys2d.__version__} ")
 
 
@@ -114,7 +131,7 @@ def readme_responder_table() -> list[list[str]]:
     text = (ROOT / "README.md").read_text()
     header = "| name | what it is | count | in Python | what a student sees |"
     assert text.count(header) == 1
-    lines = text[text.index(header):].splitlines()[2:]
+    lines = text[text.index(header) :].splitlines()[2:]
     rows = []
     for line in lines:
         if not line.startswith("|"):
@@ -147,8 +164,17 @@ def test_the_strategies_cover_the_registry() -> None:
 # -- dependencies ------------------------------------------------------------------------------
 
 # import name -> distribution name, where they differ
-DISTRIBUTION = {"PIL": "pillow", "websocket": "websocket-client", "rerun": "rerun-sdk", "rerun_cli": "rerun-sdk",
-                "rerun_notebook": "rerun-notebook", "IPython": "ipython", "Box2D": "box2d", "yaml": "pyyaml"}
+DISTRIBUTION = {
+    "PIL": "pillow",
+    "websocket": "websocket-client",
+    "rerun": "rerun-sdk",
+    "rerun_cli": "rerun-sdk",
+    "rerun_bindings": "rerun-sdk",
+    "rerun_notebook": "rerun-notebook",
+    "IPython": "ipython",
+    "Box2D": "box2d",
+    "yaml": "pyyaml",
+}
 LOCAL = {"phys2d", "tests", "_common", "engines", "box2d_v3", "webview", "conftest", "strategies"}
 
 
@@ -179,9 +205,15 @@ def declared(requirements: list[str]) -> set[str]:
     return out
 
 
-@pytest.mark.parametrize("folder, extras", [
-    ("phys2d", ["sweep"]), ("lessons", ["notebook"]), ("tests", ["test"]), ("benchmarks", ["bench", "test"]),
-])
+@pytest.mark.parametrize(
+    "folder, extras",
+    [
+        ("phys2d", ["sweep"]),
+        ("lessons", ["notebook"]),
+        ("tests", ["test"]),
+        ("benchmarks", ["bench", "test"]),
+    ],
+)
 def test_every_import_is_declared(folder: str, extras: list[str]) -> None:
     """Each third-party module a folder imports comes from a distribution that the core
     dependencies or that folder's extras name."""
@@ -198,16 +230,24 @@ def test_the_ci_installs_its_tools_and_runs_the_readme_test_command() -> None:
     readme = (ROOT / "README.md").read_text()
     command = re.search(r'pip install -e "\.\[test\]" && (.*?)\s+#', readme).group(1)
     lines = [line.strip() for line in ci.splitlines()]
-    assert lines.index("python -m ruff check .") < lines.index("python -m ruff format --check .") \
-        < lines.index("python -m mypy") < lines.index(command)
+    assert (
+        lines.index("python -m ruff check .")
+        < lines.index("python -m ruff format --check .")
+        < lines.index("python -m mypy")
+        < lines.index(command)
+    )
 
 
 # -- links a clone can follow --------------------------------------------------------------------
 
 
 def markdown_files() -> list[Path]:
-    return [ROOT / "README.md", *sorted((ROOT / "lessons").glob("*.md")), *sorted((ROOT / "docs").glob("*.md")),
-            *sorted((ROOT / "benchmarks").glob("*.md"))]
+    return [
+        ROOT / "README.md",
+        *sorted((ROOT / "lessons").glob("*.md")),
+        *sorted((ROOT / "docs").glob("*.md")),
+        *sorted((ROOT / "benchmarks").glob("*.md")),
+    ]
 
 
 def anchors(path: Path) -> set[str]:
@@ -241,8 +281,12 @@ def test_markdown_links_stay_in_the_repository(path: Path) -> None:
 DOC_REFERENCE = re.compile(r"docs/(\w+\.md)(?:#([\w\-]+))?")
 OUTSIDE = ("../" + "shared/", "FORMULATION" + ".md")  # documents a clone does not have
 # files whose owners replace these references in their own branches (issue 13)
-NOT_YET = {"phys2d/constraints/joints.py", "phys2d/constraints/rows.py", "phys2d/responders/pgs.py",
-           "phys2d/responders/pgs_matrix.py"}
+NOT_YET = {
+    "phys2d/constraints/joints.py",
+    "phys2d/constraints/rows.py",
+    "phys2d/responders/pgs.py",
+    "phys2d/responders/pgs_matrix.py",
+}
 
 
 def test_docstrings_name_documents_that_exist() -> None:

@@ -76,8 +76,9 @@ def test_contacts_are_well_formed(scene: SceneSpec, responder: phys2d.PGS, dt: f
     e = np.array([b.restitution for b in scene.bodies])
     previous = np.zeros(0, np.int64)
     pushed_pairs: set[tuple[int, int]] = set()  # uid pairs that pushed in the previous tick
-    reach = np.array([b.radius if b.shape == "circle" else np.hypot(*b.local_vertices.T).max()
-                      for b in w.bodies])  # r_max: how far a body's surface is from its centre
+    reach = np.array(
+        [b.radius if b.shape == "circle" else np.hypot(*b.local_vertices.T).max() for b in w.bodies]
+    )  # r_max: how far a body's surface is from its centre
     for _ in range(20):
         # speculative contacts reach as far as the bodies can travel within the step
         V = w.V.copy()
@@ -101,8 +102,9 @@ def test_contacts_are_well_formed(scene: SceneSpec, responder: phys2d.PGS, dt: f
         assert w.last_step.cache_hits == int(expected.sum())
         previous = c.key.copy()
         uid = np.array([b._uid for b in w.bodies])
-        pushed_pairs = {(int(uid[a]), int(uid[b]))
-                        for a, b, lam in zip(c.body_a, c.body_b, c.normal_impulse) if lam > 0}
+        pushed_pairs = {
+            (int(uid[a]), int(uid[b])) for a, b, lam in zip(c.body_a, c.body_b, c.normal_impulse) if lam > 0
+        }
 
 
 def expected_warm(w: phys2d.World, previous: np.ndarray, pushed_pairs: set) -> np.ndarray:
@@ -122,7 +124,6 @@ def expected_warm(w: phys2d.World, previous: np.ndarray, pushed_pairs: set) -> n
             island[root(int(a))] = root(int(b))
     touching = {(uid[a], uid[b]) for a, b in zip(c.body_a, c.body_b)}
     where = {u: k for k, u in enumerate(uid)}
-    unloaded = {root(where[u]) for pair in pushed_pairs - touching for u in pair
-                if u in where and not static[where[u]]}
+    unloaded = {root(where[u]) for pair in pushed_pairs - touching for u in pair if u in where and not static[where[u]]}
     dynamic = [int(b) if static[a] else int(a) for a, b in zip(c.body_a, c.body_b)]
     return np.isin(c.key, previous) & np.array([root(k) not in unloaded for k in dynamic], dtype=bool)

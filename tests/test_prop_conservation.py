@@ -26,8 +26,17 @@ from tests.strategies import (
 )
 
 # Scenes of free bodies (no static ones, no gravity) that collide often.
-crowds = scenes(min_bodies=2, max_bodies=6, ground=False, gravity=False, region=1.2,
-                max_speed=4.0, max_spin=4.0, density=(0.2, 5.0), size=(0.2, 0.9))
+crowds = scenes(
+    min_bodies=2,
+    max_bodies=6,
+    ground=False,
+    gravity=False,
+    region=1.2,
+    max_speed=4.0,
+    max_spin=4.0,
+    density=(0.2, 5.0),
+    size=(0.2, 0.9),
+)
 
 
 def momentum_scale(w: phys2d.World) -> float:
@@ -51,8 +60,9 @@ def test_linear_momentum_is_conserved(scene: SceneSpec, responder: phys2d.Respon
 
 
 @given(scene=crowds, responder=pgs_settings(), dt=dts, about=vectors(-5.0, 5.0))
-def test_angular_momentum_is_conserved(scene: SceneSpec, responder: phys2d.PGS, dt: float,
-                                       about: tuple[float, float]) -> None:
+def test_angular_momentum_is_conserved(
+    scene: SceneSpec, responder: phys2d.PGS, dt: float, about: tuple[float, float]
+) -> None:
     """No gravity, no static bodies: impulses act at one point on both bodies, so
     sum I omega + (x - o) x m v about any point o is unchanged by each step.
 
@@ -82,11 +92,14 @@ def test_angular_momentum_is_conserved(scene: SceneSpec, responder: phys2d.PGS, 
         assert w.angular_momentum(about) == pytest.approx(before, rel=0, abs=1e-11 * scale)
 
 
-@given(scene=scenes(min_bodies=2, max_bodies=5, ground=None, gravity=False, region=1.2,
-                    max_speed=4.0, max_spin=4.0, static=None),
-       dt=dts, warm=st.booleans())
-def test_energy_does_not_grow_without_restitution_or_push(scene: SceneSpec, dt: float,
-                                                          warm: bool) -> None:
+@given(
+    scene=scenes(
+        min_bodies=2, max_bodies=5, ground=None, gravity=False, region=1.2, max_speed=4.0, max_spin=4.0, static=None
+    ),
+    dt=dts,
+    warm=st.booleans(),
+)
+def test_energy_does_not_grow_without_restitution_or_push(scene: SceneSpec, dt: float, warm: bool) -> None:
     """e = 0 and beta = 0, no gravity, PGS run to convergence: every contact's target is
     xi <= 0 (at rest, or a speculative gap it may close), so with complementarity
     KE2 - KE1 = lambda . J V2 - 1/2 lambda^T A lambda <= 0 at every step."""
@@ -103,10 +116,17 @@ def test_energy_does_not_grow_without_restitution_or_push(scene: SceneSpec, dt: 
         assert w.kinetic_energy() <= ke * (1.0 + 1e-9) + 1e-12
 
 
-@given(v0=reals(0.5, 8.0), mu=reals(0.1, 1.0), hx=reals(0.2, 1.0), flat=reals(0.2, 0.7),
-       density=reals(0.2, 5.0), dt=st.sampled_from([1 / 60, 1 / 120, 1 / 240]))
-def test_sliding_box_decelerates_at_mu_g(v0: float, mu: float, hx: float, flat: float,
-                                         density: float, dt: float) -> None:
+@given(
+    v0=reals(0.5, 8.0),
+    mu=reals(0.1, 1.0),
+    hx=reals(0.2, 1.0),
+    flat=reals(0.2, 0.7),
+    density=reals(0.2, 5.0),
+    dt=st.sampled_from([1 / 60, 1 / 120, 1 / 240]),
+)
+def test_sliding_box_decelerates_at_mu_g(
+    v0: float, mu: float, hx: float, flat: float, density: float, dt: float
+) -> None:
     """A box sliding on flat ground with Coulomb friction: v(t) = v0 - mu g t until it
     stops after v0 / (mu g), having slid v0^2 / (2 mu g) (mixed mu = sqrt(mu_box mu_ground)).
     The box is flat enough (mu hy < hx) that friction cannot tip it over."""
@@ -114,8 +134,9 @@ def test_sliding_box_decelerates_at_mu_g(v0: float, mu: float, hx: float, flat: 
     size = (hx, min(0.5, flat * hx / mu))
     w = phys2d.World(gravity=(0.0, -g))
     w.add_box(position=(0.0, -0.5), half_extents=(100.0, 0.5), static=True, friction=mu)
-    box = w.add_box(position=(0.0, size[1] - 0.002), half_extents=size, friction=mu,
-                    density=density, velocity=(v0, 0.0))
+    box = w.add_box(
+        position=(0.0, size[1] - 0.002), half_extents=size, friction=mu, density=density, velocity=(v0, 0.0)
+    )
     a = mu * g  # mixed mu = sqrt(mu * mu) = mu
     t_stop = v0 / a
     steps = int(0.5 * t_stop / dt)
@@ -129,14 +150,11 @@ def test_sliding_box_decelerates_at_mu_g(v0: float, mu: float, hx: float, flat: 
         w.step(dt)
     k = np.arange(1, steps + more + 1)
     assert abs(box.velocity[0]) < 1e-4
-    assert box.position[0] == pytest.approx(dt * np.sum(np.maximum(0.0, v0 - k * dt * a)),
-                                            rel=1e-3, abs=1e-4)
+    assert box.position[0] == pytest.approx(dt * np.sum(np.maximum(0.0, v0 - k * dt * a)), rel=1e-3, abs=1e-4)
 
 
-@given(scene=scenes(max_bodies=5, ground=None, static=None), steps=st.integers(0, 20), dt=dts,
-       about=vectors(-3.0, 3.0))
-def test_energy_and_momentum_reports_match_the_bodies(scene: SceneSpec, steps: int, dt: float,
-                                                       about) -> None:
+@given(scene=scenes(max_bodies=5, ground=None, static=None), steps=st.integers(0, 20), dt=dts, about=vectors(-3.0, 3.0))
+def test_energy_and_momentum_reports_match_the_bodies(scene: SceneSpec, steps: int, dt: float, about) -> None:
     """kinetic_energy, potential_energy, linear_momentum and angular_momentum equal the
     sums computed from each dynamic body handle's mass, inertia, position and velocity."""
     w = build(scene)
@@ -149,7 +167,7 @@ def test_energy_and_momentum_reports_match_the_bodies(scene: SceneSpec, steps: i
         if b.static:
             continue
         v, x = b.velocity, b.position
-        ke += 0.5 * b.mass * float(v @ v) + 0.5 * b.inertia * b.angular_velocity ** 2
+        ke += 0.5 * b.mass * float(v @ v) + 0.5 * b.inertia * b.angular_velocity**2
         pe -= b.mass * float(x @ g)
         p += b.mass * v
         r = x - np.asarray(about)

@@ -47,10 +47,15 @@ def min_centre_gap(scene: SceneSpec) -> float:
     return float(gaps[np.triu_indices(len(centres), 1)].min(initial=np.inf))
 
 
-@given(scene=scenes(min_bodies=2, max_bodies=6, ground=True, static=None), responder=responders(), dt=dts,
-       steps=st.integers(5, 40))
-def test_same_scene_twice_is_bit_identical(scene: SceneSpec, responder: phys2d.Responder,
-                                           dt: float, steps: int) -> None:
+@given(
+    scene=scenes(min_bodies=2, max_bodies=6, ground=True, static=None),
+    responder=responders(),
+    dt=dts,
+    steps=st.integers(5, 40),
+)
+def test_same_scene_twice_is_bit_identical(
+    scene: SceneSpec, responder: phys2d.Responder, dt: float, steps: int
+) -> None:
     """Two worlds built from the same scene and stepped alike hold bit-identical arrays,
     contacts, caches and reports after every step."""
     a, b = build(scene, responder), build(scene, responder)
@@ -90,10 +95,21 @@ def test_add_order_does_not_change_bodies_that_never_touch(data, scene: SceneSpe
     assert np.array_equal(a.V[order], b.V)
 
 
-@given(data=st.data(),
-       scene=scenes(min_bodies=2, max_bodies=5, ground=None, gravity=None, kinds=("circle",),
-                    region=1.0, density=(0.5, 2.0), size=(0.3, 0.7), static=None),
-       dt=dts)
+@given(
+    data=st.data(),
+    scene=scenes(
+        min_bodies=2,
+        max_bodies=5,
+        ground=None,
+        gravity=None,
+        kinds=("circle",),
+        region=1.0,
+        density=(0.5, 2.0),
+        size=(0.3, 0.7),
+        static=None,
+    ),
+    dt=dts,
+)
 def test_add_order_gives_the_same_converged_step(data, scene: SceneSpec, dt: float) -> None:
     """Circles (whose contacts do not depend on which body is a): one step with converged
     frictionless PGS gives the same velocities whatever the add order, to round-off.
@@ -117,8 +133,7 @@ def test_add_order_gives_the_same_converged_step(data, scene: SceneSpec, dt: flo
     np.testing.assert_allclose(a.x[order], b.x, rtol=0, atol=1e-7 * scale * dt)
 
 
-@given(scene=scenes(max_bodies=5, ground=True, static=None), shift=vectors(-64.0, 64.0),
-       responder=responders(), dt=dts)
+@given(scene=scenes(max_bodies=5, ground=True, static=None), shift=vectors(-64.0, 64.0), responder=responders(), dt=dts)
 def test_translating_the_scene_translates_the_motion(scene: SceneSpec, shift, responder, dt: float) -> None:
     """Physics does not depend on where the origin is: the same scene moved by a shift
     moves the same way, to round-off, over a few steps (integer shifts keep the
@@ -126,8 +141,10 @@ def test_translating_the_scene_translates_the_motion(scene: SceneSpec, shift, re
     round-off breaks (which way two coincident boxes part), so centres are kept apart."""
     assume(min_centre_gap(scene) > 1e-3)
     shift = (float(round(shift[0])), float(round(shift[1])))
-    moved = replace(scene, bodies=tuple(
-        replace(b, position=(b.position[0] + shift[0], b.position[1] + shift[1])) for b in scene.bodies))
+    moved = replace(
+        scene,
+        bodies=tuple(replace(b, position=(b.position[0] + shift[0], b.position[1] + shift[1])) for b in scene.bodies),
+    )
     a, b = build(scene, responder), build(moved, responder)
     for _ in range(3):
         try:
@@ -140,10 +157,10 @@ def test_translating_the_scene_translates_the_motion(scene: SceneSpec, shift, re
         np.testing.assert_allclose(b.V, a.V, rtol=0, atol=1e-6 * scale)
 
 
-@given(data=st.data(), scene=scenes(min_bodies=2, max_bodies=6, ground=None, static=None), dt=dts,
-       steps=st.integers(0, 10))
-def test_remove_leaves_the_other_bodies_as_they_were(data, scene: SceneSpec, dt: float,
-                                                      steps: int) -> None:
+@given(
+    data=st.data(), scene=scenes(min_bodies=2, max_bodies=6, ground=None, static=None), dt=dts, steps=st.integers(0, 10)
+)
+def test_remove_leaves_the_other_bodies_as_they_were(data, scene: SceneSpec, dt: float, steps: int) -> None:
     """Removing a body: every other handle still reads its own state, rows after it
     shift down by one, and the removed handle is refused everywhere."""
     w = build(scene)
@@ -152,8 +169,7 @@ def test_remove_leaves_the_other_bodies_as_they_were(data, scene: SceneSpec, dt:
     handles = w.bodies
     gone = handles[data.draw(st.integers(0, len(handles) - 1))]
     kept = [h for h in handles if h is not gone]
-    before = [(h.position, h.angle, h.velocity, h.angular_velocity, h.mass, h.inertia,
-               h.local_vertices) for h in kept]
+    before = [(h.position, h.angle, h.velocity, h.angular_velocity, h.mass, h.inertia, h.local_vertices) for h in kept]
     w.remove(gone)
     assert not gone.alive
     assert list(w.bodies) == kept
@@ -174,10 +190,12 @@ def test_mirror_symmetric_scene_stays_symmetric(x: float, spec: BodySpec) -> Non
     r = 0.3 + abs(x) * 0.05
     w = phys2d.World(responder=phys2d.PGS(iterations=100, tolerance=1e-12))
     w.add_box(position=(0.0, -0.5), half_extents=(20.0, 0.5), static=True)
-    left = w.add_circle(position=(-abs(x) - 0.5, 1.0), radius=r, velocity=(1.0, 0.0),
-                        angular_velocity=spec.angular_velocity)
-    right = w.add_circle(position=(abs(x) + 0.5, 1.0), radius=r, velocity=(-1.0, 0.0),
-                         angular_velocity=-spec.angular_velocity)
+    left = w.add_circle(
+        position=(-abs(x) - 0.5, 1.0), radius=r, velocity=(1.0, 0.0), angular_velocity=spec.angular_velocity
+    )
+    right = w.add_circle(
+        position=(abs(x) + 0.5, 1.0), radius=r, velocity=(-1.0, 0.0), angular_velocity=-spec.angular_velocity
+    )
     for _ in range(90):
         w.step(1 / 60)
     assert np.allclose(left.position * [-1, 1], right.position, rtol=0, atol=1e-8)

@@ -21,8 +21,7 @@ def contacts_at_rest(w: phys2d.World) -> phys2d.Contacts:
     return w.contacts
 
 
-@given(h=st.tuples(reals(0.01, 10.0), reals(0.01, 10.0)), density=reals(0.01, 100.0),
-       r=reals(0.01, 10.0))
+@given(h=st.tuples(reals(0.01, 10.0), reals(0.01, 10.0)), density=reals(0.01, 100.0), r=reals(0.01, 10.0))
 def test_box_and_circle_mass_properties(h, density: float, r: float) -> None:
     """Box: m = rho 4 hx hy, I = m (w^2 + h^2) / 12. Circle: m = rho pi r^2, I = m r^2 / 2."""
     w = phys2d.World()
@@ -37,37 +36,40 @@ def test_box_and_circle_mass_properties(h, density: float, r: float) -> None:
     assert np.array_equal(w.M_inv[1], [1 / ball.mass, 1 / ball.mass, 1 / ball.inertia])
 
 
-@given(n=st.integers(3, 64), radius=reals(0.05, 5.0), density=reals(0.1, 10.0),
-       phase=reals(0.0, 2 * math.pi), centre=vectors(-5.0, 5.0))
-def test_regular_polygon_mass_properties(n: int, radius: float, density: float, phase: float,
-                                         centre) -> None:
+@given(
+    n=st.integers(3, 64),
+    radius=reals(0.05, 5.0),
+    density=reals(0.1, 10.0),
+    phase=reals(0.0, 2 * math.pi),
+    centre=vectors(-5.0, 5.0),
+)
+def test_regular_polygon_mass_properties(n: int, radius: float, density: float, phase: float, centre) -> None:
     """A regular n-gon of circumradius R: area n R^2 sin(2 pi / n) / 2 and
     I = m R^2 (1 + 2 cos^2(pi / n)) / 6, wherever its vertices were given."""
     t = phase + 2 * math.pi * np.arange(n) / n
     verts = np.stack([centre[0] + radius * np.cos(t), centre[1] + radius * np.sin(t)], axis=1)
     w = phys2d.World()
     b = w.add_polygon(position=(1.0, 2.0), vertices=verts, density=density)
-    m = density * n * radius ** 2 * math.sin(2 * math.pi / n) / 2
+    m = density * n * radius**2 * math.sin(2 * math.pi / n) / 2
     assert b.mass == pytest.approx(m, rel=1e-9)
-    assert b.inertia == pytest.approx(m * radius ** 2 * (1 + 2 * math.cos(math.pi / n) ** 2) / 6, rel=1e-9)
+    assert b.inertia == pytest.approx(m * radius**2 * (1 + 2 * math.cos(math.pi / n) ** 2) / 6, rel=1e-9)
     np.testing.assert_allclose(b.local_vertices.mean(axis=0), 0.0, atol=1e-9 * radius)
     assert np.array_equal(b.position, [1.0, 2.0])
 
 
-@given(verts=ellipse_polygons(), shift=vectors(-10.0, 10.0), roll=st.integers(0, 7),
-       density=reals(0.1, 10.0))
+@given(verts=ellipse_polygons(), shift=vectors(-10.0, 10.0), roll=st.integers(0, 7), density=reals(0.1, 10.0))
 def test_polygon_is_recentred_and_order_free(verts, shift, roll: int, density: float) -> None:
     """A polygon's mass, inertia and shape about its centroid do not depend on where its
     vertices were given or on which vertex is listed first; its position is its centroid."""
     v = np.asarray(verts)
     w = phys2d.World()
     a = w.add_polygon(position=(0.5, -0.5), vertices=v, density=density)
-    b = w.add_polygon(position=(0.5, -0.5), vertices=np.roll(v + shift, roll % len(v), axis=0),
-                      density=density)
+    b = w.add_polygon(position=(0.5, -0.5), vertices=np.roll(v + shift, roll % len(v), axis=0), density=density)
     assert b.mass == pytest.approx(a.mass, rel=1e-9)
     assert b.inertia == pytest.approx(a.inertia, rel=1e-9)
-    np.testing.assert_allclose(np.roll(b.local_vertices, -(roll % len(v)), axis=0), a.local_vertices,
-                               atol=1e-9 * (1 + np.abs(shift).max()))
+    np.testing.assert_allclose(
+        np.roll(b.local_vertices, -(roll % len(v)), axis=0), a.local_vertices, atol=1e-9 * (1 + np.abs(shift).max())
+    )
     # the centroid of the area (not of the vertices) sits at the origin of the body frame
     p = a.local_vertices
     q = np.roll(p, -1, axis=0)
@@ -86,8 +88,13 @@ def test_polygon_of_a_box_is_the_box(h, density: float) -> None:
     np.testing.assert_allclose(a.local_vertices, b.local_vertices, atol=1e-12)
 
 
-@given(ra=reals(0.1, 2.0), rb=reals(0.1, 2.0), gap=reals(-0.5, 0.019), heading=reals(-math.pi, math.pi),
-       a_at=vectors(-3.0, 3.0))
+@given(
+    ra=reals(0.1, 2.0),
+    rb=reals(0.1, 2.0),
+    gap=reals(-0.5, 0.019),
+    heading=reals(-math.pi, math.pi),
+    a_at=vectors(-3.0, 3.0),
+)
 def test_circle_circle_contact_is_analytic(ra: float, rb: float, gap: float, heading: float, a_at) -> None:
     """Two circles: one point, normal along the centre line from a to b, separation
     |x_b - x_a| - r_a - r_b, the point midway between the surfaces."""
@@ -106,10 +113,16 @@ def test_circle_circle_contact_is_analytic(ra: float, rb: float, gap: float, hea
     np.testing.assert_allclose(c.point[0], xa + (ra + sep / 2) * d, atol=1e-9)
 
 
-@given(verts=ellipse_polygons(), r=reals(0.05, 1.0), direction=reals(-math.pi, math.pi),
-       dist=reals(-0.1, 1.5), angle=reals(-math.pi, math.pi))
-def test_circle_polygon_separation_is_the_distance(verts, r: float, direction: float, dist: float,
-                                                   angle: float) -> None:
+@given(
+    verts=ellipse_polygons(),
+    r=reals(0.05, 1.0),
+    direction=reals(-math.pi, math.pi),
+    dist=reals(-0.1, 1.5),
+    angle=reals(-math.pi, math.pi),
+)
+def test_circle_polygon_separation_is_the_distance(
+    verts, r: float, direction: float, dist: float, angle: float
+) -> None:
     """Circle against a convex polygon: the separation is the signed distance from the
     centre to the polygon (second method: nearest edge segment) minus r, and the normal
     points from the polygon to the circle."""
@@ -131,8 +144,12 @@ def test_circle_polygon_separation_is_the_distance(verts, r: float, direction: f
         assert point_polygon_distance(nearest, world_verts) == pytest.approx(0.0, abs=1e-9)
 
 
-@given(a=st.tuples(reals(0.2, 2.0), reals(0.2, 2.0)), b=st.tuples(reals(0.2, 2.0), reals(0.2, 2.0)),
-       dx=reals(-1.0, 1.0), gap=reals(-0.1, 0.019))
+@given(
+    a=st.tuples(reals(0.2, 2.0), reals(0.2, 2.0)),
+    b=st.tuples(reals(0.2, 2.0), reals(0.2, 2.0)),
+    dx=reals(-1.0, 1.0),
+    gap=reals(-0.1, 0.019),
+)
 def test_stacked_boxes_touch_along_their_overlap(a, b, dx: float, gap: float) -> None:
     """An axis-aligned box over another: two points with normal +y, separation the
     vertical gap, lying at the ends of the horizontal overlap of the two faces."""

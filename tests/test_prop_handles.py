@@ -23,8 +23,7 @@ def test_materials_set_on_a_handle_are_the_ones_contacts_mix(scene: SceneSpec, d
     for _ in run(w, dt, 1):
         c = w.contacts
         mu_a, mu_b = np.array(mu)[c.body_a], np.array(mu)[c.body_b]
-        np.testing.assert_allclose(c.friction, np.sqrt(mu_a.astype(np.longdouble) * mu_b).astype(float),
-                                   rtol=1e-14)
+        np.testing.assert_allclose(c.friction, np.sqrt(mu_a.astype(np.longdouble) * mu_b).astype(float), rtol=1e-14)
         assert np.array_equal(c.restitution, np.maximum(np.array(e)[c.body_a], np.array(e)[c.body_b]))
 
 
@@ -45,10 +44,16 @@ def test_handles_are_equal_exactly_when_they_name_the_same_body(scene: SceneSpec
     assert gone not in w.bodies and gone == gone
 
 
-@given(scene=scenes(max_bodies=5, ground=None, static=None), responder=responders(), dt=dts,
-       steps=st.integers(0, 5), data=st.data())
-def test_every_repr_works_in_every_state(scene: SceneSpec, responder: phys2d.Responder, dt: float,
-                                         steps: int, data) -> None:
+@given(
+    scene=scenes(max_bodies=5, ground=None, static=None),
+    responder=responders(),
+    dt=dts,
+    steps=st.integers(0, 5),
+    data=st.data(),
+)
+def test_every_repr_works_in_every_state(
+    scene: SceneSpec, responder: phys2d.Responder, dt: float, steps: int, data
+) -> None:
     """repr() of the world, its bodies (alive or removed), contacts, step report and
     responder never fails and says what it is."""
     w = build(scene, responder)

@@ -14,17 +14,21 @@ from tests.strategies import SceneSpec, build, dts, free_scene, pgs_settings, re
 from tests.test_prop_pgs import jacobian
 
 
-@given(scene=scenes(max_bodies=6, ground=None, static=None), settings=pgs_settings(form="matrix"),
-       dt=dts)
-def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settings: phys2d.PGS,
-                                                        dt: float) -> None:
+@given(scene=scenes(max_bodies=6, ground=None, static=None), settings=pgs_settings(form="matrix"), dt=dts)
+def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settings: phys2d.PGS, dt: float) -> None:
     """The lecture's matrix form (A and b assembled, rows swept with sum_l A_kl lambda_l)
     and the impulse form (J_k V read off the velocities) make the same iterates: after
     each step their lambdas and velocities agree to round-off."""
-    impulse = phys2d.PGS(iterations=settings.iterations, warm_start=settings.warm_start,
-                         beta=settings.beta, slop=settings.slop, tolerance=settings.tolerance,
-                         restitution_threshold=settings.restitution_threshold,
-                         friction=settings.friction, form="impulse")
+    impulse = phys2d.PGS(
+        iterations=settings.iterations,
+        warm_start=settings.warm_start,
+        beta=settings.beta,
+        slop=settings.slop,
+        tolerance=settings.tolerance,
+        restitution_threshold=settings.restitution_threshold,
+        friction=settings.friction,
+        form="impulse",
+    )
     a, b = build(scene, settings), build(scene, impulse)
     for _ in range(8):
         try:
@@ -44,8 +48,7 @@ def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settin
         b.x[:], b.theta[:], b.V[:] = a.x, a.theta, a.V
 
 
-@given(scene=scenes(max_bodies=5, ground=None, static=None, gravity=None),
-       settings=pgs_settings(form="matrix"), dt=dts)
+@given(scene=scenes(max_bodies=5, ground=None, static=None, gravity=None), settings=pgs_settings(form="matrix"), dt=dts)
 def test_matrix_system_is_the_lecture_system(scene: SceneSpec, settings: phys2d.PGS, dt: float) -> None:
     """w.last_step.system holds the step's own equations (docs/formulation.md#equations-of-motion): its rows of J
     are the contacts' [-n, -(r_a x n) | n, r_b x n] and tangent rows, A = J M^-1 J^T,
@@ -72,7 +75,8 @@ def test_matrix_system_is_the_lecture_system(scene: SceneSpec, settings: phys2d.
     mass = np.array([b.mass for b in w.bodies])
     F = np.zeros((n, 3))
     F[~np.array([b.static for b in w.bodies]), :2] = (mass[:, None] * w.gravity)[
-        ~np.array([b.static for b in w.bodies])]
+        ~np.array([b.static for b in w.bodies])
+    ]
     np.testing.assert_allclose(s.F_ext, F.reshape(-1), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(A, J @ (M_inv[:, None] * J.T), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(s.b, s.xi - J @ s.V1 - dt * J @ (M_inv * s.F_ext), rtol=1e-12, atol=1e-9)
@@ -93,8 +97,17 @@ def jointed(draw) -> tuple[SceneSpec, list[tuple]]:
     for _ in range(draw(st.integers(1, 4))):
         a, b = draw(st.lists(st.integers(0, n - 1), min_size=2, max_size=2, unique=True))
         kind = draw(st.sampled_from(["distance", "pin", "angle"]))
-        joints.append((kind, a, b, draw(vectors(-0.3, 0.3)), draw(vectors(-0.3, 0.3)),
-                       draw(st.none() | reals(-0.5, 0.0)), draw(st.none() | reals(0.0, 0.5))))
+        joints.append(
+            (
+                kind,
+                a,
+                b,
+                draw(vectors(-0.3, 0.3)),
+                draw(vectors(-0.3, 0.3)),
+                draw(st.none() | reals(-0.5, 0.0)),
+                draw(st.none() | reals(0.0, 0.5)),
+            )
+        )
     return scene, joints
 
 
@@ -130,16 +143,20 @@ def test_joints_conserve_momentum(case, settings: phys2d.PGS, dt: float, about) 
     p0 = w.linear_momentum()
     m = np.array([b.mass for b in w.bodies])
     for _ in range(20):
-        size = float(np.sum(m * np.hypot(*w.V[:, :2].T) * (1 + np.hypot(*(w.x - about).T)))
-                     + np.sum(np.abs(w.V[:, 2]))) + 1e-9
+        size = (
+            float(np.sum(m * np.hypot(*w.V[:, :2].T) * (1 + np.hypot(*(w.x - about).T))) + np.sum(np.abs(w.V[:, 2])))
+            + 1e-9
+        )
         l0 = w.angular_momentum(about)
         gaps = [j.gap() for j in w.joints if isinstance(j, phys2d.PinJoint)]
         try:
             w.step(dt)
         except phys2d.SimulationError:
             return
-        couple = sum(g * float(np.hypot(*j.impulse)) for g, j in
-                     zip(gaps, [j for j in w.joints if isinstance(j, phys2d.PinJoint)]))
+        couple = sum(
+            g * float(np.hypot(*j.impulse))
+            for g, j in zip(gaps, [j for j in w.joints if isinstance(j, phys2d.PinJoint)])
+        )
         np.testing.assert_allclose(w.linear_momentum(), p0, rtol=0, atol=1e-10 * size * (1 + w.tick))
         assert abs(w.angular_momentum(about) - l0) <= couple * (1 + 1e-9) + 1e-10 * size
 

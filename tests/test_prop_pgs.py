@@ -48,8 +48,9 @@ def jacobian(n_bodies: int, x: np.ndarray, c: phys2d.Contacts, direction: np.nda
     return J
 
 
-def normal_targets(c: phys2d.Contacts, vn1: np.ndarray, vn_ext: np.ndarray, pgs: phys2d.PGS,
-                   dt: float) -> tuple[np.ndarray, np.ndarray]:
+def normal_targets(
+    c: phys2d.Contacts, vn1: np.ndarray, vn_ext: np.ndarray, pgs: phys2d.PGS, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
     """(xi, bounce) of each normal row. xi: a point C > 0 apart may close its gap within the
     step (-C/dt), a touching one may not approach (0); the Baumgarte push (beta/dt)(-C - slop),
     at most push_max, joins xi only without split impulses; a touching point that meets its
@@ -87,8 +88,11 @@ def solve_lcp_by_active_sets(A: np.ndarray, b: np.ndarray, tol: float = 1e-9) ->
                 idx = list(active)
                 lam[idx] = np.linalg.lstsq(A[np.ix_(idx, idx)], b[idx], rcond=None)[0]
             w = A @ lam - b
-            if (lam.min(initial=0.0) >= -tol * scale and w.min(initial=0.0) >= -tol * scale
-                    and np.all(np.abs(w[list(active)]) <= tol * scale)):
+            if (
+                lam.min(initial=0.0) >= -tol * scale
+                and w.min(initial=0.0) >= -tol * scale
+                and np.all(np.abs(w[list(active)]) <= tol * scale)
+            ):
                 return lam
     raise AssertionError("no active set solves the LCP")  # pragma: no cover
 
@@ -111,8 +115,9 @@ def step_with_system(w: phys2d.World, dt: float):
 
 
 def converged_pgs(beta: float = 0.0, slop: float = 0.005, threshold: float = 1.0) -> phys2d.PGS:
-    return phys2d.PGS(iterations=3000, warm_start=False, tolerance=1e-13, beta=beta, slop=slop,
-                      restitution_threshold=threshold)
+    return phys2d.PGS(
+        iterations=3000, warm_start=False, tolerance=1e-13, beta=beta, slop=slop, restitution_threshold=threshold
+    )
 
 
 @st.composite
@@ -122,8 +127,9 @@ def near_touching(draw) -> SceneSpec:
     bodies = [GROUND]
     y = 0.0
     for _ in range(draw(st.integers(1, 3))):
-        spec = draw(body_specs(kinds=("box", "circle"), size=(0.3, 0.8), density=(0.5, 2.0),
-                               max_speed=1.0, max_spin=0.0))
+        spec = draw(
+            body_specs(kinds=("box", "circle"), size=(0.3, 0.8), density=(0.5, 2.0), max_speed=1.0, max_spin=0.0)
+        )
         half = spec.size if spec.kind == "circle" else spec.size[1]
         y += draw(reals(-0.005, 0.02)) + half
         bodies.append(replace(spec, position=(draw(reals(-0.1, 0.1)), y), angle=0.0))
@@ -131,8 +137,19 @@ def near_touching(draw) -> SceneSpec:
     return SceneSpec(tuple(bodies))
 
 
-small_scenes = scenes(min_bodies=1, max_bodies=3, ground=None, gravity=None, region=0.8,
-                      density=(0.5, 2.0), size=(0.3, 0.8), max_speed=3.0) | near_touching()
+small_scenes = (
+    scenes(
+        min_bodies=1,
+        max_bodies=3,
+        ground=None,
+        gravity=None,
+        region=0.8,
+        density=(0.5, 2.0),
+        size=(0.3, 0.8),
+        max_speed=3.0,
+    )
+    | near_touching()
+)
 
 
 def frictionless(scene: SceneSpec) -> SceneSpec:
@@ -177,8 +194,7 @@ def test_lambda_bounds(scene: SceneSpec, responder: phys2d.Responder, dt: float)
 def test_converged_pgs_solves_the_lcp(scene: SceneSpec, dt: float, beta: float, e: float) -> None:
     """Frictionless: converged PGS gives the LCP's velocities (M^-1 J^T lambda is unique
     even when A is singular) and, where A is non-singular, the LCP's lambda."""
-    scene = replace(frictionless(scene),
-                    bodies=tuple(replace(b, restitution=e) for b in frictionless(scene).bodies))
+    scene = replace(frictionless(scene), bodies=tuple(replace(b, restitution=e) for b in frictionless(scene).bodies))
     pgs = converged_pgs(beta=beta, threshold=0.5)
     w = build(scene, pgs)
     c, Jn, _, Minv, V1, V_ext = step_with_system(w, dt)
@@ -241,8 +257,7 @@ def test_converged_pgs_is_complementary(scene: SceneSpec, dt: float) -> None:
 
 
 @given(scene=scenes(max_bodies=5, ground=True), responder=pgs_settings(), dt=dts)
-def test_pgs_report_matches_its_stopping_rule(scene: SceneSpec, responder: phys2d.PGS,
-                                              dt: float) -> None:
+def test_pgs_report_matches_its_stopping_rule(scene: SceneSpec, responder: phys2d.PGS, dt: float) -> None:
     """iterations = len(residuals); PGS stops at the first sweep whose residual is within
     the tolerance, or after the iteration budget; residuals are finite and >= 0."""
     w = build(scene, responder)
@@ -257,21 +272,25 @@ def test_pgs_report_matches_its_stopping_rule(scene: SceneSpec, responder: phys2
         assert report.contact_count == len(w.contacts)
 
 
-@given(m=st.tuples(reals(0.1, 10.0), reals(0.1, 10.0)), u=st.tuples(reals(0.5, 10.0), reals(-10.0, 0.0)),
-       radii=st.tuples(reals(0.2, 1.0), reals(0.2, 1.0)), overlap=reals(0.0, 0.004),
-       e=reals(0.0, 1.0), dt=dts)
-def test_head_on_circles_follow_newtons_restitution(m, u, radii, overlap: float, e: float,
-                                                    dt: float) -> None:
+@given(
+    m=st.tuples(reals(0.1, 10.0), reals(0.1, 10.0)),
+    u=st.tuples(reals(0.5, 10.0), reals(-10.0, 0.0)),
+    radii=st.tuples(reals(0.2, 1.0), reals(0.2, 1.0)),
+    overlap=reals(0.0, 0.004),
+    e=reals(0.0, 1.0),
+    dt=dts,
+)
+def test_head_on_circles_follow_newtons_restitution(m, u, radii, overlap: float, e: float, dt: float) -> None:
     """Two frictionless circles meeting head on, touching within the slop: one step gives
     v1' = (m1 u1 + m2 u2 - m2 e (u1 - u2)) / (m1 + m2) and its mirror (Newton's law of
     restitution with momentum conservation)."""
     w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.PGS(beta=0.0, restitution_threshold=0.0))
     r1, r2 = radii
     rho1, rho2 = m[0] / (math.pi * r1 * r1), m[1] / (math.pi * r2 * r2)
-    a = w.add_circle(position=(0.0, 0.0), radius=r1, density=rho1, friction=0.0, restitution=e,
-                     velocity=(u[0], 0.0))
-    b = w.add_circle(position=(r1 + r2 - overlap, 0.0), radius=r2, density=rho2, friction=0.0,
-                     restitution=e, velocity=(u[1], 0.0))
+    a = w.add_circle(position=(0.0, 0.0), radius=r1, density=rho1, friction=0.0, restitution=e, velocity=(u[0], 0.0))
+    b = w.add_circle(
+        position=(r1 + r2 - overlap, 0.0), radius=r2, density=rho2, friction=0.0, restitution=e, velocity=(u[1], 0.0)
+    )
     w.step(dt)
     m1, m2 = a.mass, b.mass
     u1, u2 = u
@@ -282,12 +301,19 @@ def test_head_on_circles_follow_newtons_restitution(m, u, radii, overlap: float,
     assert a.angular_velocity == b.angular_velocity == 0.0
 
 
-@given(speed=reals(1.5, 20.0), heading=reals(-1.2, 1.2), offset=reals(-0.9, 0.9),
-       kind=st.sampled_from(["circle", "box", "polygon"]), spin=reals(-5.0, 5.0),
-       density=reals(0.2, 5.0), dt=dts, gap=st.sampled_from([-0.001, 0.003]))
-def test_energy_kept_with_restitution_one_and_one_contact(speed: float, heading: float,
-                                                          offset: float, kind: str, spin: float,
-                                                          density: float, dt: float, gap: float) -> None:
+@given(
+    speed=reals(1.5, 20.0),
+    heading=reals(-1.2, 1.2),
+    offset=reals(-0.9, 0.9),
+    kind=st.sampled_from(["circle", "box", "polygon"]),
+    spin=reals(-5.0, 5.0),
+    density=reals(0.2, 5.0),
+    dt=dts,
+    gap=st.sampled_from([-0.001, 0.003]),
+)
+def test_energy_kept_with_restitution_one_and_one_contact(
+    speed: float, heading: float, offset: float, kind: str, spin: float, density: float, dt: float, gap: float
+) -> None:
     """A frictionless circle bouncing (e = 1) off one other body at a single contact point,
     off centre and with spin: the step keeps kinetic energy and linear momentum.
 
@@ -302,18 +328,28 @@ def test_energy_kept_with_restitution_one_and_one_contact(speed: float, heading:
         w.add_circle(position=(0.0, 0.0), radius=0.5, friction=0.0, restitution=1.0, angular_velocity=spin)
         reach = 0.5
     elif kind == "box":
-        w.add_box(position=(0.0, 0.0), half_extents=(0.5, 0.5), friction=0.0, restitution=1.0,
-                  angular_velocity=spin)
+        w.add_box(position=(0.0, 0.0), half_extents=(0.5, 0.5), friction=0.0, restitution=1.0, angular_velocity=spin)
         reach = 0.5
     else:
-        body = w.add_polygon(position=(0.0, 0.0), vertices=[(-0.7, -0.5), (0.6, -0.5), (0.2, 0.5)],
-                             friction=0.0, restitution=1.0, angular_velocity=spin)
+        body = w.add_polygon(
+            position=(0.0, 0.0),
+            vertices=[(-0.7, -0.5), (0.6, -0.5), (0.2, 0.5)],
+            friction=0.0,
+            restitution=1.0,
+            angular_velocity=spin,
+        )
         reach = -float(body.vertices[:, 1].min())  # the bottom face (re-centred on the centroid: y = -1/3)
     # the ball just below the bottom face (box, polygon) or the circle, moving up into it
     x0 = offset * 0.4 if kind != "circle" else offset * 0.3
-    y0 = -(reach + r) - gap if kind != "circle" else -math.sqrt((0.5 + r + gap) ** 2 - x0 ** 2)
-    w.add_circle(position=(x0, y0), radius=r, density=density, friction=0.0, restitution=1.0,
-                 velocity=(speed * math.sin(heading), speed * math.cos(heading)))
+    y0 = -(reach + r) - gap if kind != "circle" else -math.sqrt((0.5 + r + gap) ** 2 - x0**2)
+    w.add_circle(
+        position=(x0, y0),
+        radius=r,
+        density=density,
+        friction=0.0,
+        restitution=1.0,
+        velocity=(speed * math.sin(heading), speed * math.cos(heading)),
+    )
     ke0, p0, l0 = w.kinetic_energy(), w.linear_momentum(), w.angular_momentum()
     w.step(dt)
     assume(len(w.contacts) == 1 and w.contacts.normal_impulse[0] > 0.0)
@@ -323,10 +359,19 @@ def test_energy_kept_with_restitution_one_and_one_contact(speed: float, heading:
         assert w.angular_momentum() == pytest.approx(l0, rel=1e-9, abs=1e-9)
 
 
-@given(depth=reals(0.02, 0.3), r=reals(0.3, 1.0), beta=reals(0.05, 1.0), slop=reals(0.0, 0.01),
-       density=reals(0.2, 5.0), dt=dts, steps=st.integers(1, 30), split=st.booleans())
-def test_baumgarte_removes_overlap_geometrically(depth: float, r: float, beta: float, slop: float,
-                                                 density: float, dt: float, steps: int, split: bool) -> None:
+@given(
+    depth=reals(0.02, 0.3),
+    r=reals(0.3, 1.0),
+    beta=reals(0.05, 1.0),
+    slop=reals(0.0, 0.01),
+    density=reals(0.2, 5.0),
+    dt=dts,
+    steps=st.integers(1, 30),
+    split=st.booleans(),
+)
+def test_baumgarte_removes_overlap_geometrically(
+    depth: float, r: float, beta: float, slop: float, density: float, dt: float, steps: int, split: bool
+) -> None:
     """A circle spawned overlapping the ground by d, no gravity, no cap on the push: the push
     (beta/dt)(d - slop) lifts it by beta (d - slop) in the first step, and after n steps the
     overlap is at most slop + (1 - beta)^n (d - slop), never growing. As the lecture has it

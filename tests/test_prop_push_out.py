@@ -51,8 +51,9 @@ def add(w: phys2d.World, kind: str, position, size: float, density: float) -> No
         w.add_box(position=position, half_extents=(size, size), density=density)
 
 
-@given(pairs=overlapping_pairs(), name=st.sampled_from(sorted(RESPONDERS)),
-       dt=st.sampled_from([1 / 30, 1 / 60, 1 / 120]))
+@given(
+    pairs=overlapping_pairs(), name=st.sampled_from(sorted(RESPONDERS)), dt=st.sampled_from([1 / 30, 1 / 60, 1 / 120])
+)
 def test_overlapping_bodies_separate_no_faster_than_the_push_out_cap(pairs, name: str, dt: float) -> None:
     """Bodies created overlapping by up to half their size, at rest, no gravity: over 2 s
     they separate, and no body ever moves faster than push_max (3 m/s) + 0.5 m/s."""

@@ -16,10 +16,14 @@ from tests.strategies import SceneSpec, body_specs, build, dts, responders, scen
 
 
 @settings(max_examples=10)
-@given(scene=scenes(max_bodies=5, ground=None, static=None), responder=responders(), dt=dts,
-       steps=st.integers(1, 25), data=st.data())
-def test_recording_round_trip(scene: SceneSpec, responder: phys2d.Responder, dt: float, steps: int,
-                              data) -> None:
+@given(
+    scene=scenes(max_bodies=5, ground=None, static=None),
+    responder=responders(),
+    dt=dts,
+    steps=st.integers(1, 25),
+    data=st.data(),
+)
+def test_recording_round_trip(scene: SceneSpec, responder: phys2d.Responder, dt: float, steps: int, data) -> None:
     """Poses, velocities, residuals and energies read back from the .rrd equal, bit for bit,
     what the world held at each logged tick, also when bodies are added and removed between
     ticks (NaN where a body did not exist); the contact table holds every contact, its
@@ -42,12 +46,22 @@ def test_recording_round_trip(scene: SceneSpec, responder: phys2d.Responder, dt:
                         w.remove(data.draw(st.sampled_from(w.bodies)))
                 rec.log(w)
                 c = w.contacts
-                truth.append(dict(
-                    tick=w.tick, uid={b._uid: k for k, b in enumerate(w.bodies)},
-                    x=w.x.copy(), theta=w.theta.copy(), V=w.V.copy(), key=c.key.copy(),
-                    normal_impulse=c.normal_impulse.copy(), tangent_impulse=c.tangent_impulse.copy(),
-                    separation=c.separation.copy(), point=c.point.copy(),
-                    residuals=w.last_step.residuals.copy(), ke=w.kinetic_energy()))
+                truth.append(
+                    dict(
+                        tick=w.tick,
+                        uid={b._uid: k for k, b in enumerate(w.bodies)},
+                        x=w.x.copy(),
+                        theta=w.theta.copy(),
+                        V=w.V.copy(),
+                        key=c.key.copy(),
+                        normal_impulse=c.normal_impulse.copy(),
+                        tangent_impulse=c.tangent_impulse.copy(),
+                        separation=c.separation.copy(),
+                        point=c.point.copy(),
+                        residuals=w.last_step.residuals.copy(),
+                        ke=w.kinetic_energy(),
+                    )
+                )
         got = phys2d.playback.load(path)
     assert list(got.tick) == [s["tick"] for s in truth]
     uids = list(got.body_uid)
@@ -79,10 +93,22 @@ def test_recording_refuses_bad_input(junk: bytes, data) -> None:
         bad.write_bytes(junk)
         with pytest.raises(phys2d.playback.RecordingError, match="path"):
             phys2d.playback.load(bad)
-        name, value = data.draw(st.sampled_from([
-            ("path", 3), ("path", Path(tmp) / "x.txt"), ("path", tmp), ("name", 5), ("scene", b"s"),
-            ("flush_every", 0), ("flush_every", 1.5), ("series_every", -1), ("contact_series", "yes"),
-            ("blueprint", None)]))
+        name, value = data.draw(
+            st.sampled_from(
+                [
+                    ("path", 3),
+                    ("path", Path(tmp) / "x.txt"),
+                    ("path", tmp),
+                    ("name", 5),
+                    ("scene", b"s"),
+                    ("flush_every", 0),
+                    ("flush_every", 1.5),
+                    ("series_every", -1),
+                    ("contact_series", "yes"),
+                    ("blueprint", None),
+                ]
+            )
+        )
         kwargs = {"path": Path(tmp) / "ok.rrd", name: value}
         with pytest.raises((ValueError, TypeError), match=name):
             phys2d.Recorder(**kwargs)

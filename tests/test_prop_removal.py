@@ -32,11 +32,16 @@ operations = st.lists(
         st.tuples(st.just("remove all"), st.none()),
         st.tuples(st.just("step"), dts),
     ),
-    min_size=1, max_size=25)
+    min_size=1,
+    max_size=25,
+)
 
 
-@given(ops=operations, responder=st.sampled_from(["pgs", "pgs-block", "pgs-matrix", "soft-step", "naive"]),
-       ground=st.booleans())
+@given(
+    ops=operations,
+    responder=st.sampled_from(["pgs", "pgs-block", "pgs-matrix", "soft-step", "naive"]),
+    ground=st.booleans(),
+)
 def test_contacts_never_name_a_removed_body(ops, responder: str, ground: bool) -> None:
     """Random adds, removals (one body, or every body) and steps: after each step every
     contact joins two live bodies, its key holds their uids, and a world emptied of bodies

@@ -41,8 +41,9 @@ def test_violent_scenes_stay_finite(scene: SceneSpec, responder: phys2d.Responde
         assert np.isfinite(w.kinetic_energy())
 
 
-@given(scene=scenes(max_bodies=4, ground=None, static=None, gravity=None),
-       dt=st.sampled_from([1e3, 1e150, 1e300, 1.7e308]))
+@given(
+    scene=scenes(max_bodies=4, ground=None, static=None, gravity=None), dt=st.sampled_from([1e3, 1e150, 1e300, 1.7e308])
+)
 def test_huge_dt_never_leaves_non_finite_state(scene: SceneSpec, dt: float) -> None:
     """A finite (if absurd) dt is valid input: a step must end finite or raise and undo."""
     w = build(scene)
@@ -79,8 +80,9 @@ def test_velocity_limit_raises_and_restores(scene: SceneSpec, limit: float, dt: 
     pytest.fail("a body falling freely never passed max_speed")  # pragma: no cover
 
 
-@given(body=body_specs(kinds=("box", "circle", "polygon")), gravity=vectors(-20.0, 20.0),
-       dt=dts, steps=st.integers(1, 60))
+@given(
+    body=body_specs(kinds=("box", "circle", "polygon")), gravity=vectors(-20.0, 20.0), dt=dts, steps=st.integers(1, 60)
+)
 def test_free_flight_is_semi_implicit_euler(body, gravity, dt: float, steps: int) -> None:
     """Without contacts, n steps of semi-implicit Euler have a closed form:
     v_n = v_0 + n dt g, x_n = x_0 + n dt v_0 + dt^2 g n (n + 1) / 2, theta_n = theta_0 + n dt omega."""
@@ -92,8 +94,7 @@ def test_free_flight_is_semi_implicit_euler(body, gravity, dt: float, steps: int
     g = np.asarray(gravity)
     n = steps
     np.testing.assert_allclose(b.velocity, v0 + n * dt * g, rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(b.position, x0 + n * dt * v0 + dt * dt * g * n * (n + 1) / 2,
-                               rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(b.position, x0 + n * dt * v0 + dt * dt * g * n * (n + 1) / 2, rtol=1e-12, atol=1e-9)
     assert b.angle == pytest.approx(th0 + n * dt * om0, rel=1e-12, abs=1e-9)
     assert b.angular_velocity == om0
 

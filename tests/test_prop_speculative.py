@@ -21,8 +21,11 @@ import phys2d
 from tests.strategies import ellipse_polygons, reals
 
 # every registered responder (soft-step: 4 sub-steps), and two settings without a name of their own
-RESPONDERS = {**phys2d.REGISTRY, "pgs-lecture-push": lambda: phys2d.PGS(split=False),
-              "soft-step-6": lambda: phys2d.SoftStep(substeps=6)}
+RESPONDERS = {
+    **phys2d.REGISTRY,
+    "pgs-lecture-push": lambda: phys2d.PGS(split=False),
+    "soft-step-6": lambda: phys2d.SoftStep(substeps=6),
+}
 MM = 1e-3
 
 
@@ -42,9 +45,18 @@ def free_flight(body: phys2d.Body, responder: phys2d.Responder, gravity, dt: flo
 
 
 def add_like(w: phys2d.World, body: phys2d.Body, **state) -> phys2d.Body:
-    kw = dict(position=body.position, angle=body.angle, velocity=body.velocity,
-              angular_velocity=body.angular_velocity, density=body.mass / body.mass,
-              friction=body.friction, restitution=body.restitution) | state
+    kw = (
+        dict(
+            position=body.position,
+            angle=body.angle,
+            velocity=body.velocity,
+            angular_velocity=body.angular_velocity,
+            density=body.mass / body.mass,
+            friction=body.friction,
+            restitution=body.restitution,
+        )
+        | state
+    )
     if body.shape == "circle":
         return w.add_circle(radius=body.radius, **kw)
     return w.add_polygon(vertices=body.local_vertices, **kw)
@@ -105,11 +117,16 @@ def falling_bodies(draw, kinds=("circle", "box", "polygon")):
     return "polygon", shape, speed, 0.0, draw(reals(0.0, 1.0)), draw(reals(0.0, 1.0))
 
 
-@given(data=st.data(), name=st.sampled_from(sorted(RESPONDERS)),
-       dt=st.sampled_from([1 / 10, 1 / 60, 1 / 240]) | reals(1 / 240, 1 / 10),
-       steps_away=reals(0.01, 3.0), gravity=st.sampled_from([0.0, -10.0]))
+@given(
+    data=st.data(),
+    name=st.sampled_from(sorted(RESPONDERS)),
+    dt=st.sampled_from([1 / 10, 1 / 60, 1 / 240]) | reals(1 / 240, 1 / 10),
+    steps_away=reals(0.01, 3.0),
+    gravity=st.sampled_from([0.0, -10.0]),
+)
 def test_a_point_still_apart_does_nothing_and_the_body_turns_round_at_the_surface(
-        data, name: str, dt: float, steps_away: float, gravity: float) -> None:
+    data, name: str, dt: float, steps_away: float, gravity: float
+) -> None:
     """A body falls onto a static ground at up to 200 m/s from a fraction of a step's travel
     up to three steps' above it. While its free flight would end the step more than slop
     above the ground, no impulse acts and it moves exactly as in free flight. In the step

@@ -32,12 +32,29 @@ def snapshot(w: phys2d.World) -> dict:
     """The engine's own arrays after a step, copied."""
     c, s = w.contacts, w.last_step
     return dict(
-        tick=w.tick, time=w.time, x=w.x.copy(), theta=w.theta.copy(), V=w.V.copy(), uid=w.body_uids.copy(),
-        key=c.key.copy(), point=c.point.copy(), normal=c.normal.copy(), separation=c.separation.copy(),
-        normal_impulse=c.normal_impulse.copy(), tangent_impulse=c.tangent_impulse.copy(),
-        warm_started=c.warm_started.copy(), residuals=s.residuals.copy(), max_penetration=s.max_penetration,
-        contact_count=s.contact_count, cache_hit_rate=s.cache_hit_rate, iterations=s.iterations,
-        ke=w.kinetic_energy(), pe=w.potential_energy(), p=w.linear_momentum().copy(), L=w.angular_momentum())
+        tick=w.tick,
+        time=w.time,
+        x=w.x.copy(),
+        theta=w.theta.copy(),
+        V=w.V.copy(),
+        uid=w.body_uids.copy(),
+        key=c.key.copy(),
+        point=c.point.copy(),
+        normal=c.normal.copy(),
+        separation=c.separation.copy(),
+        normal_impulse=c.normal_impulse.copy(),
+        tangent_impulse=c.tangent_impulse.copy(),
+        warm_started=c.warm_started.copy(),
+        residuals=s.residuals.copy(),
+        max_penetration=s.max_penetration,
+        contact_count=s.contact_count,
+        cache_hit_rate=s.cache_hit_rate,
+        iterations=s.iterations,
+        ke=w.kinetic_energy(),
+        pe=w.potential_energy(),
+        p=w.linear_momentum().copy(),
+        L=w.angular_momentum(),
+    )
 
 
 def record(path, w: phys2d.World, steps: int, **kw) -> list[dict]:
@@ -73,8 +90,9 @@ def mixed(tmp_path_factory):
     """
     path = tmp_path_factory.mktemp("rec") / "mixed.rrd"
     w = phys2d.scenes.mixed_shapes(10)
-    snaps = record(path, w, 150, name="mixed", scene="mixed_shapes", flush_every=7, series_every=23,
-                   plot="deepest:100000")
+    snaps = record(
+        path, w, 150, name="mixed", scene="mixed_shapes", flush_every=7, series_every=23, plot="deepest:100000"
+    )
     return path, snaps, playback.load(path), w
 
 
@@ -115,9 +133,12 @@ def test_solver_and_aggregates_round_trip_exactly(mixed):
         assert np.array_equal(rec.residuals_at(s["tick"]), s["residuals"])
     # energies and momenta are worked out by the recorder from the sampled state: the engine's
     # methods agree to round-off (summation order)
-    for got, want in ((rec.kinetic_energy, [s["ke"] for s in snaps]), (rec.potential_energy, [s["pe"] for s in snaps]),
-                      (rec.linear_momentum, np.stack([s["p"] for s in snaps])),
-                      (rec.angular_momentum, [s["L"] for s in snaps])):
+    for got, want in (
+        (rec.kinetic_energy, [s["ke"] for s in snaps]),
+        (rec.potential_energy, [s["pe"] for s in snaps]),
+        (rec.linear_momentum, np.stack([s["p"] for s in snaps])),
+        (rec.angular_momentum, [s["L"] for s in snaps]),
+    ):
         want = np.asarray(want)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
     np.testing.assert_allclose(rec.max_penetration, [s["max_penetration"] for s in snaps], rtol=1e-15, atol=0)
@@ -167,11 +188,15 @@ def test_per_contact_series_follow_each_contact_and_break_where_it_ends(mixed):
 
 def strips_at_last_tick(path, entity: str) -> list:
     rows = []
-    for ch in RrdReader(str(path)).store().stream().filter(content=entity, is_static=False,
-                                                           components="LineStrips2D:strips"):
+    for ch in (
+        RrdReader(str(path)).store().stream().filter(content=entity, is_static=False, components="LineStrips2D:strips")
+    ):
         rb = ch.to_record_batch()
-        rows += [(t, s) for t, s in zip(rb.column("tick").to_pylist(), rb.column("LineStrips2D:strips").to_pylist(),
-                                        strict=True) if s is not None]
+        rows += [
+            (t, s)
+            for t, s in zip(rb.column("tick").to_pylist(), rb.column("LineStrips2D:strips").to_pylist(), strict=True)
+            if s is not None
+        ]
     return max(rows, key=lambda r: r[0])[1]
 
 
@@ -197,8 +222,13 @@ def test_outlines_drawn_are_the_bodies_vertices(mixed):
 def test_static_geometry_is_written_once(mixed):
     """The ground never moves: one row on world/sim/static, none of it on world/sim/bodies."""
     path, snaps, rec, w = mixed
-    rows = sum(ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(
-        content="/world/sim/static", is_static=False, components="LineStrips2D:strips"))
+    rows = sum(
+        ch.num_rows
+        for ch in RrdReader(str(path))
+        .store()
+        .stream()
+        .filter(content="/world/sim/static", is_static=False, components="LineStrips2D:strips")
+    )
     assert rows == 1
     ground = [b for b in w.bodies if b.static]
     assert len(ground) == 1 and len(strips_at_last_tick(path, "/world/sim/static")) == 1
@@ -279,8 +309,10 @@ def test_bad_arguments_are_named(tmp_path):
 
 def test_comparison_runs_share_one_recording_and_timelines(tmp_path):
     path = tmp_path / "cmp.rrd"
-    worlds = {"pgs": phys2d.scenes.vertical_stack(4, responder=phys2d.PGS(warm_start=True)),
-              "pgs-cold": phys2d.scenes.vertical_stack(4, responder=phys2d.PGS(warm_start=False))}
+    worlds = {
+        "pgs": phys2d.scenes.vertical_stack(4, responder=phys2d.PGS(warm_start=True)),
+        "pgs-cold": phys2d.scenes.vertical_stack(4, responder=phys2d.PGS(warm_start=False)),
+    }
     truth: dict[str, list] = {k: [] for k in worlds}
     with Recorder(path, name="stack: warm vs cold") as rec:
         for _ in range(40):
@@ -371,8 +403,7 @@ def test_contact_table_is_one_row_per_tick_including_empty_ticks(tmp_path):
         rec.log(w)
     store = RrdReader(str(path)).store()
     n_rows = 0
-    for ch in store.stream().filter(content="/world/sim/contacts", is_static=False,
-                                    components="Arrows2D:origins"):
+    for ch in store.stream().filter(content="/world/sim/contacts", is_static=False, components="Arrows2D:origins"):
         rb = ch.to_record_batch()
         lens = pc.list_value_length(rb.column("Arrows2D:origins")).to_numpy(zero_copy_only=False)
         n_rows += len(lens)
@@ -387,8 +418,10 @@ def test_outline_column_has_rerun_own_arrow_type(mixed):
 
     want = rr.components.LineStrip2DBatch([[[0.0, 0.0], [1.0, 1.0]]]).as_arrow_array().type
     store = RrdReader(str(mixed[0])).store()
-    types = {ch.to_record_batch().schema.field("LineStrips2D:strips").type
-             for ch in store.stream().filter(content="/world/sim/bodies", components="LineStrips2D:strips")}
+    types = {
+        ch.to_record_batch().schema.field("LineStrips2D:strips").type
+        for ch in store.stream().filter(content="/world/sim/bodies", components="LineStrips2D:strips")
+    }
     assert types and all(t.value_type == want for t in types)
 
 
@@ -410,8 +443,13 @@ def test_a_hard_kill_leaves_the_windows_already_written(tmp_path):
         os._exit(1)
     """)
     repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": repo},
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-c", script],
+        env={**os.environ, "PYTHONPATH": repo},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 1, out.stderr
     back = playback.load(path)
     assert list(back.tick) == list(range(1, 91))  # 9 whole windows; the last 5 ticks were still buffered
@@ -476,8 +514,17 @@ def test_plot_contacts_named_on_the_command_line(tmp_path):
     assert list(t) == [tk for tk, _ in truth] and np.array_equal(lam[:, 0], [v for _, v in truth])
 
 
-@pytest.mark.parametrize("text, error", [("deepest:0", ValueError), ("body:-1", ValueError), ("body:x", ValueError),
-                                         ("b1-b0/f0", ValueError), ("nonsense", ValueError), ("", ValueError)])
+@pytest.mark.parametrize(
+    "text, error",
+    [
+        ("deepest:0", ValueError),
+        ("body:-1", ValueError),
+        ("body:x", ValueError),
+        ("b1-b0/f0", ValueError),
+        ("nonsense", ValueError),
+        ("", ValueError),
+    ],
+)
 def test_bad_plot_choices_are_named(tmp_path, text, error):
     with pytest.raises(error, match="plot|contact|keys|n must|uid"):
         Recorder(tmp_path / "x.rrd", plot=text)
@@ -523,8 +570,13 @@ def test_a_static_body_moved_by_hand_is_written_again(tmp_path):
             w.step(1 / 60)
             rec.log(w)
             xs.append(ground.position)
-    rows = sum(ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(
-        content="/world/sim/static", is_static=False, components="LineStrips2D:strips"))
+    rows = sum(
+        ch.num_rows
+        for ch in RrdReader(str(path))
+        .store()
+        .stream()
+        .filter(content="/world/sim/static", is_static=False, components="LineStrips2D:strips")
+    )
     assert rows == 2
     back = playback.load(path)
     assert np.array_equal(back.x[:, list(back.body_uid).index(0)], np.stack(xs))
@@ -551,6 +603,128 @@ def test_a_background_writer_writes_what_an_in_process_one_does(tmp_path):
         assert np.array_equal(getattr(a.contacts, name), getattr(b.contacts, name)), name
 
 
+def _data_chunks(path, entity: str) -> list[int]:
+    """Rows of each temporal chunk of ``entity``."""
+    return [ch.num_rows for ch in RrdReader(str(path)).store().stream().filter(content=entity, is_static=False)]
+
+
+def test_a_background_writer_writes_long_chunks_of_the_same_rows(tmp_path):
+    """A writer process holds an entity's windows and writes them as one chunk (up to ~8 MB):
+    the rows are those an in-process recorder writes window by window."""
+    chunks = {}
+    for background in (False, True):
+        path = tmp_path / f"chunks{background}.rrd"
+        w = phys2d.scenes.pyramid(6)
+        with Recorder(path, flush_every=10, series_every=50, background=background) as rec:
+            rec.log(w)
+            for _ in range(99):
+                w.step(1 / 60)
+                rec.log(w)
+        chunks[background] = {
+            e: _data_chunks(path, e)
+            for e in ("/world/sim/bodies", "/world/sim/contacts", "/stats/energy/kinetic", "/solver/residual")
+        }
+    for entity, rows in chunks[False].items():
+        assert sum(chunks[True][entity]) == sum(rows), entity  # the same rows ...
+    assert chunks[False]["/world/sim/contacts"] == [10] * 10  # ... one chunk per window in process,
+    assert chunks[True]["/world/sim/contacts"] == [100]  # one for the whole run from a writer process
+    assert chunks[True]["/world/sim/bodies"] == [1, 100]  # the labels' row, then every tick
+    assert chunks[True]["/stats/energy/kinetic"] == [100]
+    assert chunks[True]["/solver/residual"] == [sum(chunks[False]["/solver/residual"])]
+
+
+def test_the_blueprint_has_rerun_s_own_components_and_types():
+    """blueprint.build writes the rows rerun.blueprint writes for the same layout (entity kinds,
+    component descriptors, arrow types and values, up to the random view and container ids)."""
+    import rerun as rr
+    import rerun_bindings
+
+    from phys2d.recording import blueprint as bp
+
+    def ours(views):
+        return bp.build(views)
+
+    def theirs(views):
+        """What rerun's blueprint classes log, caught at rerun_bindings.log_arrow_msg."""
+        import rerun.blueprint as rrb
+
+        rows = []
+        original = rerun_bindings.log_arrow_msg
+
+        def catch(entity_path, components, static_, recording=None):
+            rows.append((entity_path, components, static_))
+
+        rerun_bindings.log_arrow_msg = catch
+        try:
+            stream = rr.RecordingStream("check", recording_id="x")
+            runs = views
+            single = len(runs) == 1
+            r = runs[0]
+            p = schema.run_prefix(r.label)
+
+            def world(r):
+                x0, x1, y0, y1 = r.bounds
+                return rrb.Spatial2DView(
+                    name=f"world {r.label}" if r.label else "world",
+                    origin=f"/{schema.run_prefix(r.label)}{schema.WORLD}",
+                    visual_bounds=rrb.VisualBounds2D(x_range=[x0, x1], y_range=[-y1, -y0]),
+                )
+
+            def plot(key, paths, legend=True):
+                return rrb.TimeSeriesView(
+                    name=bp.TITLES[key],
+                    origin="/",
+                    contents=[f"+ /{q}" for q in paths],
+                    plot_legend=None if legend else rrb.PlotLegend(visible=False),
+                )
+
+            if single:
+                left = rrb.Tabs(
+                    world(r), rrb.DataframeView(name="contact table", origin=f"/{p}{schema.CONTACTS}"), active_tab=0
+                )
+                plots = [
+                    plot("lambda", [f"{p}{schema.LAMBDA}/**"]),
+                    plot("penetration", [f"{p}{schema.PENETRATION}/**"]),
+                    plot("reaction", [f"{p}{schema.REACTION}/**"], legend=False),
+                    plot("residual", [f"{p}{schema.RESIDUAL}"]),
+                    plot("energy", [f"{p}{schema.STATS_ROOT}/energy/**"]),
+                ]
+            else:
+                left = rrb.Grid(*[world(v) for v in runs])
+                plots = [plot("residual", [f"{schema.run_prefix(v.label)}{schema.RESIDUAL}" for v in runs])]
+            blueprint = rrb.Blueprint(
+                rrb.Horizontal(left, rrb.Vertical(*plots), column_shares=[3, 2]),
+                rrb.BlueprintPanel(state="collapsed"),
+                rrb.SelectionPanel(state="collapsed"),
+                rrb.TimePanel(state="collapsed", timeline=schema.TICK, play_state="following"),
+            )
+            blueprint._log_to_stream(stream)
+        finally:
+            rerun_bindings.log_arrow_msg = original
+        return rows
+
+    def shape(rows):
+        out = []
+        for entity, comps, static in rows:
+            kind = entity.split("/")[0] + ("/" + entity.split("/")[-1] if entity.count("/") > 1 else "")
+            for d, a in comps.items():
+                values = (
+                    None
+                    if "contents" in d.component or "active_tab" in d.component or "root_container" in d.component
+                    else a.to_pylist()
+                )
+                out.append((kind, d.component, d.archetype, d.component_type, str(a.type), values, bool(static)))
+        return sorted(out, key=repr)
+
+    one = [bp.RunView(None, (-3.0, 3.0, -0.5, 6.0), True, True)]
+    assert shape(ours(one)) == shape(theirs(one))
+    two = [bp.RunView("a", (0.0, 1.0, 0.0, 1.0), False, False), bp.RunView("b", (0.0, 2.0, 0.0, 2.0), False, False)]
+    for component in ("ContainerBlueprint:container_kind", "VisualBounds2D:range"):  # a grid of worlds, each framed
+        assert [r for r in shape(ours(two)) if r[1] == component] == [
+            r for r in shape(theirs(two)) if r[1] == component
+        ], component
+
+
 def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path):
     """os._exit in the simulating process: the writer sees it gone, writes every window it was
     sent and the footer."""
@@ -570,8 +744,13 @@ def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path
         os._exit(1)
     """)
     repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    out = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": repo},
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-c", script],
+        env={**os.environ, "PYTHONPATH": repo},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 1, out.stderr
     for _ in range(100):  # the writer notices within a second or so
         try:

@@ -100,8 +100,7 @@ def test_naive_takes_work_with_every_shape(responder):
     assert np.all(np.abs(w.contacts.tangent_impulse) <= mu * w.contacts.normal_impulse + 1e-12)
 
 
-@pytest.mark.parametrize("responder", [phys2d.NaiveImpulse(), phys2d.IterativeImpulse(passes=4),
-                                       phys2d.PGS()])
+@pytest.mark.parametrize("responder", [phys2d.NaiveImpulse(), phys2d.IterativeImpulse(passes=4), phys2d.PGS()])
 def test_bounce_of_a_ball(responder):
     # 1 cm above the ground and falling at 3 m/s: the gap closes within the step (5 cm),
     # so it is a collision; e = 0.5 sends it back up at 1.5 m/s (no gravity)
@@ -133,12 +132,18 @@ def test_naive_impulse_obeys_the_impulse_law(e):
     # the relative normal velocity at P_0 becomes -e times what it was, and for e = 1 and
     # no friction the kinetic energy is kept too (the lecture's formula, angular terms included)
     w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.NaiveImpulse())
-    w.add_box(position=(0.0, 0.0), half_extents=(1.0, 0.5), friction=0.0, restitution=e,
-              angular_velocity=0.3)
+    w.add_box(position=(0.0, 0.0), half_extents=(1.0, 0.5), friction=0.0, restitution=e, angular_velocity=0.3)
     # touching (1 nm overlap, below the push-apart's tolerance): the lecture's impulse at once;
     # a point still apart would land first and bounce after moving (test_speculative.py)
-    w.add_circle(position=(0.7, 0.5 + 0.3 - 1e-9), radius=0.3, velocity=(0.4, -2.0),
-                 angular_velocity=5.0, density=3.0, friction=0.0, restitution=e)
+    w.add_circle(
+        position=(0.7, 0.5 + 0.3 - 1e-9),
+        radius=0.3,
+        velocity=(0.4, -2.0),
+        angular_velocity=5.0,
+        density=3.0,
+        friction=0.0,
+        restitution=e,
+    )
     x1, V1 = w.x.copy(), w.V.copy()
     p0, L0, E0 = w.linear_momentum(), w.angular_momentum(), w.kinetic_energy()
 
@@ -217,8 +222,7 @@ def slide(friction: str, load: bool) -> float:
     w.add_box(position=(0.0, -0.5), half_extents=(100.0, 0.5), static=True, friction=MU)
     box = w.add_box(position=(0.0, 0.5), half_extents=(0.5, 0.5), friction=MU, velocity=(V0, 0.0))
     if load:  # a second 1 kg box riding on top; between the boxes mu = sqrt(0.3 * 3) = 0.95
-        w.add_box(position=(0.0, 1.5), half_extents=(0.5, 0.5), friction=10 * MU,
-                  velocity=(V0, 0.0))
+        w.add_box(position=(0.0, 1.5), half_extents=(0.5, 0.5), friction=10 * MU, velocity=(V0, 0.0))
     for _ in range(600):
         w.step(DT)
         if abs(box.velocity[0]) < 1e-9:

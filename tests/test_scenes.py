@@ -84,8 +84,10 @@ def test_a_stack_leaning_past_its_base_topples():
     assert np.abs(w.x[1:] - start[1:]).max() > 0.5
 
 
-@pytest.mark.parametrize("bad, error", [(math.nan, ValueError), (math.inf, ValueError),
-                                        ("1", TypeError), (None, TypeError), (True, TypeError)])
+@pytest.mark.parametrize(
+    "bad, error",
+    [(math.nan, ValueError), (math.inf, ValueError), ("1", TypeError), (None, TypeError), (True, TypeError)],
+)
 def test_lean_refuses_bad_values_naming_lean(bad, error):
     with pytest.raises(error, match="lean"):
         scenes.vertical_stack(5, lean=bad)
@@ -140,10 +142,18 @@ def test_heavy_chain_refuses_a_responder_without_joints():
         scenes.heavy_chain(4, responder=phys2d.NaiveImpulse())
 
 
-@pytest.mark.parametrize("name, bad, error", [
-    ("links", 0, ValueError), ("links", 2.5, TypeError), ("ratio", 0.0, ValueError),
-    ("ratio", math.inf, ValueError), ("ratio", "100", TypeError),
-    ("link_length", -0.5, ValueError), ("link_length", None, TypeError)])
+@pytest.mark.parametrize(
+    "name, bad, error",
+    [
+        ("links", 0, ValueError),
+        ("links", 2.5, TypeError),
+        ("ratio", 0.0, ValueError),
+        ("ratio", math.inf, ValueError),
+        ("ratio", "100", TypeError),
+        ("link_length", -0.5, ValueError),
+        ("link_length", None, TypeError),
+    ],
+)
 def test_heavy_chain_refuses_bad_arguments_naming_them(name, bad, error):
     with pytest.raises(error, match=name):
         scenes.heavy_chain(**{name: bad})
@@ -169,12 +179,15 @@ def bench_engines():
     return engines
 
 
-@pytest.mark.parametrize("name, stock", [
-    ("vertical_stack_20", lambda: scenes.vertical_stack(20)),
-    ("vertical_stack_20_lean_0.1mm", lambda: scenes.vertical_stack(20, lean=1e-4)),
-    ("vertical_stack_20_lean_1mm", lambda: scenes.vertical_stack(20, lean=1e-3)),
-    ("heavy_chain_20", lambda: scenes.heavy_chain(20)),
-])
+@pytest.mark.parametrize(
+    "name, stock",
+    [
+        ("vertical_stack_20", lambda: scenes.vertical_stack(20)),
+        ("vertical_stack_20_lean_0.1mm", lambda: scenes.vertical_stack(20, lean=1e-4)),
+        ("vertical_stack_20_lean_1mm", lambda: scenes.vertical_stack(20, lean=1e-3)),
+        ("heavy_chain_20", lambda: scenes.heavy_chain(20)),
+    ],
+)
 def test_benchmark_scenes_match_the_stock_scenes(bench_engines, name, stock):
     """benchmarks/engines.py describes its scenes as plain data; phys2d built from that
     data is the stock scene, body for body and joint for joint."""

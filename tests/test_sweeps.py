@@ -32,13 +32,25 @@ ROOT = Path(__file__).resolve().parents[1]
 def cli(*args: str, cwd) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     env.pop("PHYS2D_DEBUG", None)
-    return subprocess.run([sys.executable, "-m", "phys2d", "sweep", *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "phys2d", "sweep", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
 
 
 def task(**kw) -> Task:
-    base = dict(scene="circle_stack", size=2, mass_ratio=1.0, responder="pgs-cold", iterations=5, substeps=None,
-                dt=1 / 60, steps=10, friction=None, seed=None, jitter=None)
+    base = dict(
+        scene="circle_stack",
+        size=2,
+        mass_ratio=1.0,
+        responder="pgs-cold",
+        iterations=5,
+        substeps=None,
+        dt=1 / 60,
+        steps=10,
+        friction=None,
+        seed=None,
+        jitter=None,
+    )
     return Task(**{**base, **kw})
 
 
@@ -61,9 +73,16 @@ def gauss_seidel_error(masses, sweeps, dt=1 / 60, g=10.0) -> float:
 
 # -- grids -------------------------------------------------------------------------------------------
 def test_a_grid_expands_to_the_product_of_the_axes_that_apply():
-    g = Grid(scenes=["vertical_stack", "mass_ratio"], responders=["naive", "pgs", "soft-step"],
-             iterations=[5, 10, 20], substeps="1..2", size=[3, 4], mass_ratio=[2, 10], seed=[0, 1],
-             friction=[0.2, 0.6])
+    g = Grid(
+        scenes=["vertical_stack", "mass_ratio"],
+        responders=["naive", "pgs", "soft-step"],
+        iterations=[5, 10, 20],
+        substeps="1..2",
+        size=[3, 4],
+        mass_ratio=[2, 10],
+        seed=[0, 1],
+        friction=[0.2, 0.6],
+    )
     tasks = g.tasks()
     # vertical_stack: 2 sizes; mass_ratio: 2 ratios; naive 1 + pgs 3 + soft-step 2 counts; 2 seeds x 2 frictions
     assert len(tasks) == (2 + 2) * (1 + 3 + 2) * 2 * 2
@@ -78,24 +97,27 @@ def test_a_grid_expands_to_the_product_of_the_axes_that_apply():
     assert task().run_id == task().run_id != task(iterations=6).run_id
 
 
-@pytest.mark.parametrize("spec, kind, words", [
-    ({"scenes": "pyramd"}, ValueError, "did you mean 'pyramid'"),
-    ({"scenes": "pyramid", "responders": "pgss"}, ValueError, "responders"),
-    ({"scenes": "pyramid", "iteration": 5}, ValueError, "did you mean 'iterations'"),
-    ({"scenes": "pyramid", "iterations": 1.5}, TypeError, "iterations"),
-    ({"scenes": "pyramid", "iterations": 0}, ValueError, "iterations"),
-    ({"scenes": "pyramid", "iterations": []}, ValueError, "at least one"),
-    ({"scenes": "pyramid", "dt": -0.1}, ValueError, "dt"),
-    ({"scenes": "pyramid", "dt": float("nan")}, ValueError, "dt"),
-    ({"scenes": "pyramid", "friction": -1}, ValueError, "friction"),
-    ({"scenes": "pyramid", "seed": -1}, ValueError, "seed"),
-    ({"scenes": "pyramid", "steps": True}, TypeError, "steps"),
-    ({"scenes": "pyramid", "iterations": "5..1"}, ValueError, "range"),
-    ({"scenes": "pyramid", "substeps": 4}, ValueError, "substeps applies only"),
-    ({"scenes": "pyramid", "mass_ratio": 4}, ValueError, "mass_ratio applies only"),
-    ({"scenes": "mass_ratio", "size": 4}, ValueError, "size applies only"),
-    ({"responders": "pgs"}, ValueError, "scenes must be given"),
-])
+@pytest.mark.parametrize(
+    "spec, kind, words",
+    [
+        ({"scenes": "pyramd"}, ValueError, "did you mean 'pyramid'"),
+        ({"scenes": "pyramid", "responders": "pgss"}, ValueError, "responders"),
+        ({"scenes": "pyramid", "iteration": 5}, ValueError, "did you mean 'iterations'"),
+        ({"scenes": "pyramid", "iterations": 1.5}, TypeError, "iterations"),
+        ({"scenes": "pyramid", "iterations": 0}, ValueError, "iterations"),
+        ({"scenes": "pyramid", "iterations": []}, ValueError, "at least one"),
+        ({"scenes": "pyramid", "dt": -0.1}, ValueError, "dt"),
+        ({"scenes": "pyramid", "dt": float("nan")}, ValueError, "dt"),
+        ({"scenes": "pyramid", "friction": -1}, ValueError, "friction"),
+        ({"scenes": "pyramid", "seed": -1}, ValueError, "seed"),
+        ({"scenes": "pyramid", "steps": True}, TypeError, "steps"),
+        ({"scenes": "pyramid", "iterations": "5..1"}, ValueError, "range"),
+        ({"scenes": "pyramid", "substeps": 4}, ValueError, "substeps applies only"),
+        ({"scenes": "pyramid", "mass_ratio": 4}, ValueError, "mass_ratio applies only"),
+        ({"scenes": "mass_ratio", "size": 4}, ValueError, "size applies only"),
+        ({"responders": "pgs"}, ValueError, "scenes must be given"),
+    ],
+)
 def test_bad_grids_are_refused_by_name(spec, kind, words):
     with pytest.raises(kind, match=words):
         phys2d.sweeps.as_grids(spec)[0].tasks()
@@ -103,14 +125,17 @@ def test_bad_grids_are_refused_by_name(spec, kind, words):
 
 def test_a_toml_file_holds_several_grids_with_shared_defaults(tmp_path):
     f = tmp_path / "g.toml"
-    f.write_text('scenes = "circle_stack"\nsteps = 7\n[[grid]]\nsize = 2\nmass_ratio = [1, 10]\n'
-                 '[[grid]]\nsize = 4\nsteps = 3\nresponders = ["pgs", "soft-step"]\nsubsteps = "1..2"\n')
+    f.write_text(
+        'scenes = "circle_stack"\nsteps = 7\n[[grid]]\nsize = 2\nmass_ratio = [1, 10]\n'
+        '[[grid]]\nsize = 4\nsteps = 3\nresponders = ["pgs", "soft-step"]\nsubsteps = "1..2"\n'
+    )
     a, b = phys2d.sweeps.load_toml(f)
     assert a.steps == (7,) and a.mass_ratio == (1.0, 10.0) and b.steps == (3,) and b.substeps == (1, 2)
     assert len(phys2d.sweeps.expand([a, b])) == 2 + 1 + 2
     # a default a table does not use is fine there, as long as some table uses it
-    f.write_text('scenes = "circle_stack"\nsubsteps = [1, 2]\n[[grid]]\nresponders = "pgs"\n'
-                 '[[grid]]\nresponders = "soft-step"\n')
+    f.write_text(
+        'scenes = "circle_stack"\nsubsteps = [1, 2]\n[[grid]]\nresponders = "pgs"\n[[grid]]\nresponders = "soft-step"\n'
+    )
     pgs, soft = phys2d.sweeps.load_toml(f)
     assert [t.substeps for t in pgs.tasks()] == [None] and [t.substeps for t in soft.tasks()] == [1, 2]
     f.write_text('scenes = "circle_stack"\nsubsteps = [1, 2]\n[[grid]]\nresponders = "pgs"\n')
@@ -134,15 +159,18 @@ def test_bad_combinations_fail_before_anything_runs(tmp_path):
     assert not (tmp_path / "t.parquet").exists()
 
 
-@pytest.mark.parametrize("kwargs, kind, words", [
-    ({"out": "t.csv"}, ValueError, "out must name a .parquet"),
-    ({"workers": 0}, ValueError, "workers"),
-    ({"scheduler": "localhost:8786"}, ValueError, "tcp://HOST:PORT"),
-    ({"scheduler": "tcp://host:99999"}, ValueError, "port"),
-    ({"scheduler": 8786}, TypeError, "scheduler"),
-    ({"csv": 3}, TypeError, "csv"),
-    ({"resume": "yes"}, TypeError, "resume"),
-])
+@pytest.mark.parametrize(
+    "kwargs, kind, words",
+    [
+        ({"out": "t.csv"}, ValueError, "out must name a .parquet"),
+        ({"workers": 0}, ValueError, "workers"),
+        ({"scheduler": "localhost:8786"}, ValueError, "tcp://HOST:PORT"),
+        ({"scheduler": "tcp://host:99999"}, ValueError, "port"),
+        ({"scheduler": 8786}, TypeError, "scheduler"),
+        ({"csv": 3}, TypeError, "csv"),
+        ({"resume": "yes"}, TypeError, "resume"),
+    ],
+)
 def test_bad_sweep_arguments_are_refused_by_name(tmp_path, kwargs, kind, words):
     kwargs = {"out": tmp_path / "t.parquet", **kwargs}
     with pytest.raises(kind, match=words):
@@ -170,8 +198,9 @@ def test_a_row_is_the_verdict_of_the_same_run_stepped_by_hand():
     assert metrics_equal(row, run_task(t))
 
 
-@pytest.mark.parametrize("masses, sweeps", [([1, 1], 1), ([1, 1], 4), ([1, 0.5], 2), ([1, 10], 7), ([1, 10], 31),
-                                            ([1, 1, 1, 1], 9)])
+@pytest.mark.parametrize(
+    "masses, sweeps", [([1, 1], 1), ([1, 1], 4), ([1, 0.5], 2), ([1, 10], 7), ([1, 10], 31), ([1, 1, 1, 1], 9)]
+)
 def test_the_first_tick_load_error_is_that_of_gauss_seidel_on_the_column(masses, sweeps):
     row = run_task(task(size=len(masses), mass_ratio=float(masses[-1]), iterations=sweeps, steps=1))
     assert row["load_error_first_tick"] == pytest.approx(gauss_seidel_error(masses, sweeps), abs=1e-9)
@@ -186,10 +215,14 @@ def test_a_converged_first_tick_carries_exactly_the_weight_above_each_contact():
 
 
 def test_friction_and_the_seeded_start_are_applied_to_the_built_world():
-    t = task(scene="vertical_stack", size=4, mass_ratio=None, responder="pgs", friction=0.25, seed=7,
-             jitter=0.01)
-    w, again, other = build(t), build(t), build(task(scene="vertical_stack", size=4, mass_ratio=None,
-                                                      responder="pgs", friction=0.25, seed=8, jitter=0.01))
+    t = task(scene="vertical_stack", size=4, mass_ratio=None, responder="pgs", friction=0.25, seed=7, jitter=0.01)
+    w, again, other = (
+        build(t),
+        build(t),
+        build(
+            task(scene="vertical_stack", size=4, mass_ratio=None, responder="pgs", friction=0.25, seed=8, jitter=0.01)
+        ),
+    )
     plain = phys2d.scenes.vertical_stack(4)
     assert all(b.friction == 0.25 for b in w.bodies)
     dx = w.x[1:, 0] - plain.x[1:, 0]
@@ -213,8 +246,14 @@ def test_a_run_that_blows_up_is_a_row_with_its_error(monkeypatch):
 
 
 # -- sweeps -----------------------------------------------------------------------------------------------
-SMALL = {"scenes": ["vertical_stack", "circle_stack"], "responders": ["pgs", "soft-step"], "iterations": [2, 6],
-         "substeps": [1, 2], "size": [2, 3], "steps": 20}
+SMALL = {
+    "scenes": ["vertical_stack", "circle_stack"],
+    "responders": ["pgs", "soft-step"],
+    "iterations": [2, 6],
+    "substeps": [1, 2],
+    "size": [2, 3],
+    "steps": 20,
+}
 
 
 def test_a_sweep_writes_one_table_and_resumes_where_it_stopped(tmp_path):
@@ -261,8 +300,12 @@ def test_an_interrupted_pool_keeps_its_finished_rows_and_resumes(tmp_path):
 
 
 def test_recordings_on_request(tmp_path):
-    r = phys2d.sweep({"scenes": "vertical_stack", "size": 2, "steps": 12, "responders": ["pgs", "naive"]},
-                     tmp_path / "t.parquet", workers=1, record=tmp_path / "rec")
+    r = phys2d.sweep(
+        {"scenes": "vertical_stack", "size": 2, "steps": 12, "responders": ["pgs", "naive"]},
+        tmp_path / "t.parquet",
+        workers=1,
+        record=tmp_path / "rec",
+    )
     for row in r.rows:
         assert row["recording"] == str(tmp_path / "rec" / f"{row['run_id']}.rrd")
         back = phys2d.playback.load(row["recording"])
@@ -274,17 +317,26 @@ def test_lesson_11_table_on_the_local_pool_and_a_local_dask_cluster(tmp_path):
     this process: the same rows in the same order, the same metrics bit for bit."""
     from dask.distributed import LocalCluster
 
-    args = ["lessons/11_catto.toml", "--steps", "1", "--responders", "pgs-cold,soft-step", "--iterations", "1..33",
-            "--substeps", "1,2"]
+    args = [
+        "lessons/11_catto.toml",
+        "--steps",
+        "1",
+        "--responders",
+        "pgs-cold,soft-step",
+        "--iterations",
+        "1..33",
+        "--substeps",
+        "1,2",
+    ]
     t0 = time.perf_counter()
     local = cli(*args, "--workers", "2", "--out", str(tmp_path / "local.parquet"), cwd=ROOT)
     t_local = time.perf_counter() - t0
     assert local.returncode == 0, local.stderr
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster:
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    ) as cluster:
         t0 = time.perf_counter()
-        dask = cli(*args, "--scheduler", cluster.scheduler_address, "--out", str(tmp_path / "dask.parquet"),
-                   cwd=ROOT)
+        dask = cli(*args, "--scheduler", cluster.scheduler_address, "--out", str(tmp_path / "dask.parquet"), cwd=ROOT)
         t_dask = time.perf_counter() - t0
     assert dask.returncode == 0, dask.stderr
     assert f"on Dask at {cluster.scheduler_address}" in dask.stdout and "on 2 local processes" in local.stdout
@@ -292,26 +344,52 @@ def test_lesson_11_table_on_the_local_pool_and_a_local_dask_cluster(tmp_path):
     b = pq.read_table(tmp_path / "dask.parquet").to_pylist()
     assert len(a) == len(b) > 200 and [r["run_id"] for r in a] == [r["run_id"] for r in b]
     assert all(metrics_equal(x, y) for x, y in zip(a, b))  # bit for bit, timings aside
-    grids = [Grid(**{**{f: getattr(g, f) for f in phys2d.sweeps.AXES}, "steps": 1,
-                     "responders": ("pgs-cold", "soft-step"), "iterations": tuple(range(1, 34)), "substeps": (1, 2)})
-             for g in phys2d.sweeps.load_toml(ROOT / "lessons" / "11_catto.toml")]
+    grids = [
+        Grid(
+            **{
+                **{f: getattr(g, f) for f in phys2d.sweeps.AXES},
+                "steps": 1,
+                "responders": ("pgs-cold", "soft-step"),
+                "iterations": tuple(range(1, 34)),
+                "substeps": (1, 2),
+            }
+        )
+        for g in phys2d.sweeps.load_toml(ROOT / "lessons" / "11_catto.toml")
+    ]
     here = phys2d.sweep(grids, tmp_path / "here.parquet", workers=1)
     assert here.where == "this process" and [r["run_id"] for r in here.rows] == [r["run_id"] for r in a]
     assert all(metrics_equal(x, y) for x, y in zip(a, here.rows))
     # and the table is Catto's: sweeps to 95 % on the first tick, as Gauss-Seidel on the column says
     for masses in ([1, 1], [1, 0.5], [1, 10], [1, 1, 1, 1], [1, 2], [1, 5]):
-        rows = [r for r in a if r["responder"] == "pgs-cold" and r["size"] == len(masses)
-                and r["mass_ratio"] == masses[-1]]
+        rows = [
+            r for r in a if r["responder"] == "pgs-cold" and r["size"] == len(masses) and r["mass_ratio"] == masses[-1]
+        ]
         ok = min(r["iterations"] for r in rows if r["load_error_first_tick"] <= 0.05)
         assert ok == gauss_seidel_count(masses)
-    print(f"lesson 11 first-tick grid, {len(a)} runs: 2 local processes {t_local:.1f} s, "
-          f"LocalCluster (2 workers) {t_dask:.1f} s (both through the command, cluster start-up excluded)")
+    print(
+        f"lesson 11 first-tick grid, {len(a)} runs: 2 local processes {t_local:.1f} s, "
+        f"LocalCluster (2 workers) {t_dask:.1f} s (both through the command, cluster start-up excluded)"
+    )
 
 
 # -- the command line -----------------------------------------------------------------------------------
 def test_the_command_prints_a_summary_and_refuses_bad_input_in_one_line(tmp_path, capsys, monkeypatch):
-    ok = cli("--scenes", "vertical_stack,mass_ratio", "--responders", "pgs,naive", "--size", "2", "--steps", "30",
-             "--mass-ratio", "10", "--workers", "1", "--csv", cwd=tmp_path)
+    ok = cli(
+        "--scenes",
+        "vertical_stack,mass_ratio",
+        "--responders",
+        "pgs,naive",
+        "--size",
+        "2",
+        "--steps",
+        "30",
+        "--mass-ratio",
+        "10",
+        "--workers",
+        "1",
+        "--csv",
+        cwd=tmp_path,
+    )
     assert ok.returncode == 0, ok.stderr
     assert "sweep: 4 runs, 4 run now on this process" in ok.stdout
     assert "table: sweeps/sweep.parquet (4 rows); csv: sweeps/sweep.csv" in ok.stdout
@@ -319,21 +397,42 @@ def test_the_command_prints_a_summary_and_refuses_bad_input_in_one_line(tmp_path
     bad = cli("--scenes", "pyramd", cwd=tmp_path)
     assert bad.returncode == 1 and bad.stderr == (
         "phys2d sweep: error: command line: scenes: unknown scene 'pyramd'; did you mean 'pyramid'? (choose from: "
-        f"{', '.join(phys2d.sweeps.all_scenes())})\n")
+        f"{', '.join(phys2d.sweeps.all_scenes())})\n"
+    )
     # the rest in this process: the same main() the command runs
     from phys2d.cli import main
 
     monkeypatch.chdir(tmp_path)
-    assert main(["sweep", "--scenes", "vertical_stack,mass_ratio", "--responders", "pgs,naive", "--size", "2",
-                 "--steps", "30", "--mass-ratio", "10", "--workers", "1"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--scenes",
+                "vertical_stack,mass_ratio",
+                "--responders",
+                "pgs,naive",
+                "--size",
+                "2",
+                "--steps",
+                "30",
+                "--mass-ratio",
+                "10",
+                "--workers",
+                "1",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "0 run now" in out and "4 already in the table" in out
-    for args, code, words in ((["--scenes", "pyramid", "--iterations", "1..x"], 2, "--iterations"),
-                              (["--scenes", "pyramid", "--scheduler", "host:1"], 2, "tcp://HOST:PORT"),
-                              ([], 2, "give a grid file or --scenes"),
-                              (["nofile.toml"], 1, "grid file not found"),
-                              (["--scenes", "pyramid", "--substeps", "2"], 1, "substeps applies only"),
-                              (["--scenes", "pyramid", "--workers", "0"], 2, "--workers")):
+    for args, code, words in (
+        (["--scenes", "pyramid", "--iterations", "1..x"], 2, "--iterations"),
+        (["--scenes", "pyramid", "--scheduler", "host:1"], 2, "tcp://HOST:PORT"),
+        ([], 2, "give a grid file or --scenes"),
+        (["nofile.toml"], 1, "grid file not found"),
+        (["--scenes", "pyramid", "--substeps", "2"], 1, "substeps applies only"),
+        (["--scenes", "pyramid", "--workers", "0"], 2, "--workers"),
+    ):
         try:
             got = main(["sweep", *args])
         except SystemExit as e:
@@ -356,11 +455,19 @@ def test_a_missing_extra_is_named_with_its_install_line(tmp_path, capsys, monkey
 
 
 def test_import_phys2d_loads_no_dask_pyarrow_or_matplotlib():
-    code = ("import sys, phys2d; phys2d.World(); "
-            "print(sorted(m for m in ('dask', 'distributed', 'pyarrow', 'matplotlib', 'jupytext', 'tqdm') "
-            "if m in sys.modules))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
-                         env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    code = (
+        "import sys, phys2d; phys2d.World(); "
+        "print(sorted(m for m in ('dask', 'distributed', 'pyarrow', 'matplotlib', 'jupytext', 'tqdm') "
+        "if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=120,
+    )
     assert out.stdout.strip() == "[]", out.stderr
 
 
@@ -379,7 +486,8 @@ def test_the_base_install_leaves_dask_jupyter_and_matplotlib_to_extras():
     assert "rerun-notebook==0.41" in extras["notebook"] and "jupytext" in extras["notebook"]
     assert "matplotlib" in extras["plots"]
     # the test extra may take other extras by reference (phys2d[sweep,plots]): follow them
-    test = extras["test"] + "".join(" " + extras[e] for ref in re.findall(r"phys2d\[([^\]]*)\]", extras["test"])
-                                    for e in ref.split(","))
+    test = extras["test"] + "".join(
+        " " + extras[e] for ref in re.findall(r"phys2d\[([^\]]*)\]", extras["test"]) for e in ref.split(",")
+    )
     for need in ("dask", "matplotlib", "nbclient", "ipykernel", "jupytext", "rerun-notebook"):
         assert need in test, need  # the test command installs what the tests import

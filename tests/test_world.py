@@ -51,8 +51,9 @@ def test_twenty_row_pyramid_stands_for_thirty_seconds():
     assert deepest <= 0.010
 
 
-@pytest.mark.parametrize("responder", [phys2d.PGS(iterations=10, block=True), phys2d.SoftStep()],
-                         ids=["pgs-block", "soft-step"])
+@pytest.mark.parametrize(
+    "responder", [phys2d.PGS(iterations=10, block=True), phys2d.SoftStep()], ids=["pgs-block", "soft-step"]
+)
 def test_ten_box_stack_stands_thirty_seconds_with_under_a_centimetre_of_sway(responder):
     w = scenes.vertical_stack(10, responder=responder)
     start = w.x.copy()
@@ -205,27 +206,35 @@ def test_setters_move_the_body_and_reject_bad_values_without_change():
     b.velocity = (3.0, 4.0)
     b.angular_velocity = -1.0
     assert np.allclose(w.x[0], (1, 2)) and w.theta[0] == 0.5 and np.allclose(w.V[0], (3, 4, -1))
-    for attr, value, exc in [("position", (np.nan, 0.0), ValueError), ("velocity", (1.0, 2.0, 3.0), ValueError),
-                             ("angle", "a", TypeError), ("angular_velocity", math.inf, ValueError),
-                             ("friction", -1.0, ValueError), ("restitution", 1.5, ValueError)]:
+    for attr, value, exc in [
+        ("position", (np.nan, 0.0), ValueError),
+        ("velocity", (1.0, 2.0, 3.0), ValueError),
+        ("angle", "a", TypeError),
+        ("angular_velocity", math.inf, ValueError),
+        ("friction", -1.0, ValueError),
+        ("restitution", 1.5, ValueError),
+    ]:
         with pytest.raises(exc, match=attr):
             setattr(b, attr, value)
     assert np.allclose(w.x[0], (1, 2)) and np.allclose(w.V[0], (3, 4, -1))
 
 
-@pytest.mark.parametrize("kwargs, exc, name", [
-    (dict(density=0.0), ValueError, "density"),
-    (dict(density=-1.0), ValueError, "density"),
-    (dict(half_extents=(0.5, 0.0)), ValueError, "half_extents"),
-    (dict(half_extents=(0.5, np.inf)), ValueError, "half_extents"),
-    (dict(position=(np.nan, 0.0)), ValueError, "position"),
-    (dict(position="here"), TypeError, "position"),
-    (dict(friction=-0.1), ValueError, "friction"),
-    (dict(restitution=1.1), ValueError, "restitution"),
-    (dict(static="yes"), TypeError, "static"),
-    (dict(angle=float("nan")), ValueError, "angle"),
-    (dict(velocity=(1.0,)), ValueError, "velocity"),
-])
+@pytest.mark.parametrize(
+    "kwargs, exc, name",
+    [
+        (dict(density=0.0), ValueError, "density"),
+        (dict(density=-1.0), ValueError, "density"),
+        (dict(half_extents=(0.5, 0.0)), ValueError, "half_extents"),
+        (dict(half_extents=(0.5, np.inf)), ValueError, "half_extents"),
+        (dict(position=(np.nan, 0.0)), ValueError, "position"),
+        (dict(position="here"), TypeError, "position"),
+        (dict(friction=-0.1), ValueError, "friction"),
+        (dict(restitution=1.1), ValueError, "restitution"),
+        (dict(static="yes"), TypeError, "static"),
+        (dict(angle=float("nan")), ValueError, "angle"),
+        (dict(velocity=(1.0,)), ValueError, "velocity"),
+    ],
+)
 def test_bad_box_arguments_name_the_argument_and_change_nothing(kwargs, exc, name):
     w = phys2d.World()
     w.add_box()
@@ -325,9 +334,11 @@ def test_fast_falling_box_stops_at_the_ground_instead_of_sinking_into_it():
 
 
 def test_absurd_sweep_counts_are_refused_by_name_not_by_running_out_of_memory():
-    for make, name in ((lambda n: phys2d.PGS(iterations=n), "iterations"),
-                       (lambda n: phys2d.SoftStep(substeps=n), "substeps"),
-                       (lambda n: phys2d.IterativeImpulse(passes=n), "passes")):
+    for make, name in (
+        (lambda n: phys2d.PGS(iterations=n), "iterations"),
+        (lambda n: phys2d.SoftStep(substeps=n), "substeps"),
+        (lambda n: phys2d.IterativeImpulse(passes=n), "passes"),
+    ):
         with pytest.raises(ValueError, match=name):
             make(10**13)
         make(1000)  # large but sane is fine

@@ -30,14 +30,25 @@ def test_accessors_agree_with_the_body_handles():
     assert w.body_masses[1] == pytest.approx(1.0 * 0.5)  # density 1 kg/m^2 times 1 m x 0.5 m
     for i, h in enumerate(handles):  # each body's slice of the packed vertices is its own polygon
         s, c = int(w.vertex_start[i]), int(w.vertex_count[i])
-        np.testing.assert_array_equal(w.local_vertices[s:s + c], h.local_vertices)
+        np.testing.assert_array_equal(w.local_vertices[s : s + c], h.local_vertices)
     # the box's local vertices are its half extents, whatever its angle
     np.testing.assert_array_equal(np.abs(handles[1].local_vertices), np.tile([0.5, 0.25], (4, 1)))
 
 
-@pytest.mark.parametrize("name", ["body_uids", "body_static", "body_kinds", "body_radii", "body_masses",
-                                  "body_inertias", "vertex_start",
-                                  "vertex_count", "local_vertices"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "body_uids",
+        "body_static",
+        "body_kinds",
+        "body_radii",
+        "body_masses",
+        "body_inertias",
+        "vertex_start",
+        "vertex_count",
+        "local_vertices",
+    ],
+)
 def test_accessors_are_read_only(name):
     w, _ = small_world()
     a = getattr(w, name)
@@ -53,6 +64,6 @@ def test_uids_survive_removal_and_follow_the_rows():
     assert list(w.body_uids) == [0, 2, 3]
     assert list(w.body_kinds) == [POLYGON, CIRCLE, POLYGON]
     s, c = int(w.vertex_start[2]), int(w.vertex_count[2])
-    np.testing.assert_array_equal(w.local_vertices[s:s + c], handles[3].local_vertices)
+    np.testing.assert_array_equal(w.local_vertices[s : s + c], handles[3].local_vertices)
     w.add_box(position=(0.0, 3.0))
     assert list(w.body_uids) == [0, 2, 3, 4]  # a new uid, never a reused one

@@ -21,9 +21,17 @@ import urllib.request
 
 import numpy as np
 
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                  "--window-size=1600,900"]
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--window-size=1600,900",
+]
 WIDTH, HEIGHT = 1600, 900
 
 
@@ -52,9 +60,18 @@ class Browser:
             raise RuntimeError("chromium is not installed")
         self.port = free_port()
         self.profile = tempfile.mkdtemp(prefix="phys2d-chromium-")
-        self.proc = subprocess.Popen([exe, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}",
-                                      f"--remote-debugging-port={self.port}", "--remote-debugging-address=127.0.0.1",
-                                      "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.proc = subprocess.Popen(
+            [
+                exe,
+                *CHROMIUM_FLAGS,
+                f"--user-data-dir={self.profile}",
+                f"--remote-debugging-port={self.port}",
+                "--remote-debugging-address=127.0.0.1",
+                "about:blank",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         tabs = None
         for _ in range(300):
             try:
@@ -143,8 +160,15 @@ def drawn(rgb: np.ndarray, regions: dict, world_colours: list, min_pixels: int =
     return out
 
 
-def wait_until_drawn(browser: Browser, url: str, regions: dict, world_colours: list, minimum: dict[str, int],
-                     timeout: float, every: float = 1.0) -> tuple[float | None, dict[str, int], np.ndarray]:
+def wait_until_drawn(
+    browser: Browser,
+    url: str,
+    regions: dict,
+    world_colours: list,
+    minimum: dict[str, int],
+    timeout: float,
+    every: float = 1.0,
+) -> tuple[float | None, dict[str, int], np.ndarray]:
     """Navigate, then screenshot every ``every`` s until each region holds at least ``minimum[name]``
     pixels of its colours: (seconds from navigation to that screenshot or None, counts, last image)."""
     t0 = time.monotonic()
@@ -165,8 +189,12 @@ def main() -> None:
     wait = float(sys.argv[3]) if len(sys.argv) > 3 else 30.0
     web, grpc = free_port(), free_port()
     env = {**os.environ, "PYTHONPATH": os.path.dirname(os.path.dirname(os.path.abspath(__file__)))}
-    view = subprocess.Popen([sys.executable, "-m", "phys2d", "view", path, "--web", "--web-port", str(web), "--port",
-                             str(grpc)], env=env, stdout=subprocess.PIPE, text=True)
+    view = subprocess.Popen(
+        [sys.executable, "-m", "phys2d", "view", path, "--web", "--web-port", str(web), "--port", str(grpc)],
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         url = view.stdout.readline().split()[2]
         with Browser() as b:

@@ -19,8 +19,9 @@ from ..shapes import CIRCLE
 
 
 @njit(cache=True)
-def update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n,
-                    aabb, travel):
+def update_geometry(
+    x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel
+):
     """World-frame vertices and edge normals of every polygon, and every body's AABB.
 
     travel[b] = dt (|v| + |omega| r_max) is how far (m) any point of body b can move
@@ -69,19 +70,20 @@ def fits_inside(aabb, fat):
     if aabb.shape[0] != fat.shape[0]:
         return False
     for b in range(aabb.shape[0]):
-        if (aabb[b, 0] < fat[b, 0] or aabb[b, 1] < fat[b, 1]
-                or aabb[b, 2] > fat[b, 2] or aabb[b, 3] > fat[b, 3]):
+        if aabb[b, 0] < fat[b, 0] or aabb[b, 1] < fat[b, 1] or aabb[b, 2] > fat[b, 2] or aabb[b, 3] > fat[b, 3]:
             return False
     return True
 
 
 @njit(cache=True)
-def update_geometry_in(x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n,
-                       aabb, travel, fat):
+def update_geometry_in(
+    x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel, fat
+):
     """``update_geometry``, then whether every tight box still lies inside its fat box
     (``fits_inside``): True when last step's pairs still hold."""
-    update_geometry(x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb,
-                    travel)
+    update_geometry(
+        x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel
+    )
     return fits_inside(aabb, fat)
 
 

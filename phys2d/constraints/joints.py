@@ -68,8 +68,9 @@ class Joint:
     kind = -1
     name = "joint"
 
-    def __init__(self, world, body_a, body_b, local_a: np.ndarray, local_b: np.ndarray,
-                 collide_connected: bool) -> None:
+    def __init__(
+        self, world, body_a, body_b, local_a: np.ndarray, local_b: np.ndarray, collide_connected: bool
+    ) -> None:
         self._world = world
         self.body_a = body_a
         self.body_b = body_b
@@ -128,8 +129,7 @@ class DistanceJoint(Joint):
     kind = JOINT_DISTANCE
     name = "distance"
 
-    def __init__(self, world, body_a, body_b, local_a, local_b, length: float,
-                 collide_connected: bool) -> None:
+    def __init__(self, world, body_a, body_b, local_a, local_b, length: float, collide_connected: bool) -> None:
         self.length = length
         super().__init__(world, body_a, body_b, local_a, local_b, collide_connected)
 
@@ -169,8 +169,9 @@ class AngleJoint(Joint):
     kind = JOINT_ANGLE
     name = "angle"
 
-    def __init__(self, world, body_a, body_b, theta_0: float, lower: float | None,
-                 upper: float | None, collide_connected: bool) -> None:
+    def __init__(
+        self, world, body_a, body_b, theta_0: float, lower: float | None, upper: float | None, collide_connected: bool
+    ) -> None:
         self.theta_0 = theta_0
         self.lower = lower
         self.upper = upper
@@ -188,10 +189,14 @@ class AngleJoint(Joint):
         return int(self.lower is not None) + int(self.upper is not None)
 
     def _params(self):
-        flags = (LIMIT_LOWER if self.lower is not None else 0.0) + \
-            (LIMIT_UPPER if self.upper is not None else 0.0)
-        return (0.0, self.theta_0, 0.0 if self.lower is None else self.lower,
-                0.0 if self.upper is None else self.upper, flags)
+        flags = (LIMIT_LOWER if self.lower is not None else 0.0) + (LIMIT_UPPER if self.upper is not None else 0.0)
+        return (
+            0.0,
+            self.theta_0,
+            0.0 if self.lower is None else self.lower,
+            0.0 if self.upper is None else self.upper,
+            flags,
+        )
 
     def offset(self) -> float:
         """theta_b - theta_a - theta_0 now (rad)."""
@@ -264,8 +269,31 @@ def _limit_xi(gap, beta, dt):
 
 
 @njit(cache=True)
-def joint_rows(kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta,
-               M_inv, dt, beta, out_i, out_j, J, JM, A_diag, xi, lo, hi, bound_row, out_mu):
+def joint_rows(
+    kind,
+    body_i,
+    body_j,
+    local_i,
+    local_j,
+    params,
+    row_offset,
+    first_row,
+    x,
+    theta,
+    M_inv,
+    dt,
+    beta,
+    out_i,
+    out_j,
+    J,
+    JM,
+    A_diag,
+    xi,
+    lo,
+    hi,
+    bound_row,
+    out_mu,
+):
     """Rows first_row + row_offset[q] ... of joint q (see the module docstring)."""
     for q in range(kind.shape[0]):
         i, j = body_i[q], body_j[q]

@@ -82,8 +82,22 @@ class Rows:
         self.lam = np.zeros(n_rows)
         self.map_contacts(np.zeros(0, np.int32))
 
-    _ARRAYS = ("body_a", "body_b", "J", "JM", "A_kk", "xi", "push", "bounce", "impact", "lo", "hi", "bound_row", "mu",
-               "lam")
+    _ARRAYS = (
+        "body_a",
+        "body_b",
+        "J",
+        "JM",
+        "A_kk",
+        "xi",
+        "push",
+        "bounce",
+        "impact",
+        "lo",
+        "hi",
+        "bound_row",
+        "mu",
+        "lam",
+    )
 
     @property
     def i(self) -> np.ndarray:
@@ -117,8 +131,9 @@ class Rows:
         """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
         k = self.n_contacts
         lambda_n, lambda_t, impact = np.empty(k), np.empty(k), np.empty(k, np.bool_)
-        rows_to_contacts(self.order, self.normal_row, self.friction_row, self.lam, self.impact, lambda_n, lambda_t,
-                         impact)
+        rows_to_contacts(
+            self.order, self.normal_row, self.friction_row, self.lam, self.impact, lambda_n, lambda_t, impact
+        )
         return lambda_n, lambda_t
 
     def joint_impulses(self) -> np.ndarray:
@@ -191,8 +206,11 @@ def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
 def row_velocity(k, a, b, J, V):
     """J_k V: the row's relative velocity (m/s for contacts). Summed as a tree: in a sweep this
     sum waits for the last row's impulse, and a tree waits three additions, not five."""
-    return ((J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1]) + (J[k, 2] * V[a, 2] + J[k, 5] * V[b, 2])
-            + (J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1]))
+    return (
+        (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1])
+        + (J[k, 2] * V[a, 2] + J[k, 5] * V[b, 2])
+        + (J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1])
+    )
 
 
 @njit(cache=True, inline="always")
@@ -249,9 +267,43 @@ def bounce_target(e, vn_impact, dvn):
 
 
 @njit(cache=True)
-def contact_rows(order, normal_row, friction_row, body_a, body_b, point, normal, separation, mu, e, x, V1, V,
-                 M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity,
-                 points_in_manifold, out_a, out_b, J, JM, A_kk, xi, push, bounce, impact, lo, hi, bound_row, out_mu):
+def contact_rows(
+    order,
+    normal_row,
+    friction_row,
+    body_a,
+    body_b,
+    point,
+    normal,
+    separation,
+    mu,
+    e,
+    x,
+    V1,
+    V,
+    M_inv,
+    dt,
+    beta,
+    slop,
+    push_max,
+    restitution_threshold,
+    friction_model,
+    gravity,
+    points_in_manifold,
+    out_a,
+    out_b,
+    J,
+    JM,
+    A_kk,
+    xi,
+    push,
+    bounce,
+    impact,
+    lo,
+    hi,
+    bound_row,
+    out_mu,
+):
     """The normal and friction rows of contact point c = order[q] (docs/formulation.md).
 
     Normal:   xi = -C/dt for a speculative point still C > 0 apart (it may close the gap

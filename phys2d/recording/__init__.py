@@ -2,8 +2,9 @@
 
 ``schema`` holds the format (entity paths, field names, units) that both use.
 The engine never imports this package; recording only reads a World. ``Recorder``
-and ``ContactChoice`` load without rerun (a background recorder imports it only in
-its writer process); ``playback`` imports rerun's reader when first used.
+and ``ContactChoice`` load without rerun (the writing side loads only rerun's native
+layer, ``rerun_bindings``; a background recorder only in its writer process);
+``playback`` imports rerun's reader when first used.
 """
 
 from . import schema

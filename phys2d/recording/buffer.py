@@ -61,8 +61,10 @@ class ContactChoice:
     def keys(cls, names) -> ContactChoice:
         if isinstance(names, str):
             names = [n for n in names.split(",") if n.strip()]
-        keys = tuple(int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool)
-                     else schema.parse_contact(n) for n in names)
+        keys = tuple(
+            int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) else schema.parse_contact(n)
+            for n in names
+        )
         if not keys:
             raise ValueError("keys must name at least one contact, like 'b3-b7/f512'")
         return cls("keys", keys=keys)
@@ -98,12 +100,23 @@ class ContactChoice:
             return member(key, self.key_set)
         return None if chosen is None or chosen.size < self.n else member(key, chosen)
 
+    def candidates(self, key: np.ndarray, penetration: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A tick's N deepest contacts (ties at the cut kept): only these can be among a window's
+        N deepest, so ``decide`` needs only these, gathered tick by tick as the ticks arrive."""
+        if key.size <= self.n:
+            return key, penetration
+        top = np.argpartition(-penetration, self.n - 1)[: self.n]
+        top = np.flatnonzero(penetration >= penetration[top].min())
+        return key[top], penetration[top]
+
     def decide(self, keys: list[np.ndarray], penetration: list[np.ndarray], chosen: np.ndarray | None) -> np.ndarray:
         """``chosen`` topped up to N with the deepest other contacts of a window of ticks (deepest
         over the window; ties by key): once N are chosen, the choice stays.
 
         Only each tick's N deepest can be among the window's N deepest (a contact deepest at
-        tick t but not among t's N deepest has N others deeper still), so only those are ranked.
+        tick t but not among t's N deepest has N others deeper still), so only those are ranked;
+        ``keys`` and ``penetration`` may hold just those (``candidates``). The top ``need`` of the
+        contacts not yet chosen are among a tick's top N, as need + chosen = N.
         """
         chosen = np.zeros(0, np.int64) if chosen is None else chosen
         need = self.n - chosen.size
@@ -149,6 +162,8 @@ class SeriesWindow:
     keys: list[np.ndarray] = field(default_factory=list)
     values: list[np.ndarray] = field(default_factory=list)  # (k, n_values) per tick
     last: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # present at the last written tick
+    cand_keys: list[np.ndarray] = field(default_factory=list)  # per tick, the candidates for the deepest
+    cand_depth: list[np.ndarray] = field(default_factory=list)
 
     def append(self, tick: int, time: float, keys: np.ndarray, values: np.ndarray) -> None:
         self.ticks.append(tick)
@@ -160,6 +175,7 @@ class SeriesWindow:
         if self.keys:
             self.last = self.keys[-1]
         self.ticks, self.times, self.keys, self.values = [], [], [], []
+        self.cand_keys, self.cand_depth = [], []
 
 
 @dataclass(eq=False)
@@ -183,6 +199,11 @@ class RunBuffer:
     bounds: tuple[float, float, float, float] | None = None  # xmin, xmax, ymin, ymax of the first tick
     has_joints: bool = False
     plotted: bool = False  # any contact series written
+    # the per-tick stats and the residuals of the windows written so far, sent together (``write_stats``):
+    # a viewer loads a few long chunks much faster than many short ones
+    stats: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)  # ticks, times, values
+    residuals: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    stats_ticks: int = 0  # ticks in ``stats``
 
     def add(self, s: Sample, contact_series: bool) -> None:
         """Keep a sample, and the values of the contacts chosen for plotting."""
@@ -197,9 +218,12 @@ class RunBuffer:
         if contact_series:
             keep = self.choice.mask(s.key, self.chosen)
             sel = slice(None) if keep is None else keep
-            values = np.stack([s.lambda_n[sel], s.lambda_t[sel], -s.separation[sel] * schema.PENETRATION_SCALE],
-                              axis=1)
+            values = np.stack([s.lambda_n[sel], s.lambda_t[sel], -s.separation[sel] * schema.PENETRATION_SCALE], axis=1)
             self.contacts.append(s.tick, s.time, s.key[sel], values)
+            if keep is None and self.choice.kind == "deepest":  # choosing: rank as the ticks arrive
+                k, p = self.choice.candidates(s.key, values[:, 2])
+                self.contacts.cand_keys.append(k)
+                self.contacts.cand_depth.append(p)
         if s.joint_keys is not None and s.joint_impulses is not None:
             self.has_joints = True
             self.joints.append(s.tick, s.time, s.joint_keys, s.joint_impulses[:, None])

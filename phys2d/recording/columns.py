@@ -1,7 +1,8 @@
 """Writing columns: a run's buffered ticks to Rerun, a few columnar sends per entity and window.
 
-Every function here takes a ``RecordingStream`` and a ``RunBuffer`` and writes
-what ``schema`` names; none of them looks at a World.
+Every function here takes a ``native.Stream`` and a ``RunBuffer`` and writes what
+``schema`` names as arrow arrays (no ``rerun`` import: ``native``); none of them looks
+at a World.
 """
 
 from __future__ import annotations
@@ -10,57 +11,84 @@ from collections.abc import Callable
 
 import numpy as np
 import pyarrow as pa
-import rerun as rr
 
-from . import schema
+from . import native, schema
 from .buffer import RunBuffer, SeriesWindow, member
+from .native import Stream
 from .sample import Sample, Strips, aggregates, on_grid
 
-# exactly rerun's LineStrip2D arrow type: the viewer skips a column whose nullability differs
-_STRIP_TYPE = pa.list_(pa.field("item", pa.list_(pa.field("item", pa.float32(), nullable=False), 2), nullable=False))
+
+def _index(ticks: np.ndarray, times: np.ndarray) -> dict[str, pa.Array]:
+    return {schema.TICK: native.sequence(ticks), schema.SIM_TIME: native.duration(times)}
 
 
-class _Arrow:
-    """The smallest rerun ComponentBatchLike: an arrow array built here."""
-
-    def __init__(self, array: pa.Array) -> None:
-        self._array = array
-
-    def as_arrow_array(self) -> pa.Array:
-        return self._array
+def _ones(n: int) -> np.ndarray:
+    return np.ones(n, dtype=np.int64)
 
 
-def _index(ticks: np.ndarray, times: np.ndarray) -> list[rr.TimeColumn]:
-    return [rr.TimeColumn(schema.TICK, sequence=ticks), rr.TimeColumn(schema.SIM_TIME, duration=times)]
-
-
-def _strips_column(points: np.ndarray, lengths: np.ndarray) -> rr.ComponentColumn:
+def _strips_column(points: np.ndarray, lengths: np.ndarray) -> pa.Array:
     """LineStrips2D:strips for S ticks: points (S, P, 2) float32, ``lengths`` points per strip."""
     S = points.shape[0]
     inner = np.zeros(S * lengths.size + 1, dtype=np.int32)
     np.cumsum(np.tile(lengths, S), out=inner[1:])
-    pts = pa.FixedSizeListArray.from_arrays(pa.array(points.reshape(-1)), type=_STRIP_TYPE.value_type)
-    strips = pa.ListArray.from_arrays(pa.array(inner), pts, type=_STRIP_TYPE)
-    return rr.ComponentColumn(rr.LineStrips2D.descriptor_strips(), _Arrow(strips), lengths=np.full(S, lengths.size))
+    strips = pa.ListArray.from_arrays(pa.array(inner), native.points2(points.reshape(-1, 2)), type=native.STRIP_TYPE)
+    return native.lists(strips, np.full(S, lengths.size))
 
 
-def _table(fields: tuple[schema.Field, ...], values: dict[str, np.ndarray], lengths: np.ndarray) -> list:
+def _table(fields: tuple[schema.Field, ...], values: dict[str, np.ndarray], lengths: np.ndarray) -> dict:
     """AnyValues columns named by ``fields``, cast to their dtypes, partitioned by ``lengths``."""
-    cols = {f.name: pa.array(np.ascontiguousarray(values[f.name], dtype=f.dtype)) for f in fields}
-    return list(rr.AnyValues.columns(**cols).partition(lengths))
+    return {
+        native.any_value(f.name): native.lists(np.ascontiguousarray(values[f.name], dtype=f.dtype), lengths)
+        for f in fields
+    }
 
 
-def write_start(rec: rr.RecordingStream, b: RunBuffer, colour: tuple[int, int, int]) -> None:
+def _series_style(
+    names: list[str], colours: list[tuple[int, int, int]], widths: list[float], visible: list[bool] | None = None
+) -> dict:
+    comps = {
+        native.SERIES_COLORS: pa.array([native.rgba(c) for c in colours], pa.uint32()),
+        native.SERIES_WIDTHS: pa.array(widths, pa.float32()),
+        native.SERIES_NAMES: pa.array(names, pa.string()),
+    }
+    if visible is not None:
+        comps[native.SERIES_VISIBLE] = pa.array(visible, pa.bool_())
+    return comps
+
+
+def write_start(rec: Stream, b: RunBuffer, colour: tuple[int, int, int]) -> None:
     """What a run logs once: class colours, the y-flip, drawing styles, and its plots' legend
     names and colours (a named run's plots carry its label and ``colour``, so runs overlaid in
     one plot stay apart)."""
     p = b.prefix
-    rec.log(f"{p}{schema.WORLD}", rr.AnnotationContext(list(schema.ANNOTATIONS)), static=True)
-    rec.log(f"{p}{schema.SIM}", rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)  # physics is y-up
-    for path in (schema.BODIES, schema.STATIC, schema.JOINTS):
-        rec.log(f"{p}{path}", rr.LineStrips2D.from_fields(radii=schema.LINE_RADIUS, show_labels=False), static=True)
-    rec.log(f"{p}{schema.CONTACTS}", rr.Arrows2D.from_fields(radii=schema.ARROW_RADIUS, show_labels=False),
-            static=True)
+    context = [
+        {
+            "class_id": k,
+            "class_description": {
+                "info": {"id": k, "label": label, "color": native.rgba(c)},
+                "keypoint_annotations": [],
+                "keypoint_connections": [],
+            },
+        }
+        for k, label, c in schema.ANNOTATIONS
+    ]
+    rec.static(f"{p}{schema.WORLD}", {native.ANNOTATION_CONTEXT: pa.array([context], native.ANNOTATION_TYPE)})
+    rec.static(f"{p}{schema.SIM}", {native.TRANSFORM_SCALE: pa.array([[1.0, -1.0, 1.0]], native.SCALE3D_TYPE)})
+    for path in (schema.BODIES, schema.STATIC, schema.JOINTS):  # physics is y-up
+        rec.static(
+            f"{p}{path}",
+            {
+                native.STRIP_RADII: pa.array([schema.LINE_RADIUS], pa.float32()),
+                native.STRIP_SHOW_LABELS: pa.array([False]),
+            },
+        )
+    rec.static(
+        f"{p}{schema.CONTACTS}",
+        {
+            native.ARROW_RADII: pa.array([schema.ARROW_RADIUS], pa.float32()),
+            native.ARROW_SHOW_LABELS: pa.array([False]),
+        },
+    )
     for st in schema.STATS:
         if b.label:
             names, colours = [f"{b.label} {st.label}"], [colour]
@@ -68,14 +96,13 @@ def write_start(rec: rr.RecordingStream, b: RunBuffer, colour: tuple[int, int, i
             names, colours = [st.label], [schema.ENERGY_COLOURS.get(st.name.split("/")[-1], colour)]
         # potential and total energy dwarf the kinetic: listed in the legend, shown when clicked there
         shown = st.name not in schema.ENERGY_HIDDEN
-        rec.log(f"{p}{schema.STATS_ROOT}/{st.name}", rr.SeriesLines(names=names, colors=colours, widths=[1.5],
-                                                                     visible_series=[shown]), static=True)
+        rec.static(f"{p}{schema.STATS_ROOT}/{st.name}", _series_style(names, colours, [1.5], [shown]))
     name = f"{b.label} log10 residual" if b.label else "log10 residual"
-    rec.log(f"{p}{schema.RESIDUAL}", rr.SeriesLines(names=[name], colors=[colour], widths=[1.5]), static=True)
+    rec.static(f"{p}{schema.RESIDUAL}", _series_style([name], [colour], [1.5]))
 
 
 # -- the scene ----------------------------------------------------------------------------------
-def write_scene(rec: rr.RecordingStream, b: RunBuffer) -> None:
+def write_scene(rec: Stream, b: RunBuffer) -> None:
     """Bodies, static bodies, contacts, joints, stats and residuals of the buffered ticks."""
     ss = b.samples
     if not ss:
@@ -90,31 +117,68 @@ def write_scene(rec: rr.RecordingStream, b: RunBuffer) -> None:
     _write_contacts(rec, b, ss, ticks, times)
     if b.has_joints:
         _write_joints(rec, b, ss)
-    stats = aggregates(ss)
-    for k, st in enumerate(schema.STATS):
-        rec.send_columns(f"{b.prefix}{schema.STATS_ROOT}/{st.name}", indexes=_index(ticks, times),
-                         columns=rr.Scalars.columns(scalars=stats[:, k]))
-    _write_residuals(rec, b, ss, ticks, times)
+    b.stats.append((ticks, times, aggregates(ss)))
+    b.stats_ticks += len(ss)
+    _keep_residuals(b, ss, ticks, times)
     b.samples = []
 
 
-def _body_values(lay_rows: np.ndarray, uid: np.ndarray, X: np.ndarray, TH: np.ndarray,
-                 VV: np.ndarray) -> dict[str, np.ndarray]:
+def write_stats(rec: Stream, b: RunBuffer) -> None:
+    """The stats and residuals of the windows written so far: one chunk per entity."""
+    if b.stats:
+        ticks, times, stats = (np.concatenate(parts) for parts in zip(*b.stats, strict=True))
+        index = _index(ticks, times)
+        ones = _ones(ticks.size)
+        for k, st in enumerate(schema.STATS):
+            rec.send(
+                f"{b.prefix}{schema.STATS_ROOT}/{st.name}",
+                index,
+                {native.SCALARS: native.lists(np.ascontiguousarray(stats[:, k]), ones)},
+            )
+    if b.residuals:
+        t, tm, sweep, res = (np.concatenate(parts) for parts in zip(*b.residuals, strict=True))
+        index = {**_index(t, tm), schema.SWEEP: native.sequence(sweep)}
+        ones = _ones(res.size)
+        rec.send(
+            f"{b.prefix}{schema.RESIDUAL}",
+            index,
+            {
+                native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
+                native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones),
+            },
+        )
+    b.stats, b.residuals, b.stats_ticks = [], [], 0
+
+
+def _body_values(
+    lay_rows: np.ndarray, uid: np.ndarray, X: np.ndarray, TH: np.ndarray, VV: np.ndarray
+) -> dict[str, np.ndarray]:
     S = X.shape[0]
-    return {"uid": np.broadcast_to(uid[lay_rows], (S, lay_rows.size)).reshape(-1),
-            "x": X[:, lay_rows, 0].reshape(-1), "y": X[:, lay_rows, 1].reshape(-1),
-            "angle": TH[:, lay_rows].reshape(-1), "vx": VV[:, lay_rows, 0].reshape(-1),
-            "vy": VV[:, lay_rows, 1].reshape(-1), "omega": VV[:, lay_rows, 2].reshape(-1)}
+    return {
+        "uid": np.broadcast_to(uid[lay_rows], (S, lay_rows.size)).reshape(-1),
+        "x": X[:, lay_rows, 0].reshape(-1),
+        "y": X[:, lay_rows, 1].reshape(-1),
+        "angle": TH[:, lay_rows].reshape(-1),
+        "vx": VV[:, lay_rows, 0].reshape(-1),
+        "vy": VV[:, lay_rows, 1].reshape(-1),
+        "omega": VV[:, lay_rows, 2].reshape(-1),
+    }
 
 
-def _labels(rec: rr.RecordingStream, path: str, t: np.ndarray, tm: np.ndarray, classes: np.ndarray,
-            labels: list[str]) -> None:
+def _labels(rec: Stream, path: str, t: np.ndarray, tm: np.ndarray, classes: np.ndarray, labels: list[str]) -> None:
     """Classes and labels of a body set, on one row: the viewer carries them on (latest-at)."""
-    rec.send_columns(path, indexes=_index(t[:1], tm[:1]), columns=rr.LineStrips2D.columns(
-        class_ids=classes, labels=labels).partition([len(labels)]))
+    n = np.array([len(labels)])
+    rec.send(
+        path,
+        _index(t[:1], tm[:1]),
+        {
+            native.STRIP_CLASS_IDS: native.lists(np.asarray(classes, dtype=np.uint16), n),
+            native.STRIP_LABELS: native.lists(pa.array(labels, pa.string()), n),
+        },
+    )
 
 
-def _write_bodies(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
+def _write_bodies(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
     lay = ss[0].layout
     path = f"{b.prefix}{schema.BODIES}"
     if lay.version != b.labelled:
@@ -125,12 +189,17 @@ def _write_bodies(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample], t: np
     VV = np.stack([s.V for s in ss])
     S, D = len(ss), lay.dynamic.size
     lengths = np.full(S, D)
-    rec.send_columns(path, indexes=_index(t, tm), columns=[
-        _strips_column(lay.dynamic_strips.world_points(X, TH), lay.dynamic_strips.lengths),
-        *_table(schema.BODY_FIELDS, _body_values(lay.dynamic, lay.uid, X, TH, VV), lengths)])
+    rec.send(
+        path,
+        _index(t, tm),
+        {
+            native.STRIPS: _strips_column(lay.dynamic_strips.world_points(X, TH), lay.dynamic_strips.lengths),
+            **_table(schema.BODY_FIELDS, _body_values(lay.dynamic, lay.uid, X, TH, VV), lengths),
+        },
+    )
 
 
-def _write_static(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample]) -> None:
+def _write_static(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
     """Static bodies on the ticks where they differ from what was last written (usually once)."""
     rows = []
     for i, s in enumerate(ss):
@@ -152,32 +221,51 @@ def _write_static(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample]) -> No
         _labels(rec, path, t, tm, lay.static_class, lay.static_labels)
         strips: Strips = lay.static_strips
         pts = strips.world_points(s.x[None], s.theta[None])
-        rec.send_columns(path, indexes=_index(t, tm), columns=[
-            _strips_column(pts, strips.lengths),
-            *_table(schema.BODY_FIELDS, _body_values(lay.static, lay.uid, s.x[None], s.theta[None], s.V[None]),
-                    np.array([lay.static.size]))])
+        rec.send(
+            path,
+            _index(t, tm),
+            {
+                native.STRIPS: _strips_column(pts, strips.lengths),
+                **_table(
+                    schema.BODY_FIELDS,
+                    _body_values(lay.static, lay.uid, s.x[None], s.theta[None], s.V[None]),
+                    np.array([lay.static.size]),
+                ),
+            },
+        )
 
 
-def _write_contacts(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample], t: np.ndarray,
-                    tm: np.ndarray) -> None:
+def _write_contacts(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
     lengths = np.fromiter((s.key.size for s in ss), dtype=np.int64, count=len(ss))
     key = np.concatenate([s.key for s in ss])
     uid_a, uid_b, feature = schema.split_key(key)
     warm = np.concatenate([s.warm for s in ss])
     origins = on_grid(np.concatenate([s.point for s in ss]).reshape(-1, 2), schema.DRAW_GRID)
     normals = on_grid(np.concatenate([s.normal for s in ss]).reshape(-1, 2), schema.NORMAL_GRID)
-    values = {"body_a": uid_a, "body_b": uid_b, "feature": feature,
-              "lambda_n": np.concatenate([s.lambda_n for s in ss]),
-              "lambda_t": np.concatenate([s.lambda_t for s in ss]),
-              "separation": np.concatenate([s.separation for s in ss]), "warm_started": warm}
-    rec.send_columns(f"{b.prefix}{schema.CONTACTS}", indexes=_index(t, tm), columns=[
-        *rr.Arrows2D.columns(origins=origins, vectors=normals * np.float32(schema.NORMAL_LENGTH),
-                             class_ids=np.where(warm, schema.CLASS_WARM, schema.CLASS_COLD).astype(np.uint16)
-                             ).partition(lengths),
-        *_table(schema.CONTACT_FIELDS, values, lengths)])
+    values = {
+        "body_a": uid_a,
+        "body_b": uid_b,
+        "feature": feature,
+        "lambda_n": np.concatenate([s.lambda_n for s in ss]),
+        "lambda_t": np.concatenate([s.lambda_t for s in ss]),
+        "separation": np.concatenate([s.separation for s in ss]),
+        "warm_started": warm,
+    }
+    rec.send(
+        f"{b.prefix}{schema.CONTACTS}",
+        _index(t, tm),
+        {
+            native.ARROW_ORIGINS: native.lists(native.points2(origins), lengths),
+            native.ARROW_VECTORS: native.lists(native.points2(normals * np.float32(schema.NORMAL_LENGTH)), lengths),
+            native.ARROW_CLASS_IDS: native.lists(
+                np.where(warm, schema.CLASS_WARM, schema.CLASS_COLD).astype(np.uint16), lengths
+            ),
+            **_table(schema.CONTACT_FIELDS, values, lengths),
+        },
+    )
 
 
-def _write_joints(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample]) -> None:
+def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
     js = [s for s in ss if s.joint_ends is not None]
     if not js:
         return
@@ -186,59 +274,85 @@ def _write_joints(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample]) -> No
     lengths = np.fromiter((len(e) for e in all_ends), dtype=np.int64, count=len(all_ends))
     t = np.fromiter((s.tick for s in js), dtype=np.int64, count=len(js))
     tm = np.fromiter((s.time for s in js), dtype=np.float64, count=len(js))
-    rec.send_columns(f"{b.prefix}{schema.JOINTS}", indexes=_index(t, tm), columns=rr.LineStrips2D.columns(
-        strips=ends, class_ids=np.full(len(ends), schema.CLASS_JOINT, np.uint16)).partition(lengths))
+    strips = pa.ListArray.from_arrays(
+        pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)),
+        native.points2(ends.reshape(-1, 2)),
+        type=native.STRIP_TYPE,
+    )
+    rec.send(
+        f"{b.prefix}{schema.JOINTS}",
+        _index(t, tm),
+        {
+            native.STRIPS: native.lists(strips, lengths),
+            native.STRIP_CLASS_IDS: native.lists(np.full(len(ends), schema.CLASS_JOINT, np.uint16), lengths),
+        },
+    )
 
 
-def _write_residuals(rec: rr.RecordingStream, b: RunBuffer, ss: list[Sample], t: np.ndarray,
-                     tm: np.ndarray) -> None:
-    """One row per sweep: log10 for the plot, the residual itself (m/s) exactly."""
+def _keep_residuals(b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
+    """One row per sweep (written by ``write_stats``): log10 for the plot, the residual itself
+    (m/s) exactly."""
     n = np.fromiter((s.residuals.size for s in ss), dtype=np.int64, count=len(ss))
     if not n.sum():
         return
     res = np.concatenate([s.residuals for s in ss])
     sweep = b.sweeps + np.arange(res.size, dtype=np.int64)
     b.sweeps += int(res.size)
-    index = [*_index(np.repeat(t, n), np.repeat(tm, n)), rr.TimeColumn(schema.SWEEP, sequence=sweep)]
-    rec.send_columns(f"{b.prefix}{schema.RESIDUAL}", indexes=index, columns=[
-        *rr.Scalars.columns(scalars=np.log10(np.maximum(res, schema.RESIDUAL_FLOOR))),
-        *rr.AnyValues.columns(**{schema.RESIDUAL_FIELD.name: pa.array(res)}).partition(np.ones(res.size, np.int64))])
+    b.residuals.append((np.repeat(t, n), np.repeat(tm, n), sweep, res))
 
 
 # -- the plotted series ------------------------------------------------------------------------------
-def write_series(rec: rr.RecordingStream, b: RunBuffer) -> None:
-    """The chosen contacts' lambda and penetration, and the joints' reactions, as one wide batch."""
-    fields: list[pa.Field] = []
-    arrays: list[pa.Array] = []
+def write_series(rec: Stream, b: RunBuffer) -> None:
+    """The chosen contacts' lambda and penetration, and the joints' reactions: per entity, one
+    column over the window's ticks."""
     batches: list[tuple[SeriesWindow, list[tuple[str, tuple[int, ...]]], Callable[[int], str]]] = []
     w = b.contacts
     if w.ticks:
         if b.choice.kind == "deepest" and (b.chosen is None or b.chosen.size < b.choice.n):
-            b.chosen = b.choice.decide(w.keys, [v[:, 2] for v in w.values], b.chosen)
-            keep = [member(k, b.chosen) for k in w.keys]
-            w.keys = [k[m] for k, m in zip(w.keys, keep, strict=True)]
-            w.values = [v[m] for v, m in zip(w.values, keep, strict=True)]
+            if len(w.cand_keys) == len(w.keys):  # every tick ranked as it arrived
+                b.chosen = b.choice.decide(w.cand_keys, w.cand_depth, b.chosen)
+            else:
+                b.chosen = b.choice.decide(w.keys, [v[:, 2] for v in w.values], b.chosen)
+            # keep the chosen contacts' values: one mask over the window's ticks
+            T = len(w.keys)
+            lengths = np.fromiter((k.size for k in w.keys), dtype=np.int64, count=T)
+            keys = np.concatenate(w.keys)
+            keep = member(keys, b.chosen)
+            kept = np.bincount(np.repeat(np.arange(T), lengths)[keep], minlength=T)
+            cuts = np.cumsum(kept)[:-1]
+            w.keys = np.split(keys[keep], cuts)
+            w.values = np.split(np.concatenate(w.values)[keep], cuts)
         new = _style_contacts(rec, b, w)
         b.plotted = b.plotted or bool(new) or bool(b.styled)
-        batches.append((w, [(f"{b.prefix}{schema.LAMBDA}", (0, 1)), (f"{b.prefix}{schema.PENETRATION}", (2,))],
-                        schema.contact_entity))
+        batches.append(
+            (
+                w,
+                [(f"{b.prefix}{schema.LAMBDA}", (0, 1)), (f"{b.prefix}{schema.PENETRATION}", (2,))],
+                schema.contact_entity,
+            )
+        )
     if b.joints.ticks:
-        batches.append((b.joints, [(f"{b.prefix}{schema.REACTION}", (0,))],
-                        lambda k: schema.joint_entity(int(k) >> 16, int(k) & 0xFFFF)))
+        batches.append(
+            (
+                b.joints,
+                [(f"{b.prefix}{schema.REACTION}", (0,))],
+                lambda k: schema.joint_entity(int(k) >> 16, int(k) & 0xFFFF),
+            )
+        )
     for window, families, entity_of in batches:
         ticks = np.asarray(window.ticks, dtype=np.int64)
         times = np.asarray(window.times, dtype=np.float64)
-        fields = [pa.field(schema.TICK, pa.int64()), pa.field(schema.SIM_TIME, pa.duration("ns"))]
-        arrays = [pa.array(ticks), pa.array(np.round(times * 1e9).astype("timedelta64[ns]"))]
-        _series_columns(window, families, entity_of, fields, arrays)
-        if len(arrays) > 2:
-            rr.send_record_batch(pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields)), recording=rec,
-                                 index=[schema.TICK, schema.SIM_TIME])
+        index = {
+            schema.TICK: native.sequence(ticks),
+            schema.SIM_TIME: pa.array(np.round(times * 1e9).astype("timedelta64[ns]"), pa.duration("ns")),
+        }
+        for entity, column in _series_columns(window, families, entity_of):
+            rec.send(entity, index, {native.SCALARS: column})
         window.clear()
     b.series_ticks = 0
 
 
-def _style_contacts(rec: rr.RecordingStream, b: RunBuffer, w: SeriesWindow) -> list[int]:
+def _style_contacts(rec: Stream, b: RunBuffer, w: SeriesWindow) -> list[int]:
     """Legend names and colours of contacts plotted for the first time."""
     seen = np.unique(np.concatenate(w.keys)) if w.keys else np.zeros(0, np.int64)
     new = [int(k) for k in seen if int(k) not in b.styled]
@@ -247,17 +361,21 @@ def _style_contacts(rec: rr.RecordingStream, b: RunBuffer, w: SeriesWindow) -> l
         colour = schema.PALETTE[len(b.colours) % len(schema.PALETTE)]
         b.colours[k] = colour
         name = schema.contact_label(k)
-        rec.log(f"{b.prefix}{schema.LAMBDA}/{schema.contact_entity(k)}",
-                rr.SeriesLines(names=[f"{tag}{name} λn", f"{tag}{name} λt"], colors=[colour, schema.lighter(colour)],
-                               widths=[2.0, 1.0]), static=True)
-        rec.log(f"{b.prefix}{schema.PENETRATION}/{schema.contact_entity(k)}",
-                rr.SeriesLines(names=[f"{tag}{name}"], colors=[colour], widths=[2.0]), static=True)
+        rec.static(
+            f"{b.prefix}{schema.LAMBDA}/{schema.contact_entity(k)}",
+            _series_style([f"{tag}{name} λn", f"{tag}{name} λt"], [colour, schema.lighter(colour)], [2.0, 1.0]),
+        )
+        rec.static(
+            f"{b.prefix}{schema.PENETRATION}/{schema.contact_entity(k)}",
+            _series_style([f"{tag}{name}"], [colour], [2.0]),
+        )
         b.styled.add(k)
     return new
 
 
-def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]], entity_of: Callable[[int], str],
-                    fields: list[pa.Field], arrays: list[pa.Array]) -> None:
+def _series_columns(
+    w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]], entity_of: Callable[[int], str]
+) -> list[tuple[str, pa.Array]]:
     """One list<f64> column per (family, identity) over the window's T ticks; an identity that
     ends gets one NaN row, so the plot shows a gap instead of a line across it."""
     T = len(w.ticks)
@@ -267,9 +385,9 @@ def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]]
     vals = np.concatenate(w.values) if keys.size else np.zeros((0, max((len(f[1]) for f in families), default=1)))
     gone0 = np.setdiff1d(w.last, w.keys[0])  # series that ended exactly at this window's first tick
     if keys.size == 0 and gone0.size == 0:
-        return
+        return []
     uniq, col = np.unique(np.concatenate([keys, gone0]), return_inverse=True)
-    col, col0 = col[: keys.size], col[keys.size:]
+    col, col0 = col[: keys.size], col[keys.size :]
     U = uniq.size
     present = np.zeros((U, T), dtype=np.bool_)
     present[col, row] = True
@@ -288,22 +406,29 @@ def _series_columns(w: SeriesWindow, families: list[tuple[str, tuple[int, ...]]]
     bits = np.packbits(present, axis=1, bitorder="little")
     nulls = T - count
     names = [entity_of(int(k)) for k in uniq]
-    d = rr.Scalars.descriptor_scalars()
-    meta = {b"rerun:component": str(d.component).encode(), b"rerun:archetype": str(d.archetype).encode(),
-            b"rerun:component_type": str(d.component_type).encode()}
     list_type = pa.list_(pa.float64())
+    out = []
     for family, which in families:
         m = len(which)
         v = np.ascontiguousarray(np.stack([dense[q][present] for q in which], axis=1).reshape(-1))
         offsets = offsets_1 * np.int32(m)
         for j, name in enumerate(names):
-            ent = f"/{family}/{name}"
-            fields.append(pa.field(f"{ent}:{d.component}", list_type, metadata={b"rerun:entity_path": ent.encode(),
-                                                                               **meta}))
-            child = pa.Array.from_buffers(pa.float64(), int(count[j]) * m,
-                                          [None, pa.py_buffer(v[m * start[j]: m * start[j + 1]])])
-            arrays.append(pa.Array.from_buffers(list_type, T, [pa.py_buffer(bits[j]), pa.py_buffer(offsets[j])],
-                                                null_count=int(nulls[j]), children=[child]))
+            child = pa.Array.from_buffers(
+                pa.float64(), int(count[j]) * m, [None, pa.py_buffer(v[m * start[j] : m * start[j + 1]])]
+            )
+            out.append(
+                (
+                    f"/{family}/{name}",
+                    pa.Array.from_buffers(
+                        list_type,
+                        T,
+                        [pa.py_buffer(bits[j]), pa.py_buffer(offsets[j])],
+                        null_count=int(nulls[j]),
+                        children=[child],
+                    ),
+                )
+            )
+    return out
 
 
-__all__ = ["write_scene", "write_series", "write_start"]
+__all__ = ["write_scene", "write_series", "write_start", "write_stats"]

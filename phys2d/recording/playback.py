@@ -47,9 +47,14 @@ def _table(batches: list[pa.RecordBatch], timeline: str = "tick") -> pa.Table | 
         for f in b.schema:
             types.setdefault(f.name, f.type)
     names = list(types)
-    t = pa.Table.from_batches([
-        pa.RecordBatch.from_arrays([b.column(n) if n in b.schema.names else pa.nulls(b.num_rows, types[n])
-                                    for n in names], names=names) for b in batches])
+    t = pa.Table.from_batches(
+        [
+            pa.RecordBatch.from_arrays(
+                [b.column(n) if n in b.schema.names else pa.nulls(b.num_rows, types[n]) for n in names], names=names
+            )
+            for b in batches
+        ]
+    )
     return t.take(pc.sort_indices(t, sort_keys=[(timeline, "ascending"), ("rerun.controls.RowId", "ascending")]))
 
 
@@ -100,15 +105,37 @@ class ContactFrames:
     tangent_impulse: np.ndarray
     warm_started: np.ndarray
 
-    _FIELDS = ("key", "body_a", "body_b", "feature", "point", "normal", "separation", "normal_impulse",
-               "tangent_impulse", "warm_started")
+    _FIELDS = (
+        "key",
+        "body_a",
+        "body_b",
+        "feature",
+        "point",
+        "normal",
+        "separation",
+        "normal_impulse",
+        "tangent_impulse",
+        "warm_started",
+    )
 
     @classmethod
     def empty(cls, ticks: int) -> ContactFrames:
         z = np.zeros(0)
         i = np.zeros(0, np.int64)
-        return cls(np.zeros(ticks + 1, np.int64), i, i, i.copy(), i.copy(), i.copy(), np.zeros((0, 2)),
-                   np.zeros((0, 2)), z, z.copy(), z.copy(), z.astype(np.bool_))
+        return cls(
+            np.zeros(ticks + 1, np.int64),
+            i,
+            i,
+            i.copy(),
+            i.copy(),
+            i.copy(),
+            np.zeros((0, 2)),
+            np.zeros((0, 2)),
+            z,
+            z.copy(),
+            z.copy(),
+            z.astype(np.bool_),
+        )
 
     def __len__(self) -> int:
         return int(self.offsets.shape[0]) - 1
@@ -214,8 +241,7 @@ class Recording:
         self._entities = entities  # entity path -> its temporal chunks (not yet converted)
         self.properties = properties  # property entity ('phys2d', 'run', 'runs/<label>') -> values
         root = f"/{schema.RUNS_ROOT}/"
-        labels = sorted({e.split("/")[2] for e in entities
-                         if e.startswith(root) and e.endswith("/" + schema.BODIES)})
+        labels = sorted({e.split("/")[2] for e in entities if e.startswith(root) and e.endswith("/" + schema.BODIES)})
         if f"/{schema.BODIES}" in entities:
             labels.insert(0, "")
         if not labels:
@@ -242,7 +268,7 @@ class Recording:
         return _table([c.to_record_batch() for c in chunks])
 
     def _series_names(self, prefix: str) -> list[str]:
-        return sorted(e[len(prefix):] for e in self._entities if e.startswith(prefix))
+        return sorted(e[len(prefix) :] for e in self._entities if e.startswith(prefix))
 
     def _bodies(self, entity: str) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray] | None:
         """(ticks (n,), instances per row (n,), flat field values, row of each instance) of a body table."""
@@ -297,17 +323,27 @@ class Recording:
             rows_tick = ct.column(schema.TICK).to_numpy()
             counts = np.zeros(T, np.int64)  # contacts per body tick (a tick without a contact row has none)
             counts[np.searchsorted(tick, rows_tick)] = cn
-            f = {name: _flat(ct, name) for name in ("body_a", "body_b", "feature", "lambda_n", "lambda_t",
-                                                     "separation", "warm_started")}
+            f = {
+                name: _flat(ct, name)
+                for name in ("body_a", "body_b", "feature", "lambda_n", "lambda_t", "separation", "warm_started")
+            }
             a, b_, feat = (f[k].astype(np.int64) for k in ("body_a", "body_b", "feature"))
             origins = _points(ct, "Arrows2D:origins")
             vectors = _points(ct, "Arrows2D:vectors")
             contacts = ContactFrames(
-                offsets=np.concatenate([[0], np.cumsum(counts)]), tick=np.repeat(rows_tick, cn),
-                key=schema.contact_key(a, b_, feat), body_a=a, body_b=b_, feature=feat, point=origins,
-                normal=vectors / schema.NORMAL_LENGTH, separation=f["separation"].astype(np.float64),
-                normal_impulse=f["lambda_n"].astype(np.float64), tangent_impulse=f["lambda_t"].astype(np.float64),
-                warm_started=f["warm_started"].astype(np.bool_))
+                offsets=np.concatenate([[0], np.cumsum(counts)]),
+                tick=np.repeat(rows_tick, cn),
+                key=schema.contact_key(a, b_, feat),
+                body_a=a,
+                body_b=b_,
+                feature=feat,
+                point=origins,
+                normal=vectors / schema.NORMAL_LENGTH,
+                separation=f["separation"].astype(np.float64),
+                normal_impulse=f["lambda_n"].astype(np.float64),
+                tangent_impulse=f["lambda_t"].astype(np.float64),
+                warm_started=f["warm_started"].astype(np.bool_),
+            )
         else:
             contacts = ContactFrames.empty(T)
 
@@ -318,22 +354,36 @@ class Recording:
         if joints is not None and "LineStrips2D:strips" in joints.column_names:
             joints = joints.filter(pc.is_valid(joints.column("LineStrips2D:strips")))
             jl = _lengths(joints, "LineStrips2D:strips")
-            pts = np.asarray(pc.list_flatten(pc.list_flatten(joints.column("LineStrips2D:strips"))).to_pylist(),
-                             dtype=np.float64).reshape(-1, 2, 2)
+            pts = np.asarray(
+                pc.list_flatten(pc.list_flatten(joints.column("LineStrips2D:strips"))).to_pylist(), dtype=np.float64
+            ).reshape(-1, 2, 2)
             anchors = np.split(pts, np.cumsum(jl)[:-1])
         props = self.properties.get(schema.run_property(label), {})
         return Run(
-            label=label, properties={**self.properties.get(schema.PROPERTIES_ENGINE, {}), **props}, tick=tick,
-            time=time, body_uid=body_uid, x=x, theta=theta, V=V, contacts=contacts,
-            residual_tick=res.column(schema.TICK).to_numpy().astype(np.int64) if res is not None
+            label=label,
+            properties={**self.properties.get(schema.PROPERTIES_ENGINE, {}), **props},
+            tick=tick,
+            time=time,
+            body_uid=body_uid,
+            x=x,
+            theta=theta,
+            V=V,
+            contacts=contacts,
+            residual_tick=res.column(schema.TICK).to_numpy().astype(np.int64)
+            if res is not None
             else np.zeros(0, np.int64),
             residual=_flat(res, schema.RESIDUAL_FIELD.name).astype(np.float64) if res is not None else np.zeros(0),
-            kinetic_energy=stats["energy/kinetic"], potential_energy=stats["energy/potential"],
+            kinetic_energy=stats["energy/kinetic"],
+            potential_energy=stats["energy/potential"],
             linear_momentum=np.stack([stats["momentum/x"], stats["momentum/y"]], axis=1),
             angular_momentum=stats["angular_momentum"],
             max_penetration=stats["max_penetration"] / schema.PENETRATION_SCALE,
-            contact_count=stats["contact_count"].astype(np.int64), cache_hit_rate=stats["cache_hit_rate"],
-            iterations=stats["iterations"].astype(np.int64), joint_anchors=anchors, _recording=self)
+            contact_count=stats["contact_count"].astype(np.int64),
+            cache_hit_rate=stats["cache_hit_rate"],
+            iterations=stats["iterations"].astype(np.int64),
+            joint_anchors=anchors,
+            _recording=self,
+        )
 
 
 def load(path: str | os.PathLike) -> Recording:
@@ -365,7 +415,7 @@ def load(path: str | os.PathLike) -> Recording:
         if ep.startswith("/__properties/"):
             rb = ch.to_record_batch()
             # rerun escapes a property name's '/' and '.' (one path part); undo it
-            d = properties.setdefault(ep[len("/__properties/"):].replace("\\", ""), {})
+            d = properties.setdefault(ep[len("/__properties/") :].replace("\\", ""), {})
             for name in rb.schema.names:
                 if name.startswith("rerun.") or name in ("tick", "sim_time"):
                     continue

@@ -44,12 +44,15 @@ class Strips:
                 pts = rim * radii[i]
             else:  # the closed outline
                 s, c = int(start[i]), int(count[i])
-                pts = np.concatenate([verts[s:s + c], verts[s:s + 1]])
+                pts = np.concatenate([verts[s : s + c], verts[s : s + 1]])
             locals_.append(pts)
             lengths.append(pts.shape[0])
         lengths_a = np.asarray(lengths, dtype=np.int64)
-        return cls(body=np.repeat(np.asarray(rows, dtype=np.int64), lengths_a),
-                   local=np.concatenate(locals_) if locals_ else np.zeros((0, 2)), lengths=lengths_a)
+        return cls(
+            body=np.repeat(np.asarray(rows, dtype=np.int64), lengths_a),
+            local=np.concatenate(locals_) if locals_ else np.zeros((0, 2)),
+            lengths=lengths_a,
+        )
 
     def world_points(self, x: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """(S, P, 2) drawn points for S ticks of poses x (S, N, 2), theta (S, N), m, on the draw grid."""
@@ -90,12 +93,19 @@ class Layout:
         circle = np.asarray(w.body_kinds) == CIRCLE
         dyn, stat = np.flatnonzero(~static_mask), np.flatnonzero(static_mask)
         return cls(
-            uid=uid, dynamic=dyn, static=stat, dynamic_strips=Strips.of(w, dyn), static_strips=Strips.of(w, stat),
+            uid=uid,
+            dynamic=dyn,
+            static=stat,
+            dynamic_strips=Strips.of(w, dyn),
+            static_strips=Strips.of(w, stat),
             dynamic_class=np.where(circle[dyn], schema.CLASS_CIRCLE, schema.CLASS_BODY).astype(np.uint16),
             static_class=np.full(stat.size, schema.CLASS_STATIC, np.uint16),
-            dynamic_labels=[f"b{u}" for u in uid[dyn]], static_labels=[f"b{u}" for u in uid[stat]],
-            mass=np.array(w.body_masses, dtype=np.float64), inertia=np.array(w.body_inertias, dtype=np.float64),
-            version=version)
+            dynamic_labels=[f"b{u}" for u in uid[dyn]],
+            static_labels=[f"b{u}" for u in uid[stat]],
+            mass=np.array(w.body_masses, dtype=np.float64),
+            inertia=np.array(w.body_inertias, dtype=np.float64),
+            version=version,
+        )
 
 
 @dataclass(eq=False)
@@ -143,24 +153,38 @@ class Sampler:
         if lay is None or lay.uid.shape != uid.shape or not np.array_equal(lay.uid, uid):
             lay = self.layout = Layout.of(w, 0 if lay is None else lay.version + 1)
         c, s = w.contacts, w.last_step
-        step = np.array([s.max_penetration * schema.PENETRATION_SCALE, len(c), s.cache_hit_rate, s.iterations],
-                        dtype=np.float64)
-        out = Sample(tick=int(w.tick), time=float(w.time), layout=lay, x=np.array(w.x, dtype=np.float64),
-                     theta=np.array(w.theta, dtype=np.float64), V=np.array(w.V, dtype=np.float64),
-                     key=np.array(c.key, dtype=np.int64), point=np.array(c.point, dtype=np.float64),
-                     normal=np.array(c.normal, dtype=np.float64), separation=np.array(c.separation, dtype=np.float64),
-                     lambda_n=np.array(c.lambda_n, dtype=np.float64),
-                     lambda_t=np.array(c.lambda_t, dtype=np.float64),
-                     warm=np.array(c.warm_started, dtype=np.bool_), gravity=w.gravity, step=step,
-                     residuals=np.array(s.residuals, dtype=np.float64))
+        step = np.array(
+            [s.max_penetration * schema.PENETRATION_SCALE, len(c), s.cache_hit_rate, s.iterations], dtype=np.float64
+        )
+        out = Sample(
+            tick=int(w.tick),
+            time=float(w.time),
+            layout=lay,
+            x=np.array(w.x, dtype=np.float64),
+            theta=np.array(w.theta, dtype=np.float64),
+            V=np.array(w.V, dtype=np.float64),
+            key=np.array(c.key, dtype=np.int64),
+            point=np.array(c.point, dtype=np.float64),
+            normal=np.array(c.normal, dtype=np.float64),
+            separation=np.array(c.separation, dtype=np.float64),
+            lambda_n=np.array(c.lambda_n, dtype=np.float64),
+            lambda_t=np.array(c.lambda_t, dtype=np.float64),
+            warm=np.array(c.warm_started, dtype=np.bool_),
+            gravity=w.gravity,
+            step=step,
+            residuals=np.array(s.residuals, dtype=np.float64),
+        )
         joints = w.joints
         if joints or self.had_joints:
             self.had_joints = True
             ends = [np.asarray(j.anchors(), dtype=np.float64).reshape(2, 2) for j in joints]
             imps = [np.atleast_1d(np.asarray(j.impulse, dtype=np.float64)).ravel() for j in joints]
             out.joint_ends = np.stack(ends) if ends else np.zeros((0, 2, 2))
-            out.joint_keys = np.concatenate([(k << 16) + np.arange(v.size, dtype=np.int64)
-                                             for k, v in enumerate(imps)]) if imps else np.zeros(0, np.int64)
+            out.joint_keys = (
+                np.concatenate([(k << 16) + np.arange(v.size, dtype=np.int64) for k, v in enumerate(imps)])
+                if imps
+                else np.zeros(0, np.int64)
+            )
             out.joint_impulses = np.concatenate(imps) if imps else np.zeros(0)
         return out
 
@@ -193,3 +217,71 @@ def aggregates(samples: list[Sample]) -> np.ndarray:
         out[start:end, 6:] = np.stack([s.step for s in samples[start:end]])
         start = end
     return out
+
+
+# -- handing samples to a writer process -------------------------------------------------------
+_PACKED = (
+    "x",
+    "theta",
+    "V",
+    "key",
+    "point",
+    "normal",
+    "separation",
+    "lambda_n",
+    "lambda_t",
+    "warm",
+    "gravity",
+    "step",
+    "residuals",
+    "joint_ends",
+    "joint_keys",
+    "joint_impulses",
+)
+
+
+def pack(samples: list[Sample], sent: set[int]) -> dict:
+    """One run's samples as a few long arrays (one concatenation per field), cheap to pickle and
+    to send to a writer process; the layouts whose versions are not in ``sent`` go along once
+    and are added to it."""
+    out: dict = {
+        "tick": np.fromiter((s.tick for s in samples), np.int64, len(samples)),
+        "time": np.fromiter((s.time for s in samples), np.float64, len(samples)),
+        "layout": np.fromiter((s.layout.version for s in samples), np.int64, len(samples)),
+        "layouts": {},
+    }
+    for s in samples:
+        if s.layout.version not in sent:
+            sent.add(s.layout.version)
+            out["layouts"][s.layout.version] = s.layout
+    for name in _PACKED:
+        arrays = [getattr(s, name) for s in samples]
+        present = np.array([a is not None for a in arrays])
+        kept = [a for a in arrays if a is not None]
+        out[name] = (
+            present,
+            np.fromiter((a.shape[0] for a in kept), np.int64, len(kept)),
+            np.concatenate(kept) if kept else None,
+        )
+    return out
+
+
+def unpack(packed: dict, layouts: dict[int, Layout]) -> list[Sample]:
+    """The samples ``pack`` packed (views into its arrays); ``layouts`` (by version) remembers the
+    run's layouts sent so far."""
+    layouts.update(packed["layouts"])
+    n = packed["tick"].size
+    fields: dict[str, list] = {}
+    for name in _PACKED:
+        present, lengths, flat = packed[name]
+        parts = iter(np.split(flat, np.cumsum(lengths)[:-1]) if flat is not None else [])
+        fields[name] = [next(parts) if p else None for p in present]
+    return [
+        Sample(
+            tick=int(packed["tick"][i]),
+            time=float(packed["time"][i]),
+            layout=layouts[int(packed["layout"][i])],
+            **{name: fields[name][i] for name in _PACKED},
+        )
+        for i in range(n)
+    ]

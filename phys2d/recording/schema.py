@@ -156,8 +156,15 @@ ANNOTATIONS = (
 
 # distinct colours for plotted series (contacts, runs): Tableau 10, without its greys
 PALETTE = (
-    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
-    (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207),
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (188, 189, 34),
+    (23, 190, 207),
 )
 ENERGY_COLOURS = {"kinetic": (214, 39, 40), "potential": (31, 119, 180), "total": (60, 60, 60)}
 ENERGY_HIDDEN = ("energy/potential", "energy/total")  # off until clicked in the legend: they dwarf the kinetic
@@ -178,8 +185,7 @@ _FEATURE_MASK = (1 << FEATURE_BITS) - 1
 
 def contact_key(uid_a, uid_b, feature):
     """The engine's contact key (``uid_a << 39 | uid_b << 16 | feature``), scalars or arrays."""
-    return (np.asarray(uid_a, np.int64) << 39) | (np.asarray(uid_b, np.int64) << 16) \
-        | np.asarray(feature, np.int64)
+    return (np.asarray(uid_a, np.int64) << 39) | (np.asarray(uid_b, np.int64) << 16) | np.asarray(feature, np.int64)
 
 
 def split_key(key):
@@ -212,8 +218,7 @@ def parse_contact(name: str) -> int:
             raise ValueError
         ua, ub, f = int(a[1:]), int(b[1:]), int(feature[1:])
     except ValueError:
-        raise ValueError(f"contact must be a name like 'b3-b7/f512' (bodies' uids, feature id), got {name!r}") \
-            from None
+        raise ValueError(f"contact must be a name like 'b3-b7/f512' (bodies' uids, feature id), got {name!r}") from None
     if not (0 <= ua < ub <= _UID_MASK and 0 <= f <= _FEATURE_MASK):
         raise ValueError(f"contact {name!r}: need uids 0 <= a < b < 2^23 and a feature id < 2^16")
     return int(contact_key(ua, ub, f))

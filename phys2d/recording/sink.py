@@ -1,36 +1,42 @@
 """The writing side of a recording: sampled ticks in, a Rerun stream (file, viewer) out.
 
 ``Sink`` runs in the recording process, or in a writer process of its own
-(``serve``): a ``Recorder(background=True)`` samples in the simulating process and
-hands whole windows of ticks over a pipe, so that importing rerun, building the
-columns and encoding them happen on another core while the simulation runs.
+(``writer.serve``): a ``Recorder(background=True)`` samples in the simulating process and
+hands whole windows of ticks over a pipe, so that loading rerun's native layer, building
+the columns and encoding them happen on another core while the simulation runs.
 """
 
 from __future__ import annotations
 
-import uuid
 from typing import Any
-
-import rerun as rr
 
 from . import blueprint as bp
 from . import columns, schema
 from .buffer import ContactChoice, RunBuffer
+from .native import Stream
 from .sample import Sample
 
-
-def _send_property(rec: rr.RecordingStream, entity: str, **values: Any) -> None:
-    """Static run metadata at /__properties/<name>; empty values are left out (Rerun drops them)."""
-    kept = {k: v for k, v in values.items() if v is not None and v != ""}
-    rec.send_property(entity, rr.AnyValues(**kept))
+COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about this many bytes
 
 
 class Sink:
     """The stream and the runs' buffers; closed once, by ``Recorder.close`` or a finalizer."""
 
-    def __init__(self, path: str | None, name: str | None, scene: str | None, application_id: str,
-                 recording_id: str | None, contact_series: bool, choice: ContactChoice, flush_every: int,
-                 series_every: int, blueprint: bool, stream_to: str | None) -> None:
+    def __init__(
+        self,
+        path: str | None,
+        name: str | None,
+        scene: str | None,
+        application_id: str,
+        recording_id: str | None,
+        contact_series: bool,
+        choice: ContactChoice,
+        flush_every: int,
+        series_every: int,
+        blueprint: bool,
+        stream_to: str | None,
+        long_chunks: bool = False,
+    ) -> None:
         self.scene = scene
         self.contact_series = contact_series
         self.choice = choice
@@ -40,19 +46,20 @@ class Sink:
         self.runs: dict[str | None, RunBuffer] = {}
         self.closed = False
         self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
-        self.rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()))
-        sinks: list[Any] = []
-        if path is not None:
-            sinks.append(rr.FileSink(path))
-        if stream_to is not None:
-            sinks.append(rr.GrpcSink(stream_to))
-        self.rec.set_sinks(*sinks)
-        self.rec.set_log_time_enabled(False)  # deterministic files: no wall-clock timeline
+        # Long chunks (a file only; a viewer streamed to draws each window as it comes): an entity's
+        # windows are held and written as one chunk, and the stats and residuals go out every
+        # series_every ticks. Only for a writer process: it outlives a killed simulation and still
+        # writes what it holds, where an in-process writer loses it (then every window is written
+        # at once: a hard kill loses at most flush_every ticks).
+        self.long_chunks = long_chunks and stream_to is None
+        self.rec = Stream(
+            application_id, recording_id, path, stream_to, coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0
+        )
         if name:
-            self.rec.send_recording_name(name)
+            self.rec.recording_name(name)
         from .. import __version__
 
-        _send_property(self.rec, schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
+        self.rec.property(schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
 
     def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
         """One sampled tick of run ``label``; ``info`` (responder, ...) with a run's first tick."""
@@ -61,13 +68,16 @@ class Sink:
             b = self.runs[label] = RunBuffer(label, schema.run_prefix(label), self.choice)
             columns.write_start(self.rec, b, schema.PALETTE[(len(self.runs) - 1) % len(schema.PALETTE)])
         if info is not None:
-            _send_property(self.rec, schema.run_property(label), scene=self.scene, run=label,
-                           plotted=repr(self.choice), **info)
+            self.rec.property(
+                schema.run_property(label), scene=self.scene, run=label, plotted=repr(self.choice), **info
+            )
         b.add(s, self.contact_series)
         if len(b.samples) >= self.flush_every:
             if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
                 self.send_blueprint()
             columns.write_scene(self.rec, b)
+            if not self.long_chunks or b.stats_ticks >= self.series_every:
+                columns.write_stats(self.rec, b)
             self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
         if b.series_ticks >= self.series_every:
             columns.write_series(self.rec, b)
@@ -80,10 +90,11 @@ class Sink:
         """
         if not self.blueprint:
             return
-        views = [bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r),
-                            r.has_joints) for r in self.runs.values()]
+        views = [
+            bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r), r.has_joints) for r in self.runs.values()
+        ]
         if views != self.sent_views:
-            self.rec.send_blueprint(bp.build(views))
+            self.rec.blueprint(bp.build(views))
             self.sent_views = views
 
     def _will_plot(self, r: RunBuffer) -> bool:
@@ -100,8 +111,9 @@ class Sink:
         try:
             for r in self.runs.values():
                 columns.write_scene(self.rec, r)
+                columns.write_stats(self.rec, r)
                 columns.write_series(self.rec, r)
             self.send_blueprint()
             self.rec.flush()
         finally:
-            self.rec.disconnect()  # writes the footer: the file is complete and readable
+            self.rec.close()  # writes the footer: the file is complete and readable

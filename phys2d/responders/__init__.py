@@ -46,27 +46,61 @@ class ResponderEntry:
         return self.make(**kwargs)
 
 
-def _entry(name: str, description: str, make: Callable[..., Responder], count: str | None = None,
-           keyword: str | None = None) -> tuple[str, ResponderEntry]:
+def _entry(
+    name: str, description: str, make: Callable[..., Responder], count: str | None = None, keyword: str | None = None
+) -> tuple[str, ResponderEntry]:
     return name, ResponderEntry(name, description, make, count, keyword)
 
 
-REGISTRY: dict[str, ResponderEntry] = dict([
-    _entry("naive", "the lecture's naive take: one impulse per colliding pair per tick, then push apart",
-           NaiveImpulse),
-    _entry("iterative", "the lecture's second take: the pairwise impulses repeated, passes per tick",
-           IterativeImpulse, "passes", "passes"),
-    _entry("pgs", "projected Gauss-Seidel with contact caching, row by row: the lecture's method",
-           PGS, "sweeps", "iterations"),
-    _entry("pgs-cold", "PGS without contact caching: every tick starts from lambda = 0",
-           lambda **kw: PGS(warm_start=False, **kw), "sweeps", "iterations"),
-    _entry("pgs-matrix", "PGS in matrix form: J, M^-1, A = J M^-1 J^T and b assembled, then swept",
-           lambda **kw: PGS(form="matrix", **kw), "sweeps", "iterations"),
-    _entry("pgs-block", "PGS solving each two-point manifold's normal rows together (Box2D's block solver)",
-           lambda **kw: PGS(block=True, **kw), "sweeps", "iterations"),
-    _entry("soft-step", "sub-steps with soft contacts and relaxation (Box2D v3's soft step): the robust one",
-           SoftStep, "substeps", "substeps"),
-])
+REGISTRY: dict[str, ResponderEntry] = dict(
+    [
+        _entry(
+            "naive", "the lecture's naive take: one impulse per colliding pair per tick, then push apart", NaiveImpulse
+        ),
+        _entry(
+            "iterative",
+            "the lecture's second take: the pairwise impulses repeated, passes per tick",
+            IterativeImpulse,
+            "passes",
+            "passes",
+        ),
+        _entry(
+            "pgs",
+            "projected Gauss-Seidel with contact caching, row by row: the lecture's method",
+            PGS,
+            "sweeps",
+            "iterations",
+        ),
+        _entry(
+            "pgs-cold",
+            "PGS without contact caching: every tick starts from lambda = 0",
+            lambda **kw: PGS(warm_start=False, **kw),
+            "sweeps",
+            "iterations",
+        ),
+        _entry(
+            "pgs-matrix",
+            "PGS in matrix form: J, M^-1, A = J M^-1 J^T and b assembled, then swept",
+            lambda **kw: PGS(form="matrix", **kw),
+            "sweeps",
+            "iterations",
+        ),
+        _entry(
+            "pgs-block",
+            "PGS solving each two-point manifold's normal rows together (Box2D's block solver)",
+            lambda **kw: PGS(block=True, **kw),
+            "sweeps",
+            "iterations",
+        ),
+        _entry(
+            "soft-step",
+            "sub-steps with soft contacts and relaxation (Box2D v3's soft step): the robust one",
+            SoftStep,
+            "substeps",
+            "substeps",
+        ),
+    ]
+)
 
 
 def make_responder(name: str, count: int | None = None, **kwargs: Any) -> Responder:
@@ -78,5 +112,13 @@ def make_responder(name: str, count: int | None = None, **kwargs: Any) -> Respon
     return REGISTRY[name](count, **kwargs)
 
 
-__all__ = ["REGISTRY", "IterativeImpulse", "NaiveImpulse", "PGS", "Responder", "ResponderEntry", "SoftStep",
-           "make_responder"]
+__all__ = [
+    "REGISTRY",
+    "IterativeImpulse",
+    "NaiveImpulse",
+    "PGS",
+    "Responder",
+    "ResponderEntry",
+    "SoftStep",
+    "make_responder",
+]

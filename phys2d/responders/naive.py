@@ -71,8 +71,14 @@ def colliding_points(separation, normal_row, i, j, J, V, dt, out):
     for c in range(separation.shape[0]):
         k = normal_row[c]
         a, b = i[k], j[k]
-        vn = (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1] + J[k, 2] * V[a, 2]
-              + J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1] + J[k, 5] * V[b, 2])
+        vn = (
+            J[k, 0] * V[a, 0]
+            + J[k, 1] * V[a, 1]
+            + J[k, 2] * V[a, 2]
+            + J[k, 3] * V[b, 0]
+            + J[k, 4] * V[b, 1]
+            + J[k, 5] * V[b, 2]
+        )
         out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= MET
 
 
@@ -98,8 +104,7 @@ def _mean_row(start, end, row, use, J, M_inv, a, b, out_J, out_JM, p):
 
 
 @njit(cache=True)
-def pair_rows(starts, use, separation, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb,
-              gap):
+def pair_rows(starts, use, separation, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb, gap):
     """Each pair's normal and friction row at P_0, the mean of its colliding points, and its
     gap: the smallest separation of those points when all are still apart (m), else 0.
 
@@ -249,8 +254,26 @@ def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveRe
     An, At = np.zeros(n_pairs), np.zeros(n_pairs)
     pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
     gap = np.zeros(n_pairs)
-    pair_rows(starts, use, ctx.separation, r.normal_row, r.friction_row, r.i, r.j, r.J, ctx.M_inv, Jn, JMn, An, Jt,
-              JMt, At, pa, pb, gap)
+    pair_rows(
+        starts,
+        use,
+        ctx.separation,
+        r.normal_row,
+        r.friction_row,
+        r.i,
+        r.j,
+        r.J,
+        ctx.M_inv,
+        Jn,
+        JMn,
+        An,
+        Jt,
+        JMt,
+        At,
+        pa,
+        pb,
+        gap,
+    )
     vn_start, vn_forced = pair_velocities(pa, pb, Jn, ctx.V1), pair_velocities(pa, pb, Jn, ctx.V)
     first = starts[:-1]
     e = ctx.restitution[first] if k else np.zeros(0)
@@ -259,8 +282,9 @@ def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveRe
     residuals = np.zeros(passes)
     for s in range(passes):
         residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, ctx.V, ctx.dt, f_n, f_t)
-    push_apart(starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES,
-               PUSH_TOLERANCE, push_max * ctx.dt)
+    push_apart(
+        starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES, PUSH_TOLERANCE, push_max * ctx.dt
+    )
     integrate_positions(ctx.x, ctx.theta, ctx.V, ctx.dt)
     bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, ctx.dt, f_n, ctx.V)
     report_on_points(starts, use, r.normal_row, r.friction_row, f_n, f_t, r.lam)

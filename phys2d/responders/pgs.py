@@ -125,8 +125,13 @@ def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
         return -1.0
     a1, a2 = lam[n1], lam[n2]
     # the new lambda x solves K x + (J V - xi - K a) >= 0, x >= 0, complementary
-    x1, x2 = lcp2(K11, K12, K22, row_velocity(n1, a, b, J, V) - xi[n1] - (K11 * a1 + K12 * a2),
-                  row_velocity(n2, a, b, J, V) - xi[n2] - (K12 * a1 + K22 * a2))
+    x1, x2 = lcp2(
+        K11,
+        K12,
+        K22,
+        row_velocity(n1, a, b, J, V) - xi[n1] - (K11 * a1 + K12 * a2),
+        row_velocity(n2, a, b, J, V) - xi[n2] - (K12 * a1 + K22 * a2),
+    )
     lam[n1] = x1
     lam[n2] = x2
     apply_row_impulse(n1, a, b, JM, x1 - a1, V)
@@ -135,8 +140,9 @@ def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
 
 
 @njit(cache=True)
-def block_sweep(normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row,
-                mu, lam, V):
+def block_sweep(
+    normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V
+):
     """One block Gauss-Seidel sweep (Box2D's block solver): a two-point manifold's normal
     rows together (``solve_normal_pair``), then its friction rows; other contacts and
     the joints row by row (``sweep``). Returns the largest |delta lambda_k| A_kk (m/s).
@@ -153,15 +159,38 @@ def block_sweep(normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_k
             if err >= 0.0:  # solved as a block: then the two friction rows
                 worst = max(worst, err)
                 if not frictionless:
-                    worst = max(worst, sweep(friction_row[q : q + 2], body_a, body_b, J, JM, A_kk, inv_A_kk, xi,
-                                             lo, hi, bound_row, mu, lam, V))
+                    worst = max(
+                        worst,
+                        sweep(
+                            friction_row[q : q + 2],
+                            body_a,
+                            body_b,
+                            J,
+                            JM,
+                            A_kk,
+                            inv_A_kk,
+                            xi,
+                            lo,
+                            hi,
+                            bound_row,
+                            mu,
+                            lam,
+                            V,
+                        ),
+                    )
                 q += 2
                 continue
-        worst = max(worst, sweep(normal_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi,
-                                 bound_row, mu, lam, V))
+        worst = max(
+            worst,
+            sweep(normal_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V),
+        )
         if not frictionless:
-            worst = max(worst, sweep(friction_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi,
-                                     bound_row, mu, lam, V))
+            worst = max(
+                worst,
+                sweep(
+                    friction_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V
+                ),
+            )
         q += 1
     return max(worst, sweep(joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V))
 
@@ -177,8 +206,27 @@ def inverse_diagonal(A_kk):
 
 
 @njit(cache=True)
-def pgs_solve(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, A_kk, xi, lo, hi, bound_row, mu,
-              lam, V, iterations, tolerance, residuals, block):
+def pgs_solve(
+    normal_row,
+    friction_row,
+    first_joint_row,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_kk,
+    xi,
+    lo,
+    hi,
+    bound_row,
+    mu,
+    lam,
+    V,
+    iterations,
+    tolerance,
+    residuals,
+    block,
+):
     """Warm start from ``lam``, then sweep all rows in solve order (rows are stored in it)
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
     residuals[s] is sweep s's."""
@@ -188,8 +236,24 @@ def pgs_solve(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, 
     joint_rows = all_rows[first_joint_row:]
     for s in range(iterations):
         if block:
-            residuals[s] = block_sweep(normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi,
-                                       lo, hi, bound_row, mu, lam, V)
+            residuals[s] = block_sweep(
+                normal_row,
+                friction_row,
+                joint_rows,
+                body_a,
+                body_b,
+                J,
+                JM,
+                A_kk,
+                inv_A_kk,
+                xi,
+                lo,
+                hi,
+                bound_row,
+                mu,
+                lam,
+                V,
+            )
         else:
             residuals[s] = sweep(all_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V)
         if residuals[s] <= tolerance:
@@ -198,8 +262,9 @@ def pgs_solve(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, 
 
 
 @njit(cache=True)
-def push_out(normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, lam_push, V_push, iterations,
-             tolerance, block):
+def push_out(
+    normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, lam_push, V_push, iterations, tolerance, block
+):
     """Split impulses: sweep the contact normal rows for pseudo-velocities V_push that reach
     J_k V_push >= push_k (the capped Baumgarte push), lam_push >= 0, from V_push = 0.
 
@@ -216,35 +281,128 @@ def push_out(normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, m
     none = normal_row[:0]  # no friction rows, no joint rows: the normal rows only
     for s in range(iterations):
         if block:
-            worst = block_sweep(normal_row, none, none, body_a, body_b, J, JM, A_kk, inv_A_kk, push, lo, hi,
-                                bound_row, mu, lam_push, V_push)
+            worst = block_sweep(
+                normal_row,
+                none,
+                none,
+                body_a,
+                body_b,
+                J,
+                JM,
+                A_kk,
+                inv_A_kk,
+                push,
+                lo,
+                hi,
+                bound_row,
+                mu,
+                lam_push,
+                V_push,
+            )
         else:
-            worst = sweep(normal_row, body_a, body_b, J, JM, A_kk, inv_A_kk, push, lo, hi, bound_row, mu, lam_push,
-                          V_push)
+            worst = sweep(
+                normal_row, body_a, body_b, J, JM, A_kk, inv_A_kk, push, lo, hi, bound_row, mu, lam_push, V_push
+            )
         if worst <= tolerance:
             return s + 1
     return iterations
 
 
 @njit(cache=True)
-def pgs_step(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, A_kk, xi, push, bounce, lo, hi,
-             bound_row, mu, lam, x, theta, V, separation, dt, iterations, tolerance, block, split, residuals):
+def pgs_step(
+    normal_row,
+    friction_row,
+    first_joint_row,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_kk,
+    xi,
+    push,
+    bounce,
+    lo,
+    hi,
+    bound_row,
+    mu,
+    lam,
+    x,
+    theta,
+    V,
+    separation,
+    dt,
+    iterations,
+    tolerance,
+    block,
+    split,
+    residuals,
+):
     """``PGS.respond`` in one call: warm start and sweeps on V, the push pass (split) or
     the push inside xi (not split), positions moved, then the restitution pass.
     Returns the sweeps made on A lambda = b."""
     target = xi if split else xi + push  # the lecture: the push is part of the target
-    n = pgs_solve(normal_row, friction_row, first_joint_row, body_a, body_b, J, JM, A_kk, target, lo, hi,
-                  bound_row, mu, lam, V, iterations, tolerance, residuals, block)
+    n = pgs_solve(
+        normal_row,
+        friction_row,
+        first_joint_row,
+        body_a,
+        body_b,
+        J,
+        JM,
+        A_kk,
+        target,
+        lo,
+        hi,
+        bound_row,
+        mu,
+        lam,
+        V,
+        iterations,
+        tolerance,
+        residuals,
+        block,
+    )
     V_move = V
     if split:
         V_push = np.zeros_like(V)
-        push_out(normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, np.zeros(lam.shape[0]),
-                 V_push, iterations, tolerance, block)
+        push_out(
+            normal_row,
+            body_a,
+            body_b,
+            J,
+            JM,
+            A_kk,
+            push,
+            lo,
+            hi,
+            bound_row,
+            mu,
+            np.zeros(lam.shape[0]),
+            V_push,
+            iterations,
+            tolerance,
+            block,
+        )
         V_move = V + V_push  # what the positions move with; V_push is then dropped
     bouncing = bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separation, V, dt)
     integrate_positions(x, theta, V_move, dt)
-    restitution_pass(normal_row, friction_row, bouncing, body_a, body_b, J, JM, A_kk, bounce, bound_row, mu, lam, V,
-                     iterations, tolerance)
+    restitution_pass(
+        normal_row,
+        friction_row,
+        bouncing,
+        body_a,
+        body_b,
+        J,
+        JM,
+        A_kk,
+        bounce,
+        bound_row,
+        mu,
+        lam,
+        V,
+        iterations,
+        tolerance,
+    )
     return n
 
 
@@ -254,8 +412,10 @@ FRICTION_MODELS = {"coulomb": FRICTION_COULOMB, "lecture": FRICTION_LECTURE}
 
 def _check_block_and_form(block: bool, form: str) -> None:
     if block and form == "matrix":
-        raise ValueError("block=True solves manifolds in pairs of rows; form='matrix' is the "
-                         "lecture's row-by-row sweep: use one or the other")
+        raise ValueError(
+            "block=True solves manifolds in pairs of rows; form='matrix' is the "
+            "lecture's row-by-row sweep: use one or the other"
+        )
 
 
 class PGS(Responder):
@@ -304,11 +464,20 @@ class PGS(Responder):
     tolerance = Setting(optional_non_negative_float, "residual (m/s) that stops the sweeps, or None")
     restitution_threshold = Setting(non_negative_float, "approach speed (m/s) above which e applies")
 
-    def __init__(self, iterations: int = 10, warm_start: bool = True, beta: float = 0.2,
-                 slop: float = 0.005, tolerance: float | None = None,
-                 restitution_threshold: float = 1.0, friction: str = "coulomb",
-                 form: str = "impulse", block: bool = False, push_max: float = 3.0,
-                 split: bool = True) -> None:
+    def __init__(
+        self,
+        iterations: int = 10,
+        warm_start: bool = True,
+        beta: float = 0.2,
+        slop: float = 0.005,
+        tolerance: float | None = None,
+        restitution_threshold: float = 1.0,
+        friction: str = "coulomb",
+        form: str = "impulse",
+        block: bool = False,
+        push_max: float = 3.0,
+        split: bool = True,
+    ) -> None:
         self.iterations = iterations
         self.warm_start = warm_start
         self.beta = beta
@@ -370,16 +539,43 @@ class PGS(Responder):
             xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
             return solve_matrix_form(ctx, xi, self.iterations, tol, self.split)
         residuals = np.zeros(self.iterations)
-        n = pgs_step(r.normal_row, r.friction_row, r.first_joint_row, r.body_a, r.body_b, r.J, r.JM, r.A_kk, r.xi,
-                     r.push, r.bounce, r.lo, r.hi, r.bound_row, r.mu, r.lam, ctx.x, ctx.theta, ctx.V, ctx.separation,
-                     ctx.dt, self.iterations, tol, self.block, self.split, residuals)
+        n = pgs_step(
+            r.normal_row,
+            r.friction_row,
+            r.first_joint_row,
+            r.body_a,
+            r.body_b,
+            r.J,
+            r.JM,
+            r.A_kk,
+            r.xi,
+            r.push,
+            r.bounce,
+            r.lo,
+            r.hi,
+            r.bound_row,
+            r.mu,
+            r.lam,
+            ctx.x,
+            ctx.theta,
+            ctx.V,
+            ctx.separation,
+            ctx.dt,
+            self.iterations,
+            tol,
+            self.block,
+            self.split,
+            residuals,
+        )
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
         tol = "None" if self.tolerance is None else f"{self.tolerance:g}"
-        return (f"PGS(iterations={self.iterations}, warm_start={self.warm_start}, beta={self.beta:g}, "
-                f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r}, "
-                f"block={self.block}, push_max={self.push_max:g}, split={self.split})")
+        return (
+            f"PGS(iterations={self.iterations}, warm_start={self.warm_start}, beta={self.beta:g}, "
+            f"slop={self.slop:g}, tolerance={tol}, friction={self.friction!r}, form={self.form!r}, "
+            f"block={self.block}, push_max={self.push_max:g}, split={self.split})"
+        )
 
 
 __all__ = ["PGS", "apply_impulses", "block_sweep", "lcp2", "pgs_solve", "pgs_step", "sweep"]

@@ -49,8 +49,7 @@ class SparseMatrix:
     """A sparse matrix in CSR form: row k's entries are data[indptr[k]:indptr[k+1]]
     in the columns indices[indptr[k]:indptr[k+1]] (ascending)."""
 
-    def __init__(self, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
-                 shape: tuple[int, int]) -> None:
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, shape: tuple[int, int]) -> None:
         self.indptr = indptr
         self.indices = indices
         self.data = data
@@ -82,8 +81,10 @@ class SparseMatrix:
     def dense(self) -> np.ndarray:
         """The full matrix as a numpy array (for small matrices only)."""
         if self.shape[0] * self.shape[1] > DENSE_MAX_ENTRIES:
-            raise ValueError(f"a {self.shape[0]} x {self.shape[1]} matrix is too large to make "
-                             f"dense (more than {DENSE_MAX_ENTRIES} entries)")
+            raise ValueError(
+                f"a {self.shape[0]} x {self.shape[1]} matrix is too large to make "
+                f"dense (more than {DENSE_MAX_ENTRIES} entries)"
+            )
         out = np.zeros(self.shape)
         for k in range(self.shape[0]):
             s, e = self.indptr[k], self.indptr[k + 1]
@@ -141,9 +142,28 @@ class MatrixSystem:
 
     def read_only(self) -> MatrixSystem:
         """Make every array of the system read-only, and return self."""
-        for a in (self.J.indptr, self.J.indices, self.J.data, self.A.indptr, self.A.indices, self.A.data,
-                  self.M_inv, self.V1, self.F_ext, self.xi, self.b, self.lo, self.hi, self.bound_row, self.mu,
-                  self.lam, self.push, self.lam_push, self.bounce, self.lam_bounce):
+        for a in (
+            self.J.indptr,
+            self.J.indices,
+            self.J.data,
+            self.A.indptr,
+            self.A.indices,
+            self.A.data,
+            self.M_inv,
+            self.V1,
+            self.F_ext,
+            self.xi,
+            self.b,
+            self.lo,
+            self.hi,
+            self.bound_row,
+            self.mu,
+            self.lam,
+            self.push,
+            self.lam_push,
+            self.bounce,
+            self.lam_bounce,
+        ):
             a.flags.writeable = False
         return self
 
@@ -157,13 +177,22 @@ class MatrixSystem:
         n = self.M_inv.shape[0]
         if n * n > DENSE_MAX_ENTRIES:
             raise ValueError(f"M_inv is {n} x {n}: too large to make dense")
-        return SimpleNamespace(J=self.J.dense(), M_inv=np.diag(self.M_inv), A=self.A.dense(),
-                               b=self.b.copy(), lo=self.lo.copy(), hi=self.hi.copy(),
-                               lam=self.lam.copy(), V1=self.V1.copy(), F_ext=self.F_ext.copy())
+        return SimpleNamespace(
+            J=self.J.dense(),
+            M_inv=np.diag(self.M_inv),
+            A=self.A.dense(),
+            b=self.b.copy(),
+            lo=self.lo.copy(),
+            hi=self.hi.copy(),
+            lam=self.lam.copy(),
+            V1=self.V1.copy(),
+            F_ext=self.F_ext.copy(),
+        )
 
     def __repr__(self) -> str:
-        return (f"<MatrixSystem: {self.A.shape[0]} rows, {self.J.shape[1] // 3} bodies, "
-                f"A has {self.A.nnz} stored entries>")
+        return (
+            f"<MatrixSystem: {self.A.shape[0]} rows, {self.J.shape[1] // 3} bodies, A has {self.A.nnz} stored entries>"
+        )
 
 
 # -- assembly ------------------------------------------------------------------------------
@@ -173,8 +202,7 @@ def jacobian(rows: Rows, n_bodies: int) -> SparseMatrix:
     indices = np.zeros(6 * R, np.int64)
     data = np.zeros(6 * R)
     _jacobian_entries(rows.body_a, rows.body_b, rows.J, indices, data)
-    return SparseMatrix(np.arange(0, 6 * R + 1, 6, dtype=np.int64), indices, data,
-                        (R, 3 * n_bodies))
+    return SparseMatrix(np.arange(0, 6 * R + 1, 6, dtype=np.int64), indices, data, (R, 3 * n_bodies))
 
 
 @njit(cache=True)
@@ -290,9 +318,25 @@ def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
     A = SparseMatrix(indptr, indices, data, (len(r), len(r)))
     b = xi - J.dot(V1) - ctx.dt * J.dot(M_inv * F_ext)
     R = len(r)
-    return MatrixSystem(ctx.dt, J, M_inv, V1, F_ext, xi.copy(), A, b, r.lo.copy(), r.hi.copy(),
-                        r.bound_row.copy(), r.mu.copy(), r.lam.copy(), push=np.zeros(R), lam_push=np.zeros(R),
-                        bounce=r.bounce.copy(), lam_bounce=np.zeros(R))
+    return MatrixSystem(
+        ctx.dt,
+        J,
+        M_inv,
+        V1,
+        F_ext,
+        xi.copy(),
+        A,
+        b,
+        r.lo.copy(),
+        r.hi.copy(),
+        r.bound_row.copy(),
+        r.mu.copy(),
+        r.lam.copy(),
+        push=np.zeros(R),
+        lam_push=np.zeros(R),
+        bounce=r.bounce.copy(),
+        lam_bounce=np.zeros(R),
+    )
 
 
 # -- the lecture's PGS on A x = b -----------------------------------------------------------
@@ -320,8 +364,7 @@ def pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x):
 
 
 @njit(cache=True)
-def pgs_matrix_solve(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x, iterations,
-                     tolerance, residuals):
+def pgs_matrix_solve(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x, iterations, tolerance, residuals):
     """Sweep until the residual <= tolerance or out of sweeps; returns the sweeps made."""
     for s in range(iterations):
         residuals[s] = pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x)
@@ -371,8 +414,7 @@ def csr_row_dot(indptr, indices, data, k, x):
     return s
 
 
-def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, tolerance: float,
-                      split: bool) -> SolveResult:
+def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, tolerance: float, split: bool) -> SolveResult:
     """The impulse form's step, with matrices: assemble and sweep A lam = b; with ``split``, the
     push system A lam_push = push; positions move with V2 (+ M^-1 J^T lam_push); then the
     restitution pass (``restitution.bounce_after_moving``, the same code as the impulse form's)."""
@@ -381,16 +423,29 @@ def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, toleran
     A = system.A
     A_kk = diagonal(A.indptr, A.indices, A.data, A.shape[0])
     residuals = np.zeros(iterations)
-    n = pgs_matrix_solve(A.indptr, A.indices, A.data, A_kk, system.b, system.lo, system.hi,
-                         system.bound_row, system.mu, system.lam, iterations, tolerance,
-                         residuals)
+    n = pgs_matrix_solve(
+        A.indptr,
+        A.indices,
+        A.data,
+        A_kk,
+        system.b,
+        system.lo,
+        system.hi,
+        system.bound_row,
+        system.mu,
+        system.lam,
+        iterations,
+        tolerance,
+        residuals,
+    )
     final_bounds(system.bound_row, system.mu, system.lam, system.lo, system.hi)
     V2 = system.velocities()
     V_move = V2
     if split:
         system.push[:] = r.push
-        push_matrix_solve(r.normal_row, A.indptr, A.indices, A.data, A_kk, system.push, system.lam_push,
-                          iterations, tolerance)
+        push_matrix_solve(
+            r.normal_row, A.indptr, A.indices, A.data, A_kk, system.push, system.lam_push, iterations, tolerance
+        )
         V_move = V2 + system.M_inv * system.J.dot_transposed(system.lam_push)
     ctx.rows.lam[:] = system.lam
     ctx.V[:] = V2.reshape(ctx.V.shape)

@@ -38,8 +38,23 @@ def bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separati
 
 
 @njit(cache=True)
-def restitution_pass(normal_row, friction_row, bouncing, body_a, body_b, J, JM, A_kk, bounce, bound_row, mu, lam, V,
-                     iterations, tolerance):
+def restitution_pass(
+    normal_row,
+    friction_row,
+    bouncing,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_kk,
+    bounce,
+    bound_row,
+    mu,
+    lam,
+    V,
+    iterations,
+    tolerance,
+):
     """Restitution, once positions have moved: sweep the bouncing contacts' normal rows towards
     J_k V = bounce_k (lambda_n >= 0), keeping each one's Coulomb friction inside mu lambda_n.
 
@@ -75,8 +90,24 @@ def bounce_after_moving(ctx: StepContext, V_move: np.ndarray, iterations: int, t
     """Move the positions with V_move (m/s), then bounce the points that met their partner within
     the step (``restitution_pass`` on ctx.V and ctx.rows.lam; PGS in both forms)."""
     r = ctx.rows
-    bouncing = bouncing_contacts(r.normal_row, r.body_a, r.body_b, r.J, r.A_kk, r.bounce, r.lam, ctx.separation, ctx.V,
-                                 ctx.dt)
+    bouncing = bouncing_contacts(
+        r.normal_row, r.body_a, r.body_b, r.J, r.A_kk, r.bounce, r.lam, ctx.separation, ctx.V, ctx.dt
+    )
     integrate_positions(ctx.x, ctx.theta, V_move, ctx.dt)
-    restitution_pass(r.normal_row, r.friction_row, bouncing, r.body_a, r.body_b, r.J, r.JM, r.A_kk, r.bounce,
-                     r.bound_row, r.mu, r.lam, ctx.V, iterations, tolerance)
+    restitution_pass(
+        r.normal_row,
+        r.friction_row,
+        bouncing,
+        r.body_a,
+        r.body_b,
+        r.J,
+        r.JM,
+        r.A_kk,
+        r.bounce,
+        r.bound_row,
+        r.mu,
+        r.lam,
+        ctx.V,
+        iterations,
+        tolerance,
+    )

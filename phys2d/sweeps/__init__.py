@@ -25,6 +25,27 @@ from .runner import DEFAULT_OUT, SweepResult, check_scheduler, metrics_equal, re
 from .scenes import COLUMNS, SWEEP_SCENES, all_scenes, circle_stack
 from .task import METRIC_COLUMNS, ROW_COLUMNS, TIMING_COLUMNS, LoadWatch, build, run_task
 
-__all__ = ["AXES", "COLUMNS", "DEFAULT_OUT", "Grid", "LoadWatch", "METRIC_COLUMNS", "ROW_COLUMNS", "SWEEP_SCENES",
-           "SweepResult", "TIMING_COLUMNS", "Task", "all_scenes", "as_grids", "build", "check_scheduler",
-           "circle_stack", "expand", "load_toml", "metrics_equal", "read_table", "run_task", "sweep"]
+__all__ = [
+    "AXES",
+    "COLUMNS",
+    "DEFAULT_OUT",
+    "Grid",
+    "LoadWatch",
+    "METRIC_COLUMNS",
+    "ROW_COLUMNS",
+    "SWEEP_SCENES",
+    "SweepResult",
+    "TIMING_COLUMNS",
+    "Task",
+    "all_scenes",
+    "as_grids",
+    "build",
+    "check_scheduler",
+    "circle_stack",
+    "expand",
+    "load_toml",
+    "metrics_equal",
+    "read_table",
+    "run_task",
+    "sweep",
+]

@@ -81,44 +81,86 @@ def _workers(text: str) -> int:
 
 
 _AXIS_TYPES: dict[str, Callable[[str], list[Any]]] = {
-    "scenes": _names, "responders": _names, "iterations": _ints, "substeps": _ints, "mass_ratio": _numbers,
-    "size": _numbers, "dt": _numbers, "steps": _ints, "friction": _numbers, "seed": _ints, "jitter": _numbers,
+    "scenes": _names,
+    "responders": _names,
+    "iterations": _ints,
+    "substeps": _ints,
+    "mass_ratio": _numbers,
+    "size": _numbers,
+    "dt": _numbers,
+    "steps": _ints,
+    "friction": _numbers,
+    "seed": _ints,
+    "jitter": _numbers,
 }
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add the ``sweep`` subcommand to the ``phys2d`` subparsers ``sub``."""
     p = sub.add_parser(
-        "sweep", help="a grid of runs (scenes x responders x parameters) to one Parquet table",
+        "sweep",
+        help="a grid of runs (scenes x responders x parameters) to one Parquet table",
         description="Run every combination of scenes, responders and parameters, one deterministic run each, "
-                    "into one Parquet table (one row of metrics per run: stood or fell, largest displacement, "
-                    "deepest overlap, final residual, time per step). Rows already in the table are skipped. "
-                    "Runs on a local process pool, or on a Dask cluster with --scheduler.",
+        "into one Parquet table (one row of metrics per run: stood or fell, largest displacement, "
+        "deepest overlap, final residual, time per step). Rows already in the table are skipped. "
+        "Runs on a local process pool, or on a Dask cluster with --scheduler.",
         epilog="Lists are comma-separated; whole numbers take ranges A..B; --dt takes 1/60. "
-               "Needs the sweep extra: pip install 'phys2d[sweep]'.")
-    p.add_argument("grid", nargs="?", default=None,
-                   help="a TOML grid file: axes as top-level keys, or [[grid]] tables (axes given below replace "
-                        "the file's)")
+        "Needs the sweep extra: pip install 'phys2d[sweep]'.",
+    )
+    p.add_argument(
+        "grid",
+        nargs="?",
+        default=None,
+        help="a TOML grid file: axes as top-level keys, or [[grid]] tables (axes given below replace the file's)",
+    )
     for axis, kind in _AXIS_TYPES.items():
         flags = [f"--{axis.replace('_', '-')}"]
         if axis in ("scenes", "responders"):
             flags.append(f"--{axis[:-1]}")
-        default = {"steps": f" (default {DEFAULT_STEPS})", "jitter": f" (default {DEFAULT_JITTER:g})",
-                   "dt": " (default 1/60)", "responders": " (default pgs)"}.get(axis, "")
+        default = {
+            "steps": f" (default {DEFAULT_STEPS})",
+            "jitter": f" (default {DEFAULT_JITTER:g})",
+            "dt": " (default 1/60)",
+            "responders": " (default pgs)",
+        }.get(axis, "")
         p.add_argument(*flags, dest=axis, type=kind, default=None, metavar="LIST", help=AXES[axis] + default)
-    p.add_argument("--out", default=None,
-                   help="the Parquet table (default sweeps/GRID.parquet, or sweeps/sweep.parquet)")
-    p.add_argument("--csv", nargs="?", const=True, default=None, metavar="PATH",
-                   help="also write the table as CSV (default path: OUT with .csv)")
-    p.add_argument("--record", default=None, metavar="DIR",
-                   help="also write each run's recording to DIR/<run_id>.rrd (on the machine that runs it)")
-    p.add_argument("--scheduler", type=_scheduler, default=None, metavar="tcp://HOST:PORT",
-                   help="run on this Dask distributed scheduler instead of local processes")
-    p.add_argument("--workers", type=_workers, default=None,
-                   help="local processes (default: the CPU count; 1 runs in this process)")
+    p.add_argument(
+        "--out", default=None, help="the Parquet table (default sweeps/GRID.parquet, or sweeps/sweep.parquet)"
+    )
+    p.add_argument(
+        "--csv",
+        nargs="?",
+        const=True,
+        default=None,
+        metavar="PATH",
+        help="also write the table as CSV (default path: OUT with .csv)",
+    )
+    p.add_argument(
+        "--record",
+        default=None,
+        metavar="DIR",
+        help="also write each run's recording to DIR/<run_id>.rrd (on the machine that runs it)",
+    )
+    p.add_argument(
+        "--scheduler",
+        type=_scheduler,
+        default=None,
+        metavar="tcp://HOST:PORT",
+        help="run on this Dask distributed scheduler instead of local processes",
+    )
+    p.add_argument(
+        "--workers",
+        type=_workers,
+        default=None,
+        help="local processes (default: the CPU count; 1 runs in this process)",
+    )
     p.add_argument("--no-resume", action="store_true", help="run every task again and replace the table")
-    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress bar on stderr (default: when stderr is a terminal)")
+    p.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
     p.set_defaults(func=cmd_sweep, sweep_parser=p)
     return p
 
@@ -131,8 +173,10 @@ def grids_of(args: argparse.Namespace) -> list[Grid]:
             raise ValueError("give a grid file or --scenes (see 'phys2d sweep --help')")
         return grids_from_mapping(given, where="command line")
     grids = load_toml(args.grid)
-    return [Grid(**{**{f: getattr(g, f) for f in AXES}, **given},
-                 lenient=tuple(a for a in g.lenient if a not in given)) for g in grids]
+    return [
+        Grid(**{**{f: getattr(g, f) for f in AXES}, **given}, lenient=tuple(a for a in g.lenient if a not in given))
+        for g in grids
+    ]
 
 
 def summary(rows: list[dict[str, Any]]) -> list[str]:
@@ -140,15 +184,19 @@ def summary(rows: list[dict[str, Any]]) -> list[str]:
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["scene"], r["responder"]), []).append(r)
-    head = f"{'scene':<16} {'responder':<10} {'runs':>5} {'stood':>5} {'fell':>5} {'restless':>8} {'error':>5} " \
-           f"{'ms/step':>8}"
+    head = (
+        f"{'scene':<16} {'responder':<10} {'runs':>5} {'stood':>5} {'fell':>5} {'restless':>8} {'error':>5} "
+        f"{'ms/step':>8}"
+    )
     lines = [head]
     for (scene, responder), rs in groups.items():
         n = Counter(r["outcome"] for r in rs)
         ms = sorted(r["ms_per_step"] for r in rs if r["ms_per_step"] == r["ms_per_step"] and r["ms_per_step"])
         med = f"{ms[len(ms) // 2]:.3f}" if ms else "-"
-        lines.append(f"{scene:<16} {responder:<10} {len(rs):>5} {n['stood']:>5} {n['fell']:>5} "
-                     f"{n['restless']:>8} {n['error']:>5} {med:>8}")
+        lines.append(
+            f"{scene:<16} {responder:<10} {len(rs):>5} {n['stood']:>5} {n['fell']:>5} "
+            f"{n['restless']:>8} {n['error']:>5} {med:>8}"
+        )
     return lines
 
 
@@ -164,19 +212,31 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         stem = os.path.splitext(os.path.basename(args.grid))[0] if args.grid else None
         out = os.path.join("sweeps", f"{stem}.parquet") if stem else DEFAULT_OUT
     try:
-        result = sweep(grids, out, csv=args.csv, scheduler=args.scheduler, workers=args.workers,
-                       record=args.record, resume=not args.no_resume, progress=args.progress)
+        result = sweep(
+            grids,
+            out,
+            csv=args.csv,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            record=args.record,
+            resume=not args.no_resume,
+            progress=args.progress,
+        )
     except ImportError as e:
         print(f"phys2d sweep: error: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"phys2d sweep: interrupted; the runs that finished are in {out}: run the same command to resume",
-              file=sys.stderr)
+        print(
+            f"phys2d sweep: interrupted; the runs that finished are in {out}: run the same command to resume",
+            file=sys.stderr,
+        )
         return 130
     total = result.ran + result.skipped
-    print(f"sweep: {total} runs, {result.ran} run now on {result.where} in {result.seconds:.1f} s, "
-          f"{result.skipped} already in the table" + (f", {result.failed} stopped early (see the error column)"
-                                                        if result.failed else ""))
+    print(
+        f"sweep: {total} runs, {result.ran} run now on {result.where} in {result.seconds:.1f} s, "
+        f"{result.skipped} already in the table"
+        + (f", {result.failed} stopped early (see the error column)" if result.failed else "")
+    )
     print("\n".join(summary(result.rows)))
     print(f"table: {result.path} ({result.table.num_rows} rows)" + (f"; csv: {result.csv}" if result.csv else ""))
     return 0

@@ -138,8 +138,9 @@ def _responder(v: Any) -> str:
     if not isinstance(v, str):
         raise TypeError(f"responders must be responder names (str), got {v!r}")
     if v not in REGISTRY:
-        raise ValueError(f"responders: unknown responder {v!r}{_suggest(v, REGISTRY)} "
-                         f"(choose from: {', '.join(REGISTRY)})")
+        raise ValueError(
+            f"responders: unknown responder {v!r}{_suggest(v, REGISTRY)} (choose from: {', '.join(REGISTRY)})"
+        )
     return v
 
 
@@ -153,7 +154,7 @@ def _range(item: Any, name: str) -> tuple[Any, ...]:
     try:
         a, b = (int(x) for x in item.split(".."))
     except ValueError:
-        raise ValueError(f"{name} must be whole numbers or ranges \"A..B\", got {item!r}") from None
+        raise ValueError(f'{name} must be whole numbers or ranges "A..B", got {item!r}') from None
     if b < a:
         raise ValueError(f"{name}: a range must go up, got {item!r}")
     return tuple(range(a, b + 1))
@@ -169,7 +170,7 @@ _CHECKS = {
     "dt": lambda v: _check_float(v, "dt"),
     "steps": lambda v: _check_int(v, "steps", 1, MAX_STEPS),
     "friction": _optional(lambda v: _check_float(v, "friction", strict=False)),
-    "seed": _optional(lambda v: _check_int(v, "seed", 0, 2 ** 63 - 1)),
+    "seed": _optional(lambda v: _check_int(v, "seed", 0, 2**63 - 1)),
     "jitter": lambda v: _check_float(v, "jitter", strict=False),
 }
 
@@ -262,7 +263,7 @@ class Grid:
             k = unknown[0]
             raise ValueError(f"grid: unknown axis {k!r}{_suggest(str(k), AXES)} (axes: {', '.join(AXES)})")
         if "scenes" not in spec:
-            raise ValueError("grid: scenes must be given (e.g. scenes = [\"vertical_stack\"])")
+            raise ValueError('grid: scenes must be given (e.g. scenes = ["vertical_stack"])')
         return cls(**{k: v for k, v in spec.items()}, lenient=tuple(lenient))
 
     def tasks(self) -> list[Task]:
@@ -279,8 +280,9 @@ class Grid:
     def unused(self, used: set[str] | None = None, *, all_axes: bool = False) -> list[str]:
         """The axes given values that apply to none of the runs (the lenient ones too with ``all_axes``)."""
         used = self._expand()[1] if used is None else used
-        return [a for a in _APPLIES if getattr(self, a) != (None,) and a not in used
-                and (all_axes or a not in self.lenient)]
+        return [
+            a for a in _APPLIES if getattr(self, a) != (None,) and a not in used and (all_axes or a not in self.lenient)
+        ]
 
     def _expand(self) -> tuple[list[Task], set[str]]:
         out: list[Task] = []
@@ -302,16 +304,21 @@ class Grid:
                                     for steps in self.steps:
                                         for mu in self.friction:
                                             for seed in self.seed:
-                                                for jit in (self.jitter if seed is not None else (None,)):
-                                                    out.append(Task(scene, size, ratio, name, it, sub, dt, steps,
-                                                                    mu, seed, jit))
+                                                for jit in self.jitter if seed is not None else (None,):
+                                                    out.append(
+                                                        Task(
+                                                            scene, size, ratio, name, it, sub, dt, steps, mu, seed, jit
+                                                        )
+                                                    )
         return out, used
 
 
-_APPLIES = {"iterations": "responders that take sweeps or passes (pgs..., iterative)",
-            "substeps": "the soft-step responder",
-            "mass_ratio": f"scenes {', '.join(RATIO_SCENES)}",
-            "size": "scenes other than mass_ratio (its size is mass_ratio)"}
+_APPLIES = {
+    "iterations": "responders that take sweeps or passes (pgs..., iterative)",
+    "substeps": "the soft-step responder",
+    "mass_ratio": f"scenes {', '.join(RATIO_SCENES)}",
+    "size": "scenes other than mass_ratio (its size is mass_ratio)",
+}
 
 
 GridLike = Grid | Mapping[str, Any] | str | os.PathLike | Sequence[Grid | Mapping[str, Any]]
@@ -377,8 +384,10 @@ def as_grids(grid: Any) -> list[Grid]:
         for g in grid:
             out += [g] if isinstance(g, Grid) else grids_from_mapping(g)
         return out
-    raise TypeError("grid must be a phys2d.sweeps.Grid, a mapping of axis -> values, a path to a TOML file, "
-                    f"or a list of grids; got {type(grid).__name__}")
+    raise TypeError(
+        "grid must be a phys2d.sweeps.Grid, a mapping of axis -> values, a path to a TOML file, "
+        f"or a list of grids; got {type(grid).__name__}"
+    )
 
 
 def expand(grids: Sequence[Grid]) -> list[Task]:
@@ -393,5 +402,16 @@ def expand(grids: Sequence[Grid]) -> list[Task]:
     return out
 
 
-__all__ = ["AXES", "DEFAULT_DT", "DEFAULT_JITTER", "DEFAULT_STEPS", "Grid", "GridLike", "Task", "as_grids",
-           "expand", "grids_from_mapping", "load_toml"]
+__all__ = [
+    "AXES",
+    "DEFAULT_DT",
+    "DEFAULT_JITTER",
+    "DEFAULT_STEPS",
+    "Grid",
+    "GridLike",
+    "Task",
+    "as_grids",
+    "expand",
+    "grids_from_mapping",
+    "load_toml",
+]

@@ -91,8 +91,9 @@ def read_table(path: str) -> list[dict[str, Any]]:
     try:
         return pq.read_table(path).to_pylist()
     except Exception as e:  # a file that is not Parquet: say so rather than overwrite it
-        raise ValueError(f"out {path!r} exists and is not a readable Parquet table ({e}); "
-                         "choose another path, or remove it") from None
+        raise ValueError(
+            f"out {path!r} exists and is not a readable Parquet table ({e}); choose another path, or remove it"
+        ) from None
 
 
 def to_table(rows: list[dict[str, Any]]) -> Any:
@@ -180,8 +181,10 @@ def _dask(tasks: Sequence[Task], record: str | None, address: str) -> Iterator[l
                 try:
                     yield f.result()
                 except (ImportError, AttributeError) as e:
-                    raise RuntimeError(f"a Dask worker could not run a phys2d task ({type(e).__name__}: {e}); "
-                                       "is the same phys2d installed on every worker?") from None
+                    raise RuntimeError(
+                        f"a Dask worker could not run a phys2d task ({type(e).__name__}: {e}); "
+                        "is the same phys2d installed on every worker?"
+                    ) from None
         except BaseException:
             client.cancel(futures)
             raise
@@ -190,10 +193,19 @@ def _dask(tasks: Sequence[Task], record: str | None, address: str) -> Iterator[l
 
 
 # -- the sweep ---------------------------------------------------------------------------------
-def sweep(grid: Any, out: str | os.PathLike = DEFAULT_OUT, *, csv: str | os.PathLike | bool | None = None,
-          scheduler: str | None = None, workers: int | None = None, record: str | os.PathLike | None = None,
-          resume: bool = True, progress: bool | None = None, checkpoint: float = CHECKPOINT_S,
-          on_row: Callable[[dict[str, Any]], None] | None = None) -> SweepResult:
+def sweep(
+    grid: Any,
+    out: str | os.PathLike = DEFAULT_OUT,
+    *,
+    csv: str | os.PathLike | bool | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    record: str | os.PathLike | None = None,
+    resume: bool = True,
+    progress: bool | None = None,
+    checkpoint: float = CHECKPOINT_S,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> SweepResult:
     """Run every combination of a grid, one deterministic task per run, into one Parquet table.
 
     grid       a ``Grid``, a mapping {axis: values}, a list of those, or the path of a
@@ -264,8 +276,14 @@ def sweep(grid: Any, out: str | os.PathLike = DEFAULT_OUT, *, csv: str | os.Path
         source = _serial(todo, record_dir) if n == 1 else _pool(todo, record_dir, n)
         where = "this process" if n == 1 else f"{n} local processes"
     show = sys.stderr.isatty() if progress is None else bool(progress)
-    bar = tqdm(total=len(todo), disable=not show, file=sys.stderr, unit="run", dynamic_ncols=True,
-               desc=f"sweep ({where})" + (f", {skipped} already done" if skipped else ""))
+    bar = tqdm(
+        total=len(todo),
+        disable=not show,
+        file=sys.stderr,
+        unit="run",
+        dynamic_ncols=True,
+        desc=f"sweep ({where})" + (f", {skipped} already done" if skipped else ""),
+    )
     failed = 0
     last = time.perf_counter()
     new_rows: list[dict[str, Any]] = []
@@ -285,8 +303,17 @@ def sweep(grid: Any, out: str | os.PathLike = DEFAULT_OUT, *, csv: str | os.Path
         bar.close()
         ordered = _ordered(tasks, rows, old)
         table = write_table(ordered, path, csv_path)
-    return SweepResult(table=table, path=path, csv=csv_path, ran=len(new_rows), skipped=skipped, failed=failed,
-                       seconds=time.perf_counter() - t_start, where=where, rows=table.to_pylist())
+    return SweepResult(
+        table=table,
+        path=path,
+        csv=csv_path,
+        ran=len(new_rows),
+        skipped=skipped,
+        failed=failed,
+        seconds=time.perf_counter() - t_start,
+        where=where,
+        rows=table.to_pylist(),
+    )
 
 
 def _check_grid_builds(tasks: Sequence[Task]) -> None:
@@ -303,8 +330,11 @@ def _check_grid_builds(tasks: Sequence[Task]) -> None:
         try:
             build_scene(t.scene, t.size, t.mass_ratio, REGISTRY[t.responder](t.count))
         except (ValueError, TypeError) as e:
-            what = f"scene {t.scene!r}" + (f" with size {t.size!r}" if t.size is not None else "") + (
-                f" and mass_ratio {t.mass_ratio!r}" if t.mass_ratio is not None else "")
+            what = (
+                f"scene {t.scene!r}"
+                + (f" with size {t.size!r}" if t.size is not None else "")
+                + (f" and mass_ratio {t.mass_ratio!r}" if t.mass_ratio is not None else "")
+            )
             raise type(e)(f"{what} under responder {t.responder!r}: {e}") from None
 
 
@@ -324,5 +354,14 @@ def metrics_equal(a: dict[str, Any], b: dict[str, Any]) -> bool:
     return all(_same(a.get(c), b.get(c)) for c in METRIC_COLUMNS)
 
 
-__all__ = ["CHECKPOINT_S", "DEFAULT_OUT", "SweepResult", "check_scheduler", "metrics_equal", "read_table", "sweep",
-           "to_table", "write_table"]
+__all__ = [
+    "CHECKPOINT_S",
+    "DEFAULT_OUT",
+    "SweepResult",
+    "check_scheduler",
+    "metrics_equal",
+    "read_table",
+    "sweep",
+    "to_table",
+    "write_table",
+]

@@ -39,7 +39,7 @@ def circle_stack(n: int = 2, responder: Responder | None = None, mass_ratio: flo
     ratio = positive_float(mass_ratio, "mass_ratio")
     w = World(responder=responder)
     scenes.ground(w)
-    area = math.pi * CIRCLE_RADIUS ** 2
+    area = math.pi * CIRCLE_RADIUS**2
     for k in range(n):
         mass = ratio * BASE_MASS if k == n - 1 else BASE_MASS
         w.add_circle(position=(0.0, CIRCLE_RADIUS * (2 * k + 1)), radius=CIRCLE_RADIUS, density=mass / area)
@@ -75,5 +75,13 @@ def build_scene(scene: str, size: Any, mass_ratio: float | None, responder: Resp
     return builder(**kwargs) if size is None else builder(size, **kwargs)
 
 
-__all__ = ["BASE_MASS", "CIRCLE_RADIUS", "COLUMNS", "RATIO_SCENES", "SWEEP_SCENES", "all_scenes", "build_scene",
-           "circle_stack"]
+__all__ = [
+    "BASE_MASS",
+    "CIRCLE_RADIUS",
+    "COLUMNS",
+    "RATIO_SCENES",
+    "SWEEP_SCENES",
+    "all_scenes",
+    "build_scene",
+    "circle_stack",
+]

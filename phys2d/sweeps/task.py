@@ -41,8 +41,20 @@ from ..world import SimulationError, World
 from .grid import Task
 from .scenes import COLUMNS, build_scene
 
-PARAM_COLUMNS = ("run_id", "scene", "size", "mass_ratio", "responder", "iterations", "substeps", "dt", "steps",
-                 "friction", "seed", "jitter")
+PARAM_COLUMNS = (
+    "run_id",
+    "scene",
+    "size",
+    "mass_ratio",
+    "responder",
+    "iterations",
+    "substeps",
+    "dt",
+    "steps",
+    "friction",
+    "seed",
+    "jitter",
+)
 LOAD_COLUMNS = ("load_error_first_tick", "load_error_second_half")
 TIMING_COLUMNS = ("ms_per_step", "first_step_ms")
 TAIL_COLUMNS = ("error", *TIMING_COLUMNS, "recording")
@@ -57,9 +69,22 @@ def _verdict_kinds() -> dict[str, type]:
 VERDICT_COLUMNS = tuple(_verdict_kinds())
 ROW_COLUMNS = (*PARAM_COLUMNS, *VERDICT_COLUMNS, *LOAD_COLUMNS, *TAIL_COLUMNS)
 COLUMN_KINDS: dict[str, type] = {
-    "run_id": str, "scene": str, "size": float, "mass_ratio": float, "responder": str, "iterations": int,
-    "substeps": int, "dt": float, "steps": int, "friction": float, "seed": int, "jitter": float,
-    **_verdict_kinds(), **dict.fromkeys(LOAD_COLUMNS, float), "error": str, **dict.fromkeys(TIMING_COLUMNS, float),
+    "run_id": str,
+    "scene": str,
+    "size": float,
+    "mass_ratio": float,
+    "responder": str,
+    "iterations": int,
+    "substeps": int,
+    "dt": float,
+    "steps": int,
+    "friction": float,
+    "seed": int,
+    "jitter": float,
+    **_verdict_kinds(),
+    **dict.fromkeys(LOAD_COLUMNS, float),
+    "error": str,
+    **dict.fromkeys(TIMING_COLUMNS, float),
     "recording": str,
 }
 """Each column's type (a table column may hold None, except for the metrics)."""
@@ -181,5 +206,16 @@ def run_tasks(tasks: list[Task], record_dir: str | None = None) -> list[dict[str
     return [run_task(t, record_dir) for t in tasks]
 
 
-__all__ = ["COLUMN_KINDS", "LOAD_COLUMNS", "LoadWatch", "METRIC_COLUMNS", "PARAM_COLUMNS", "ROW_COLUMNS",
-           "TIMING_COLUMNS", "VERDICT_COLUMNS", "build", "run_task", "run_tasks"]
+__all__ = [
+    "COLUMN_KINDS",
+    "LOAD_COLUMNS",
+    "LoadWatch",
+    "METRIC_COLUMNS",
+    "PARAM_COLUMNS",
+    "ROW_COLUMNS",
+    "TIMING_COLUMNS",
+    "VERDICT_COLUMNS",
+    "build",
+    "run_task",
+    "run_tasks",
+]
