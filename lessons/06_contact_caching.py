@@ -34,9 +34,11 @@ import phys2d
 
 args = c.options(__doc__)
 seconds = 3.0 if args.quick else 10.0
-c.claim("with contact identities that survive from tick to tick, warm-started PGS reaches a tolerance in "
-        "fewer sweeps, leaves less residual at a fixed count, and keeps stacks up; but a stored impulse outlives "
-        "its load, so an island that lost a load starts cold")
+c.claim(
+    "with contact identities that survive from tick to tick, warm-started PGS reaches a tolerance in "
+    "fewer sweeps, leaves less residual at a fixed count, and keeps stacks up; but a stored impulse outlives "
+    "its load, so an island that lost a load starts cold"
+)
 
 rec = c.recorder(args, __file__, "lesson 6: contact caching")
 for name, v in (("resting box", 0.0), ("sliding box (3 m/s)", 3.0)):
@@ -50,8 +52,16 @@ for name, v in (("resting box", 0.0), ("sliding box (3 m/s)", 3.0)):
         ct = w.contacts
         hits.append(w.last_step.cache_hit_rate)
         if tick in (0, 1, 59):
-            rows += [[str(w.tick), f"{ct.key[k]:#x}", repr(phys2d.describe_feature(int(ct.feature[k]))),
-                      str(ct.warm_started[k]), ct.normal_impulse[k]] for k in range(len(ct))]
+            rows += [
+                [
+                    str(w.tick),
+                    f"{ct.key[k]:#x}",
+                    repr(phys2d.describe_feature(int(ct.feature[k]))),
+                    str(ct.warm_started[k]),
+                    ct.normal_impulse[k],
+                ]
+                for k in range(len(ct))
+            ]
     print(f"{name}: contacts on ticks 1, 2 and 60")
     c.table(["tick", "key", "feature id", "warm started", "lambda_n (N s)"], rows)
     print(f"{name}: cache hit rate over ticks 2..60: {100 * np.mean(hits[1:]):.1f}%  (tick 1: {100 * hits[0]:.0f}%)")
@@ -68,8 +78,16 @@ for warm in (True, False):
     pen = c.simulate(w, seconds, rec, f"stack-{label}", lambda w: w.last_step.max_penetration)
     rows.append([label, sweeps[60:].mean(), res[60:].mean(), c.standing(w, y0), pen.max()])
 print(f"warm start on and off, {seconds:g} s each (after the first second for the pyramid figures):")
-c.table(["start", "pyramid: sweeps to 1e-3 m/s", "pyramid: residual after 10 sweeps (m/s)",
-         "8-box stack: standing", "stack: max penetration (m)"], rows)
+c.table(
+    [
+        "start",
+        "pyramid: sweeps to 1e-3 m/s",
+        "pyramid: residual after 10 sweeps (m/s)",
+        "8-box stack: standing",
+        "stack: max penetration (m)",
+    ],
+    rows,
+)
 warm, cold = rows
 
 
@@ -106,23 +124,37 @@ for label, pgs in (("split", phys2d.PGS()), ("lecture-push", phys2d.PGS(split=Fa
     rec.log(w, run=f"unload-{label}")
     started_cold = not w.contacts.warm_started.any()
     rise = c.simulate(w, after, rec, f"unload-{label}", lambda w: (w.x[1:, 1] - rest_y).max())
-    unload.append([label, speed[-30:].max(), 1000 * max(rise.max(), float((w.x[1:, 1] - rest_y).max())),
-                   "cold" if started_cold else "warm"])
+    unload.append(
+        [
+            label,
+            speed[-30:].max(),
+            1000 * max(rise.max(), float((w.x[1:, 1] - rest_y).max())),
+            "cold" if started_cold else "warm",
+        ]
+    )
 rec.close()
-print(f"the price: a 30 kg box on three 1 kg boxes, PGS(), {settle:g} s; lambda_n under each pair (N s) against "
-      f"the weight it carries, m g dt:")
-c.table(["pair", "stored lambda_n (N s)", "weight above, m g dt (N s)"],
-        [[f"{k}-{k + 1}", stored[k], carried[k]] for k in range(4)])
-print(f"take the 30 kg box away: warm-started from its stored {stored[2]:.3g} N s, box 3 (it carries only its own "
-      f"{g_dt:.3g} N s now) would start the step at {kick:.2f} m/s up")
+print(
+    f"the price: a 30 kg box on three 1 kg boxes, PGS(), {settle:g} s; lambda_n under each pair (N s) against "
+    f"the weight it carries, m g dt:"
+)
+c.table(
+    ["pair", "stored lambda_n (N s)", "weight above, m g dt (N s)"],
+    [[f"{k}-{k + 1}", stored[k], carried[k]] for k in range(4)],
+)
+print(
+    f"take the 30 kg box away: warm-started from its stored {stored[2]:.3g} N s, box 3 (it carries only its own "
+    f"{g_dt:.3g} N s now) would start the step at {kick:.2f} m/s up"
+)
 print(f"so the island that lost the pair (3, top) starts cold; then {after:g} s:")
 c.table(["PGS push", "speed, last 0.5 s before (m/s)", "rise above rest after (mm)", "column at removal"], unload)
 split, lecture = unload
-print(f"TAKEAWAY: warm starting needs {cold[1] / warm[1]:.0f}x fewer sweeps ({warm[1]:.1f} against {cold[1]:.1f}), "
-      f"leaves {warm[2]:.2g} m/s of residual after 10 sweeps (cold: {cold[2]:.2g} m/s), "
-      f"and the stack keeps {warm[3]} of 8 boxes up (cold: {cold[3]}); but the impulses under a 30 kg box would "
-      f"throw box 3 up at {kick:.1f} m/s once it is gone, so that island starts cold and the column stays at its "
-      f"unloaded resting height (highest box {split[2]:+.1f} mm); with the lecture's push, which stays in V, the "
-      f"loaded column never came to rest: it "
-      f"bounced at up to {lecture[1]:.2f} m/s")
+print(
+    f"TAKEAWAY: warm starting needs {cold[1] / warm[1]:.0f}x fewer sweeps ({warm[1]:.1f} against {cold[1]:.1f}), "
+    f"leaves {warm[2]:.2g} m/s of residual after 10 sweeps (cold: {cold[2]:.2g} m/s), "
+    f"and the stack keeps {warm[3]} of 8 boxes up (cold: {cold[3]}); but the impulses under a 30 kg box would "
+    f"throw box 3 up at {kick:.1f} m/s once it is gone, so that island starts cold and the column stays at its "
+    f"unloaded resting height (highest box {split[2]:+.1f} mm); with the lecture's push, which stays in V, the "
+    f"loaded column never came to rest: it "
+    f"bounced at up to {lecture[1]:.2f} m/s"
+)
 c.done(rec)

@@ -51,12 +51,16 @@ import numpy as np
 
 import phys2d
 
-RESPONDERS = (("PGS(10)", lambda: phys2d.PGS(iterations=10)),
-              ("PGS(10) block", lambda: phys2d.PGS(iterations=10, block=True)),
-              ("SoftStep(4)", lambda: phys2d.SoftStep(substeps=4)))
-SCENES = (("stack", "20-box stack", lambda r: phys2d.scenes.vertical_stack(20, r)),
-          ("lean", "20-box stack, 1 mm lean", lambda r: phys2d.scenes.vertical_stack(20, r, lean=0.001)),
-          ("ratio", "100 kg on 1 kg", lambda r: phys2d.scenes.mass_ratio(100.0, r)))
+RESPONDERS = (
+    ("PGS(10)", lambda: phys2d.PGS(iterations=10)),
+    ("PGS(10) block", lambda: phys2d.PGS(iterations=10, block=True)),
+    ("SoftStep(4)", lambda: phys2d.SoftStep(substeps=4)),
+)
+SCENES = (
+    ("stack", "20-box stack", lambda r: phys2d.scenes.vertical_stack(20, r)),
+    ("lean", "20-box stack, 1 mm lean", lambda r: phys2d.scenes.vertical_stack(20, r, lean=0.001)),
+    ("ratio", "100 kg on 1 kg", lambda r: phys2d.scenes.mass_ratio(100.0, r)),
+)
 
 
 def manifolds(w):
@@ -85,10 +89,12 @@ def soft_overlap(w, soft):
     estimate, measured, m_eff = 0.0, 0.0, {}
     for a, b, p in manifolds(w):
         r = [ct.point[p] - w.x[k] for k in (a, b)]  # lever arms; A_kk = sum 1/m + (r x n)^2 / I
-        A = sum(w.M_inv[k, 0] + w.M_inv[k, 2] * (rk[:, 0] * ct.normal[p, 1] - rk[:, 1] * ct.normal[p, 0]) ** 2
-                for k, rk in zip((a, b), r))
+        A = sum(
+            w.M_inv[k, 0] + w.M_inv[k, 2] * (rk[:, 0] * ct.normal[p, 1] - rk[:, 1] * ct.normal[p, 0]) ** 2
+            for k, rk in zip((a, b), r)
+        )
         omega = 2 * np.pi * hertz * (2 if w.M_inv[a, 0] == 0 else 1)
-        estimate = max(estimate, (g * mass[b:].sum() / len(p) / (omega ** 2 / A)).max())
+        estimate = max(estimate, (g * mass[b:].sum() / len(p) / (omega**2 / A)).max())
         measured = max(measured, -ct.separation[p].min())
         m_eff[a, b] = 1 / A.mean()
     return estimate, measured, hertz, m_eff
@@ -96,10 +102,12 @@ def soft_overlap(w, soft):
 
 args = c.options(__doc__)
 seconds = 3.0 if args.quick else 30.0
-c.claim("row-by-row PGS rocks a resting box between its corners, so a 20-box stack falls, and converges too "
-        "slowly for a 100 kg box on a 1 kg one; the block solver fixes the stack and, its push kept out of the "
-        "velocities, holds the mass ratio after sinking; the soft step fixes both, with contacts that sink by "
-        "m g / (m_eff (2 pi hertz)^2)")
+c.claim(
+    "row-by-row PGS rocks a resting box between its corners, so a 20-box stack falls, and converges too "
+    "slowly for a 100 kg box on a 1 kg one; the block solver fixes the stack and, its push kept out of the "
+    "velocities, holds the mass ratio after sinking; the soft step fixes both, with contacts that sink by "
+    "m g / (m_eff (2 pi hertz)^2)"
+)
 
 rows, soft = [], {}
 with c.recorder(args, __file__, "lesson 10: beyond the lecture") as rec:
@@ -118,25 +126,51 @@ with c.recorder(args, __file__, "lesson 10: beyond the lecture") as rec:
                 turned = np.degrees(np.abs(w.theta[1:] - theta0)).max()
                 if stood == seconds and (np.hypot(d[:, 0], d[:, 1]).max() > 0.5 or turned > 30):
                     stood = w.time
-                probe.append([np.abs(d[:, 0]).max(), d[:, 1].max(), turned, imbalance(w),
-                              w.last_step.max_penetration])
+                probe.append([np.abs(d[:, 0]).max(), d[:, 1].max(), turned, imbalance(w), w.last_step.max_penetration])
             p = np.array(probe)
-            rows.append([f"{scene}, {label}", p[:, 0].max(), p[:, 1].max(), p[:, 2].max(), stood,
-                         p[:60, 3].max(), p[:, 4].max(), p[-60:, 4].max(), 1e3 * wall / (len(p) - 1)])
+            rows.append(
+                [
+                    f"{scene}, {label}",
+                    p[:, 0].max(),
+                    p[:, 1].max(),
+                    p[:, 2].max(),
+                    stood,
+                    p[:60, 3].max(),
+                    p[:, 4].max(),
+                    p[-60:, 4].max(),
+                    1e3 * wall / (len(p) - 1),
+                ]
+            )
             if isinstance(responder, phys2d.SoftStep):
                 soft[key] = soft_overlap(w, responder)
 print(f"{seconds:g} s at dt = 1/{1 / c.DT:.0f} s; stood = until a box moved > 0.5 m or turned > 30 deg")
-c.table(["scene, responder", "x move (m)", "rise (m)", "turn (deg)", "stood (s)", "imbalance, 1st s",
-         "overlap, max (m)", "overlap, last s (m)", "ms/step"], rows)
+c.table(
+    [
+        "scene, responder",
+        "x move (m)",
+        "rise (m)",
+        "turn (deg)",
+        "stood (s)",
+        "imbalance, 1st s",
+        "overlap, max (m)",
+        "overlap, last s (m)",
+        "ms/step",
+    ],
+    rows,
+)
 
 est, meas, hertz, m_eff = soft["ratio"]
-print(f"SoftStep springs: hertz = min({phys2d.SoftStep().contact_hertz:g}, 0.25/h) = {hertz:g} Hz with "
-      f"h = dt/4 (twice that against the ground); 100 kg on 1 kg: m_eff = 1/A_kk = {m_eff[1, 2]:.3g} kg a point, "
-      f"2 points")
+print(
+    f"SoftStep springs: hertz = min({phys2d.SoftStep().contact_hertz:g}, 0.25/h) = {hertz:g} Hz with "
+    f"h = dt/4 (twice that against the ground); 100 kg on 1 kg: m_eff = 1/A_kk = {m_eff[1, 2]:.3g} kg a point, "
+    f"2 points"
+)
 print(f"SoftStep overlap, 100 kg on 1 kg: estimate m g / (2 m_eff (2 pi hertz)^2) = {est:.4g} m, measured {meas:.4g} m")
 est_s, meas_s = soft["stack"][:2]
-print(f"SoftStep overlap, 20-box stack: estimate (load above) / (2 m_eff (2 pi hertz)^2) = {est_s:.4g} m, "
-      f"measured {meas_s:.4g} m")
+print(
+    f"SoftStep overlap, 20-box stack: estimate (load above) / (2 m_eff (2 pi hertz)^2) = {est_s:.4g} m, "
+    f"measured {meas_s:.4g} m"
+)
 
 by = {r[0]: r for r in rows}
 pgs_s, blk_s, soft_s = (by[f"20-box stack, {n}"] for n, _ in RESPONDERS)
@@ -148,13 +182,17 @@ def fate(row):
 
 
 lean_pgs, lean_blk, lean_soft = (by[f"20-box stack, 1 mm lean, {n}"] for n, _ in RESPONDERS)
-print(f"LEAN: with box k shifted by 1 mm * k, row-by-row PGS {fate(lean_pgs)}; the block solver moved "
-      f"{lean_blk[1]:.3f} m and {fate(lean_blk)}; the soft step moved {lean_soft[1]:.3f} m and {fate(lean_soft)} "
-      f"(the straight stack: {soft_s[1]:.2g} m)")
-print(f"TAKEAWAY: one row at a time, PGS loads one corner more (imbalance {pgs_s[5]:.2f}): the 20-box stack "
-      f"{fate(pgs_s)}, the 100 kg box sank {pgs_r[6]:.3f} m and {fate(pgs_r)}; the block solver shares the corners "
-      f"(imbalance {blk_s[5]:.2f}, the stack {fate(blk_s)}, x move {blk_s[1]:.2g} m) and, its push moving positions "
-      f"only, holds the 100 kg box ({fate(blk_r)}) after it sank {blk_r[6]:.3f} m; the soft step keeps both up "
-      f"({fate(soft_s)}, {fate(soft_r)}) at the price of {meas:.3f} m of overlap under 100 kg "
-      f"(m g / (2 m_eff (2 pi hertz)^2) = {est:.3f} m)")
+print(
+    f"LEAN: with box k shifted by 1 mm * k, row-by-row PGS {fate(lean_pgs)}; the block solver moved "
+    f"{lean_blk[1]:.3f} m and {fate(lean_blk)}; the soft step moved {lean_soft[1]:.3f} m and {fate(lean_soft)} "
+    f"(the straight stack: {soft_s[1]:.2g} m)"
+)
+print(
+    f"TAKEAWAY: one row at a time, PGS loads one corner more (imbalance {pgs_s[5]:.2f}): the 20-box stack "
+    f"{fate(pgs_s)}, the 100 kg box sank {pgs_r[6]:.3f} m and {fate(pgs_r)}; the block solver shares the corners "
+    f"(imbalance {blk_s[5]:.2f}, the stack {fate(blk_s)}, x move {blk_s[1]:.2g} m) and, its push moving positions "
+    f"only, holds the 100 kg box ({fate(blk_r)}) after it sank {blk_r[6]:.3f} m; the soft step keeps both up "
+    f"({fate(soft_s)}, {fate(soft_r)}) at the price of {meas:.3f} m of overlap under 100 kg "
+    f"(m g / (2 m_eff (2 pi hertz)^2) = {est:.3f} m)"
+)
 c.done(rec)

@@ -30,10 +30,32 @@ from .world import SimulationError, World
 
 __version__ = "0.1.0"
 
-__all__ = ["AngleJoint", "Body", "Contacts", "DistanceJoint", "IterativeImpulse", "Joint",
-           "NaiveImpulse", "PGS", "PinJoint", "REGISTRY", "Recorder", "Responder", "SimulationError", "SoftStep",
-           "StepReport", "Verdict", "Watch", "World", "describe_feature", "make_responder", "playback", "scenes",
-           "sweep", "__version__"]
+__all__ = [
+    "AngleJoint",
+    "Body",
+    "Contacts",
+    "DistanceJoint",
+    "IterativeImpulse",
+    "Joint",
+    "NaiveImpulse",
+    "PGS",
+    "PinJoint",
+    "REGISTRY",
+    "Recorder",
+    "Responder",
+    "SimulationError",
+    "SoftStep",
+    "StepReport",
+    "Verdict",
+    "Watch",
+    "World",
+    "describe_feature",
+    "make_responder",
+    "playback",
+    "scenes",
+    "sweep",
+    "__version__",
+]
 
 
 def __getattr__(name: str):

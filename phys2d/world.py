@@ -71,9 +71,15 @@ class World:
     changes nothing.
     """
 
-    def __init__(self, gravity=(0.0, -10.0), responder: Responder | None = None, *,
-                 contact_margin: float = 0.02, max_speed: float = 1e4,
-                 contact_recycle_distance: float = 0.05) -> None:
+    def __init__(
+        self,
+        gravity=(0.0, -10.0),
+        responder: Responder | None = None,
+        *,
+        contact_margin: float = 0.02,
+        max_speed: float = 1e4,
+        contact_recycle_distance: float = 0.05,
+    ) -> None:
         self.gravity = gravity
         self._responder = self._check_responder(PGS() if responder is None else responder)
         self.contact_margin = contact_margin
@@ -103,8 +109,7 @@ class World:
     @staticmethod
     def _check_responder(responder: object) -> Responder:
         if not isinstance(responder, Responder):
-            raise TypeError(
-                f"responder must be a phys2d responder such as phys2d.PGS(), got {responder!r}")
+            raise TypeError(f"responder must be a phys2d responder such as phys2d.PGS(), got {responder!r}")
         return responder
 
     @property
@@ -121,7 +126,8 @@ class World:
         if (self._joints or adding) and not responder.handles_joints:
             raise ValueError(
                 f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
-                "(as the lecture's naive takes do); use phys2d.PGS() or phys2d.SoftStep() in a world with joints")
+                "(as the lecture's naive takes do); use phys2d.PGS() or phys2d.SoftStep() in a world with joints"
+            )
 
     @property
     def gravity(self) -> np.ndarray:
@@ -196,33 +202,92 @@ class World:
     # Every argument after ``position`` is keyword-only. The ones all add_* share:
     #   angle (rad), density (kg/m^2, 2D), friction (mu >= 0), restitution (e in [0, 1]),
     #   static (never moved by impulses or gravity), velocity (m/s), angular_velocity (rad/s).
-    def add_box(self, position: ArrayLike = (0.0, 0.0), *, half_extents: ArrayLike = (0.5, 0.5),
-                angle: float = 0.0, density: float = 1.0, friction: float = 0.6, restitution: float = 0.0,
-                static: bool = False, velocity: ArrayLike = (0.0, 0.0), angular_velocity: float = 0.0) -> Body:
+    def add_box(
+        self,
+        position: ArrayLike = (0.0, 0.0),
+        *,
+        half_extents: ArrayLike = (0.5, 0.5),
+        angle: float = 0.0,
+        density: float = 1.0,
+        friction: float = 0.6,
+        restitution: float = 0.0,
+        static: bool = False,
+        velocity: ArrayLike = (0.0, 0.0),
+        angular_velocity: float = 0.0,
+    ) -> Body:
         """A box of half extents (hx, hy) in m centred at ``position`` (m), rotated by ``angle`` (rad)."""
-        return self._add(shapes.box(half_extents), position, angle, density, friction,
-                         restitution, static, velocity, angular_velocity)
+        return self._add(
+            shapes.box(half_extents),
+            position,
+            angle,
+            density,
+            friction,
+            restitution,
+            static,
+            velocity,
+            angular_velocity,
+        )
 
-    def add_circle(self, position: ArrayLike = (0.0, 0.0), *, radius: float = 0.5, angle: float = 0.0,
-                   density: float = 1.0, friction: float = 0.6, restitution: float = 0.0, static: bool = False,
-                   velocity: ArrayLike = (0.0, 0.0), angular_velocity: float = 0.0) -> Body:
+    def add_circle(
+        self,
+        position: ArrayLike = (0.0, 0.0),
+        *,
+        radius: float = 0.5,
+        angle: float = 0.0,
+        density: float = 1.0,
+        friction: float = 0.6,
+        restitution: float = 0.0,
+        static: bool = False,
+        velocity: ArrayLike = (0.0, 0.0),
+        angular_velocity: float = 0.0,
+    ) -> Body:
         """A circle of ``radius`` (m) centred at ``position`` (m)."""
-        return self._add(shapes.circle(radius), position, angle, density, friction, restitution,
-                         static, velocity, angular_velocity)
+        return self._add(
+            shapes.circle(radius), position, angle, density, friction, restitution, static, velocity, angular_velocity
+        )
 
-    def add_polygon(self, position: ArrayLike = (0.0, 0.0), *, vertices: ArrayLike, angle: float = 0.0,
-                    density: float = 1.0, friction: float = 0.6, restitution: float = 0.0, static: bool = False,
-                    velocity: ArrayLike = (0.0, 0.0), angular_velocity: float = 0.0) -> Body:
+    def add_polygon(
+        self,
+        position: ArrayLike = (0.0, 0.0),
+        *,
+        vertices: ArrayLike,
+        angle: float = 0.0,
+        density: float = 1.0,
+        friction: float = 0.6,
+        restitution: float = 0.0,
+        static: bool = False,
+        velocity: ArrayLike = (0.0, 0.0),
+        angular_velocity: float = 0.0,
+    ) -> Body:
         """A convex polygon: ``vertices`` (m), at least 3, counter-clockwise in the body frame.
 
         The vertices are re-centred on their centroid, which is placed at
         ``position`` (m): a body's position is always its centre of mass.
         """
-        return self._add(shapes.polygon(vertices), position, angle, density, friction,
-                         restitution, static, velocity, angular_velocity)
+        return self._add(
+            shapes.polygon(vertices),
+            position,
+            angle,
+            density,
+            friction,
+            restitution,
+            static,
+            velocity,
+            angular_velocity,
+        )
 
-    def _add(self, spec: shapes.ShapeSpec, position: ArrayLike, angle: float, density: float, friction: float,
-             restitution: float, static: bool, velocity: ArrayLike, angular_velocity: float) -> Body:
+    def _add(
+        self,
+        spec: shapes.ShapeSpec,
+        position: ArrayLike,
+        angle: float,
+        density: float,
+        friction: float,
+        restitution: float,
+        static: bool,
+        velocity: ArrayLike,
+        angular_velocity: float,
+    ) -> Body:
         # validate everything before touching the arrays: a rejected call changes nothing
         x = vec2(position, "position")
         theta = finite_float(angle, "angle")
@@ -233,8 +298,7 @@ class World:
         v = vec2(velocity, "velocity")
         omega = finite_float(angular_velocity, "angular_velocity")
         mass, inertia = shapes.mass_properties(spec, density)
-        index = self._bodies.append(spec, x, theta, (v[0], v[1], omega), mass, inertia, friction,
-                                    restitution, static)
+        index = self._bodies.append(spec, x, theta, (v[0], v[1], omega), mass, inertia, friction, restitution, static)
         handle = Body(self, index, int(self._bodies.uid[index]))
         self._handles.append(handle)
         self._sweep_again = True  # a new body
@@ -287,9 +351,16 @@ class World:
             raise ValueError("a and b are both static: a joint between them could never act")
         return self._handles[ia], self._handles[ib]
 
-    def add_distance_joint(self, a: Body, b: Body, *, anchor_a: ArrayLike | None = None,
-                           anchor_b: ArrayLike | None = None, length: float | None = None,
-                           collide_connected: bool = False) -> DistanceJoint:
+    def add_distance_joint(
+        self,
+        a: Body,
+        b: Body,
+        *,
+        anchor_a: ArrayLike | None = None,
+        anchor_b: ArrayLike | None = None,
+        length: float | None = None,
+        collide_connected: bool = False,
+    ) -> DistanceJoint:
         """Keep point ``anchor_a`` of a and point ``anchor_b`` of b at distance ``length`` (m).
 
         Anchors are world points (m) at creation, the body centres when None; they are
@@ -303,14 +374,15 @@ class World:
         if length is None:
             length = float(np.hypot(*(p_b - p_a)))
             if length < 1e-6:
-                raise ValueError("anchor_a and anchor_b coincide, so length would be 0: "
-                                 "use add_pin_joint to hold two points together")
+                raise ValueError(
+                    "anchor_a and anchor_b coincide, so length would be 0: "
+                    "use add_pin_joint to hold two points together"
+                )
         else:
             length = positive_float(length, "length")
         collide = check_bool(collide_connected, "collide_connected")
         self._check_joints_supported(self._responder, adding=True)
-        return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length,
-                                             collide))
+        return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length, collide))
 
     def add_pin_joint(self, a: Body, b: Body, *, anchor: ArrayLike, collide_connected: bool = False) -> PinJoint:
         """Pin a and b together at the world point ``anchor`` (m): they may turn about it."""
@@ -323,8 +395,15 @@ class World:
         self._check_joints_supported(self._responder, adding=True)
         return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide))
 
-    def add_angle_joint(self, a: Body, b: Body, *, lower: float | None = None, upper: float | None = None,
-                        collide_connected: bool = False) -> AngleJoint:
+    def add_angle_joint(
+        self,
+        a: Body,
+        b: Body,
+        *,
+        lower: float | None = None,
+        upper: float | None = None,
+        collide_connected: bool = False,
+    ) -> AngleJoint:
         """Keep theta_b - theta_a at its value now (theta_0), or with ``lower`` and/or ``upper``
         (rad, offsets from theta_0) within [theta_0 + lower, theta_0 + upper]."""
         body_a, body_b = self._joint_bodies(a, b)
@@ -354,8 +433,11 @@ class World:
     def _joints_changed(self) -> None:
         """Repack the joints and rebuild the sorted keys of pairs that must not collide."""
         self._joint_arrays = JointArrays(self._joints)
-        keys = [(min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
-                for q in self._joints if not q.collide_connected]
+        keys = [
+            (min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
+            for q in self._joints
+            if not q.collide_connected
+        ]
         self._excluded = np.unique(np.asarray(keys, np.int64))
         self._sweep_again = True
 
@@ -388,11 +470,18 @@ class World:
         self._store_joint_impulses(rows)
         self._contacts, self._contacts_sealed = c, False  # sealed read-only when first looked at
         self._last_step = StepReport(
-            responder=responder.name, dt=dt, iterations=result.iterations, counted=responder.counts,
+            responder=responder.name,
+            dt=dt,
+            iterations=result.iterations,
+            counted=responder.counts,
             residuals=result.residuals,
-            max_penetration=deepest, contact_count=k, cache_hits=hits,
-            joint_impulses=rows.joint_impulses() if self._joints else EMPTY, system=result.system,
-            solve_order=order)  # its arrays turn read-only when first looked at
+            max_penetration=deepest,
+            contact_count=k,
+            cache_hits=hits,
+            joint_impulses=rows.joint_impulses() if self._joints else EMPTY,
+            system=result.system,
+            solve_order=order,
+        )  # its arrays turn read-only when first looked at
         self.tick += 1
         self.time += dt
         return self._last_step
@@ -419,8 +508,24 @@ class World:
         else:  # pair order: row order is contact order
             body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
             separation, restitution = c.separation, c.restitution
-        return StepContext(dt, b.x, b.theta, b.V, V1, b.M_inv, rows, len(c), body_a, body_b, point, normal,
-                           separation, restitution, gravity=self._gravity, joints=self._joint_arrays)
+        return StepContext(
+            dt,
+            b.x,
+            b.theta,
+            b.V,
+            V1,
+            b.M_inv,
+            rows,
+            len(c),
+            body_a,
+            body_b,
+            point,
+            normal,
+            separation,
+            restitution,
+            gravity=self._gravity,
+            joints=self._joint_arrays,
+        )
 
     def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """World vertices, edge normals, AABBs and travel: kept while the bodies are the same."""
@@ -438,8 +543,24 @@ class World:
         """
         b = self._bodies
         world_v, world_n, aabb, travel = self._geometry_buffers()
-        fits = update_geometry_in(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, dt,
-                                  self._contact_margin, world_v, world_n, aabb, travel, self._fat)
+        fits = update_geometry_in(
+            b.x,
+            b.theta,
+            b.kind,
+            b.radius,
+            b.vstart,
+            b.vcount,
+            b.local_v,
+            b.local_n,
+            b.V,
+            dt,
+            self._contact_margin,
+            world_v,
+            world_n,
+            aabb,
+            travel,
+            self._fat,
+        )
         if self._sweep_again or not fits:  # something left its fat box: sweep again
             fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
             n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
@@ -449,22 +570,53 @@ class World:
             self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
             self._pair_order = colour_pairs(self._pairs, n_pairs, b.static, b.n)
         cap = 2 * self._n_pairs
-        out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
-               np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
+        out = (
+            np.empty(cap, np.int32),
+            np.empty(cap, np.int32),
+            np.empty((cap, 2)),
+            np.empty((cap, 2)),
+            np.empty(cap),
+            np.empty(cap, np.int32),
+            np.empty(cap, np.int64),
+            np.empty(cap),
+            np.empty(cap),
+        )
         pair_start = np.empty(self._n_pairs + 1, np.int64)
-        k = self._manifolds.collide(self._pairs, self._n_pairs, b, world_v, world_n, self.contact_margin, travel,
-                                    self.contact_recycle_distance, out, pair_start)
+        k = self._manifolds.collide(
+            self._pairs,
+            self._n_pairs,
+            b,
+            world_v,
+            world_n,
+            self.contact_margin,
+            travel,
+            self.contact_recycle_distance,
+            out,
+            pair_start,
+        )
         body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
         if self._responder.colour_order:
             order = solve_order(self._pair_order, pair_start)
         else:
             order = np.arange(k, dtype=np.int32)
-        return Contacts(body_a=body_a, body_b=body_b, point=point, normal=normal, separation=separation,
-                        lambda_n=EMPTY, lambda_t=EMPTY, feature=feature, key=key, warm_started=NONE_WARM,
-                        friction=mu, restitution=e), order
+        return Contacts(
+            body_a=body_a,
+            body_b=body_b,
+            point=point,
+            normal=normal,
+            separation=separation,
+            lambda_n=EMPTY,
+            lambda_t=EMPTY,
+            feature=feature,
+            key=key,
+            warm_started=NONE_WARM,
+            friction=mu,
+            restitution=e,
+        ), order
 
-    def _build_rows(self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
-                    ) -> tuple[Rows, np.ndarray, int, float]:
+    def _build_rows(
+        self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
+    ) -> tuple[Rows, np.ndarray, int, float]:
         """Constraint rows for this step: contacts (visited in ``order``), then the joints' rows.
 
         V1 is the velocity the tick began with, V the one after external forces.
@@ -484,19 +636,73 @@ class World:
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = NOT_COUNTED  # Coulomb friction does not look at it
-        deepest = contact_rows(rows.order, rows.normal_row, rows.friction_row, c.body_a, c.body_b, c.point, c.normal,
-                     c.separation, c.friction, c.restitution, b.x, V1, V, b.M_inv, dt, r.beta, r.slop,
-                     r.push_max, r.restitution_threshold, r.friction_model, self._gravity_norm,
-                     points_in_manifold, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.push,
-                     rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu)
+        deepest = contact_rows(
+            rows.order,
+            rows.normal_row,
+            rows.friction_row,
+            c.body_a,
+            c.body_b,
+            c.point,
+            c.normal,
+            c.separation,
+            c.friction,
+            c.restitution,
+            b.x,
+            V1,
+            V,
+            b.M_inv,
+            dt,
+            r.beta,
+            r.slop,
+            r.push_max,
+            r.restitution_threshold,
+            r.friction_model,
+            self._gravity_norm,
+            points_in_manifold,
+            rows.body_a,
+            rows.body_b,
+            rows.J,
+            rows.JM,
+            rows.A_kk,
+            rows.xi,
+            rows.push,
+            rows.bounce,
+            rows.impact,
+            rows.lo,
+            rows.hi,
+            rows.bound_row,
+            rows.mu,
+        )
         if r.warm_start:
             hit, hits = self._cache.warm_start(c, b.uid, b.static, rows)
         else:
             hit, hits = np.zeros(k, np.bool_), 0
         if ja.n_rows:
-            joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset,
-                       rows.first_joint_row, b.x, b.theta, b.M_inv, dt, r.beta, rows.body_a, rows.body_b, rows.J,
-                       rows.JM, rows.A_kk, rows.xi, rows.lo, rows.hi, rows.bound_row, rows.mu)
+            joint_rows(
+                ja.kind,
+                ja.i,
+                ja.j,
+                ja.local_i,
+                ja.local_j,
+                ja.params,
+                ja.row_offset,
+                rows.first_joint_row,
+                b.x,
+                b.theta,
+                b.M_inv,
+                dt,
+                r.beta,
+                rows.body_a,
+                rows.body_b,
+                rows.J,
+                rows.JM,
+                rows.A_kk,
+                rows.xi,
+                rows.lo,
+                rows.hi,
+                rows.bound_row,
+                rows.mu,
+            )
             rows.push[rows.first_joint_row :] = 0.0  # joints keep their Baumgarte term in xi
             rows.bounce[rows.first_joint_row :] = 0.0
             rows.impact[rows.first_joint_row :] = False
@@ -521,14 +727,20 @@ class World:
         first = first_too_fast(V, b.x, b.theta, self._max_speed)
         if first >= 0:
             speed = np.hypot(V[:, 0], V[:, 1])
-            bad = ~(np.isfinite(speed) & (speed <= self._max_speed)
-                    & np.isfinite(V[:, 2]) & (np.abs(V[:, 2]) <= self._max_speed)
-                    & np.isfinite(b.x).all(axis=1) & np.isfinite(b.theta))
+            bad = ~(
+                np.isfinite(speed)
+                & (speed <= self._max_speed)
+                & np.isfinite(V[:, 2])
+                & (np.abs(V[:, 2]) <= self._max_speed)
+                & np.isfinite(b.x).all(axis=1)
+                & np.isfinite(b.theta)
+            )
             idx = np.flatnonzero(bad)
             shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
             raise SimulationError(
                 f"step would leave bodies [{shown}] faster than max_speed={self._max_speed:g} "
-                "(m/s or rad/s) or with a non-finite state; the world was left as it was before the step")
+                "(m/s or rad/s) or with a non-finite state; the world was left as it was before the step"
+            )
 
     # -- energy and momentum ---------------------------------------------------------
     def kinetic_energy(self) -> float:
@@ -616,5 +828,7 @@ class World:
     def __repr__(self) -> str:
         n = self._bodies.n
         n_static = int(self._bodies.static.sum())
-        return (f"<World: {n} bodies ({n_static} static), gravity=({self._gravity[0]:g}, "
-                f"{self._gravity[1]:g}) m/s^2, responder={self._responder!r}, t={self.time:.4g} s>")
+        return (
+            f"<World: {n} bodies ({n_static} static), gravity=({self._gravity[0]:g}, "
+            f"{self._gravity[1]:g}) m/s^2, responder={self._responder!r}, t={self.time:.4g} s>"
+        )

@@ -35,8 +35,9 @@ def vectors(lo: float, hi: float) -> st.SearchStrategy[tuple[float, float]]:
 # -- shapes ----------------------------------------------------------------------
 
 
-def ellipse_polygons(min_size: float = 0.15, max_size: float = 1.5,
-                     max_vertices: int = 8) -> st.SearchStrategy[list[tuple[float, float]]]:
+def ellipse_polygons(
+    min_size: float = 0.15, max_size: float = 1.5, max_vertices: int = 8
+) -> st.SearchStrategy[list[tuple[float, float]]]:
     """Convex counter-clockwise polygons: points at increasing angles on an ellipse.
 
     Any points on a strictly convex curve, taken in angular order, form a strictly
@@ -78,9 +79,16 @@ class BodySpec:
     angular_velocity: float = 0.0
 
     def add_to(self, w: phys2d.World) -> phys2d.Body:
-        common = dict(position=self.position, angle=self.angle, density=self.density,
-                      friction=self.friction, restitution=self.restitution, static=self.static,
-                      velocity=self.velocity, angular_velocity=self.angular_velocity)
+        common = dict(
+            position=self.position,
+            angle=self.angle,
+            density=self.density,
+            friction=self.friction,
+            restitution=self.restitution,
+            static=self.static,
+            velocity=self.velocity,
+            angular_velocity=self.angular_velocity,
+        )
         if self.kind == "box":
             return w.add_box(half_extents=self.size, **common)
         if self.kind == "circle":
@@ -96,11 +104,11 @@ class SceneSpec:
     max_speed: float = 1e4
 
 
-def build(scene: SceneSpec, responder: phys2d.Responder | None = None,
-          order: list[int] | None = None) -> phys2d.World:
+def build(scene: SceneSpec, responder: phys2d.Responder | None = None, order: list[int] | None = None) -> phys2d.World:
     """A World holding ``scene``'s bodies, added in ``order`` (default: as listed)."""
-    w = phys2d.World(gravity=scene.gravity, responder=responder,
-                     contact_margin=scene.contact_margin, max_speed=scene.max_speed)
+    w = phys2d.World(
+        gravity=scene.gravity, responder=responder, contact_margin=scene.contact_margin, max_speed=scene.max_speed
+    )
     for k in range(len(scene.bodies)) if order is None else order:
         scene.bodies[k].add_to(w)
     return w
@@ -110,11 +118,19 @@ SHAPE_KINDS = ("box", "circle", "polygon")
 
 
 @st.composite
-def body_specs(draw, *, region: float = 2.0, max_speed: float = 5.0, max_spin: float = 3.0,
-               density: tuple[float, float] = (0.2, 5.0), size: tuple[float, float] = (0.15, 1.0),
-               kinds: tuple[str, ...] = SHAPE_KINDS, friction: tuple[float, float] = (0.0, 1.0),
-               restitution: tuple[float, float] = (0.0, 1.0), static: bool | None = False,
-               ) -> BodySpec:
+def body_specs(
+    draw,
+    *,
+    region: float = 2.0,
+    max_speed: float = 5.0,
+    max_spin: float = 3.0,
+    density: tuple[float, float] = (0.2, 5.0),
+    size: tuple[float, float] = (0.15, 1.0),
+    kinds: tuple[str, ...] = SHAPE_KINDS,
+    friction: tuple[float, float] = (0.0, 1.0),
+    restitution: tuple[float, float] = (0.0, 1.0),
+    static: bool | None = False,
+) -> BodySpec:
     """A dynamic (or, with ``static=None``, possibly static) body somewhere in a small region."""
     kind = draw(st.sampled_from(kinds))
     if kind == "box":
@@ -142,8 +158,15 @@ GROUND = BodySpec("box", (0.0, -0.5), (20.0, 0.5), static=True, friction=0.6)
 
 
 @st.composite
-def scenes(draw, *, min_bodies: int = 1, max_bodies: int = 6, ground: bool | None = None,
-           gravity: bool | None = True, **body_kw) -> SceneSpec:
+def scenes(
+    draw,
+    *,
+    min_bodies: int = 1,
+    max_bodies: int = 6,
+    ground: bool | None = None,
+    gravity: bool | None = True,
+    **body_kw,
+) -> SceneSpec:
     """Scenes of a few bodies in a small region (overlapping spawns are common)."""
     bodies = draw(st.lists(body_specs(**body_kw), min_size=min_bodies, max_size=max_bodies))
     with_ground = draw(st.booleans()) if ground is None else ground
@@ -155,14 +178,23 @@ def scenes(draw, *, min_bodies: int = 1, max_bodies: int = 6, ground: bool | Non
 
 def violent_scenes() -> st.SearchStrategy[SceneSpec]:
     """Fast, spinning, overlapping bodies, static ones among them, mass ratios up to about 1e8."""
-    return scenes(max_bodies=8, ground=None, region=1.0, max_speed=60.0, max_spin=60.0,
-                  density=(1e-3, 1e2), size=(0.05, 2.0), static=None)
+    return scenes(
+        max_bodies=8,
+        ground=None,
+        region=1.0,
+        max_speed=60.0,
+        max_spin=60.0,
+        density=(1e-3, 1e2),
+        size=(0.05, 2.0),
+        static=None,
+    )
 
 
 def free_scene(scene: SceneSpec) -> SceneSpec:
     """The same bodies, none static, without gravity: momentum must be conserved."""
-    return replace(scene, gravity=(0.0, 0.0),
-                   bodies=tuple(replace(b, static=False) for b in scene.bodies if not b.static))
+    return replace(
+        scene, gravity=(0.0, 0.0), bodies=tuple(replace(b, static=False) for b in scene.bodies if not b.static)
+    )
 
 
 @st.composite
@@ -181,8 +213,9 @@ def pgs_keywords(draw, *, friction: str | None = "coulomb") -> dict[str, Any]:
 
 
 @st.composite
-def pgs_settings(draw, *, warm_start: bool | None = None, friction: str | None = "coulomb",
-                 form: str | None = None) -> phys2d.PGS:
+def pgs_settings(
+    draw, *, warm_start: bool | None = None, friction: str | None = "coulomb", form: str | None = None
+) -> phys2d.PGS:
     """Valid PGS settings: impulse form (row by row or block) or matrix form; Coulomb
     friction unless ``friction`` says otherwise (None: either model)."""
     block = draw(st.booleans()) if form in (None, "impulse") else False
@@ -256,19 +289,44 @@ def fingerprint(w: phys2d.World) -> tuple:
     b = w._bodies
     arrays = [getattr(b, name) for name in b._PER_BODY] + [b.local_v, b.local_n]
     c = w.contacts
-    contact_arrays = [c.body_a, c.body_b, c.point, c.normal, c.separation, c.normal_impulse,
-                      c.tangent_impulse, c.feature, c.key, c.warm_started]
+    contact_arrays = [
+        c.body_a,
+        c.body_b,
+        c.point,
+        c.normal,
+        c.separation,
+        c.normal_impulse,
+        c.tangent_impulse,
+        c.feature,
+        c.key,
+        c.warm_started,
+    ]
     cache = w._cache
     return (
-        b.n, b.n_verts, b.next_uid, w.tick, w.time, w.contact_margin, repr(w.responder),
-        w.gravity.tobytes(), tuple(h._index for h in w.bodies), len(w.bodies),
-        tuple(a.tobytes() for a in arrays), tuple(a.tobytes() for a in contact_arrays),
-        cache.keys.tobytes(), cache.lambda_n.tobytes(), cache.lambda_t.tobytes(),
-        w.last_step.iterations, w.last_step.residuals.tobytes(),
-        tuple((type(j).__name__, j.body_a._uid, j.body_b._uid, j.alive, j.impulse.tobytes())
-              for j in getattr(w, "joints", ())),
+        b.n,
+        b.n_verts,
+        b.next_uid,
+        w.tick,
+        w.time,
+        w.contact_margin,
+        repr(w.responder),
+        w.gravity.tobytes(),
+        tuple(h._index for h in w.bodies),
+        len(w.bodies),
+        tuple(a.tobytes() for a in arrays),
+        tuple(a.tobytes() for a in contact_arrays),
+        cache.keys.tobytes(),
+        cache.lambda_n.tobytes(),
+        cache.lambda_t.tobytes(),
+        w.last_step.iterations,
+        w.last_step.residuals.tobytes(),
+        tuple(
+            (type(j).__name__, j.body_a._uid, j.body_b._uid, j.alive, j.impulse.tobytes())
+            for j in getattr(w, "joints", ())
+        ),
         getattr(w, "_excluded", np.zeros(0)).tobytes(),
-        w.contact_recycle_distance, tuple(np.asarray(a).tobytes() for a in w._manifolds.state()),
+        w.contact_recycle_distance,
+        tuple(np.asarray(a).tobytes() for a in w._manifolds.state()),
     )
 
 
@@ -278,8 +336,18 @@ def state(w: phys2d.World) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def all_finite(w: phys2d.World) -> bool:
     c = w.contacts
-    parts = [w.x, w.theta, w.V, w.M_inv, c.point, c.normal, c.separation, c.normal_impulse,
-             c.tangent_impulse, w.last_step.residuals]
+    parts = [
+        w.x,
+        w.theta,
+        w.V,
+        w.M_inv,
+        c.point,
+        c.normal,
+        c.separation,
+        c.normal_impulse,
+        c.tangent_impulse,
+        w.last_step.residuals,
+    ]
     return all(bool(np.all(np.isfinite(p))) for p in parts)
 
 
@@ -316,8 +384,7 @@ def resting_scenes(draw, max_stacks: int = 3, max_height: int = 3) -> SceneSpec:
         x = 3.0 * s
         if draw(st.booleans()):
             r = draw(reals(0.2, 0.8))
-            bodies.append(BodySpec("circle", (x, r), r, density=draw(reals(0.5, 4.0)),
-                                   friction=draw(reals(0.2, 1.0))))
+            bodies.append(BodySpec("circle", (x, r), r, density=draw(reals(0.5, 4.0)), friction=draw(reals(0.2, 1.0))))
             continue
         y = 0.0
         below: tuple[float, float] | None = None  # (half width, mass) of the box below
@@ -328,8 +395,7 @@ def resting_scenes(draw, max_stacks: int = 3, max_height: int = 3) -> SceneSpec:
             else:
                 x += draw(reals(-0.2, 0.2)) * min(hx, below[0])
                 density = draw(reals(0.25, 2.0)) * below[1] / (4.0 * hx * hy)
-            bodies.append(BodySpec("box", (x, y + hy), (hx, hy), density=density,
-                                   friction=draw(reals(0.3, 1.0))))
+            bodies.append(BodySpec("box", (x, y + hy), (hx, hy), density=density, friction=draw(reals(0.3, 1.0))))
             y += 2.0 * hy
             below = (hx, density * 4.0 * hx * hy)
     return SceneSpec(tuple(bodies))

@@ -25,6 +25,7 @@ def test_box_flat_on_the_ground_names_the_top_and_bottom_edges():
     def build(w):
         w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)  # a: top edge at y = 0
         w.add_box(position=(0.0, 0.49), half_extents=(0.5, 0.5))  # b: bottom edge 1 cm into it
+
     c = contacts_after_one_step(build)
     assert len(c) == 2
     for k in range(2):
@@ -41,6 +42,7 @@ def test_box_on_its_corner_takes_the_ground_as_reference_even_when_it_is_body_b(
         # the box first (body a), the ground second (body b): the ground's top face separates least
         w.add_box(position=(0.0, math.sqrt(0.5) - 0.01), half_extents=(0.5, 0.5), angle=math.pi / 4)
         w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)
+
     c = contacts_after_one_step(build)
     assert len(c) == 1
     f = describe_feature(int(c.feature[0]))
@@ -57,6 +59,7 @@ def test_circle_on_a_box_names_the_edge_or_the_corner_region(x, region):
         w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)  # corner 2 at (5, 0)
         y = 0.29 if x == 0.0 else 0.29 / math.sqrt(2.0)
         w.add_circle(position=(x, y), radius=0.3)
+
     c = contacts_after_one_step(build)
     assert len(c) == 1
     f = describe_feature(int(c.feature[0]), pair="circle-polygon")
@@ -71,15 +74,25 @@ def test_circle_circle_feature_is_zero():
     def build(w):
         w.add_circle(position=(0.0, 0.0), radius=0.5, static=True)
         w.add_circle(position=(0.0, 0.99), radius=0.5)
+
     c = contacts_after_one_step(build)
     assert describe_feature(int(c.feature[0]), pair="circles") == ("circles", None, None, None, None, None, None)
 
 
-@pytest.mark.parametrize("feature, pair, error", [
-    (1.5, "polygons", TypeError), (True, "polygons", TypeError), ("1", "polygons", TypeError),
-    (-1, "polygons", ValueError), (1 << 16, "polygons", ValueError), (0x80, "polygons", ValueError),
-    (256, "circle-polygon", ValueError), (3, "circles", ValueError), (0, "capsules", ValueError),
-])
+@pytest.mark.parametrize(
+    "feature, pair, error",
+    [
+        (1.5, "polygons", TypeError),
+        (True, "polygons", TypeError),
+        ("1", "polygons", TypeError),
+        (-1, "polygons", ValueError),
+        (1 << 16, "polygons", ValueError),
+        (0x80, "polygons", ValueError),
+        (256, "circle-polygon", ValueError),
+        (3, "circles", ValueError),
+        (0, "capsules", ValueError),
+    ],
+)
 def test_bad_feature_ids_are_refused_by_name(feature, pair, error):
     with pytest.raises(error, match="feature|pair"):
         describe_feature(feature, pair=pair)

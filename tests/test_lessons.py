@@ -36,8 +36,14 @@ def line(out: str, pattern: str) -> list[float]:
 
 def run(name: str, out_dir: Path) -> str:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
-    proc = subprocess.run([sys.executable, f"lessons/{name}.py", "--quick", "--out", str(out_dir)], cwd=ROOT,
-                          env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, f"lessons/{name}.py", "--quick", "--out", str(out_dir)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, f"{name} failed:\n{proc.stdout}\n{proc.stderr}"
     out = proc.stdout
     assert re.search(r"^CLAIM: \S", out, re.M), out
@@ -67,8 +73,11 @@ def test_lesson_files_are_indexed_and_documented():
 
 def test_01_naive_impulse(tmp_path):
     out = run("01_naive_impulse", tmp_path)
-    for label, e in (("equal circles, e=1", 1.0), ("light vs heavy, e=0.5", 0.5),
-                     ("tilted box on its corner, e=0.3", 0.3)):
+    for label, e in (
+        ("equal circles, e=1", 1.0),
+        ("light vs heavy, e=0.5", 0.5),
+        ("tilted box on its corner, e=0.3", 0.3),
+    ):
         f_hand, f_engine, dv, ratio, *dp = line(out, re.escape(label) + r"\s")
         assert f_hand > 0 and f_hand == pytest.approx(f_engine, rel=1e-6)
         assert dv < 1e-9 and ratio == pytest.approx(-e, abs=1e-6)
@@ -82,8 +91,12 @@ def test_01_naive_impulse(tmp_path):
 
 def test_02_iterative_naive(tmp_path):
     out = run("02_iterative_naive", tmp_path)
-    rows = {m.group(1): nums(m.group(2)) for m in  # KE of the drops, stood (s), penetration (m), standing
-            re.finditer(r"^  ((?:NaiveImpulse|IterativeImpulse) \d+)\s+(.*)$", out, re.M)}
+    rows = {
+        m.group(1): nums(m.group(2))
+        for m in re.finditer(  # KE of the drops, stood (s), penetration (m), standing
+            r"^  ((?:NaiveImpulse|IterativeImpulse) \d+)\s+(.*)$", out, re.M
+        )
+    }
     assert list(rows) == ["NaiveImpulse 1"] + [f"IterativeImpulse {n}" for n in (2, 5, 10, 20)]
     naive = rows.pop("NaiveImpulse 1")
     pgs = line(out, r"^  PGS \(lesson 5\) 10 sweeps")
@@ -184,8 +197,14 @@ def test_09_redundant_constraints(tmp_path):
     m = re.search(r"^(\d+) rows on 1 moving body: rank\(J\) = (\d+), rank\(A\) = (\d+) - (\d+) directions", out, re.M)
     R, rank_J, rank_A, null = map(int, m.groups())
     assert R == 16 and rank_A == 3 and null == R - rank_A
-    names = ("from 0, rows in order", "from 0, rows reversed", "from 0, rows shuffled",
-             "from the left legs loaded", "from a random start", "lstsq minimum norm")
+    names = (
+        "from 0, rows in order",
+        "from 0, rows reversed",
+        "from 0, rows shuffled",
+        "from the left legs loaded",
+        "from a random start",
+        "lstsq minimum norm",
+    )
     rows = np.array([line(out, rf"^  {re.escape(n)}") for n in names])
     assert (rows[:, 4] < 1e-9).all() and (rows[:, 5] >= 0).all()  # all solve A lam = b, none pulls
     assert np.ptp(rows[:, :4], axis=0).max() > 0.01  # the legs carry different loads
@@ -216,8 +235,9 @@ def test_10_beyond_the_lecture(tmp_path):
         est, measured = line(out, rf"^SoftStep overlap, {scene}: estimate .*?\) = ")[-2:]
         assert 0.005 < measured < 0.1 and measured == pytest.approx(est, rel=0.2)
     # the leaning stack: no symmetry to hold it, row-by-row PGS falls, the others lean far more than straight
-    lean_pgs, lean_block, lean_soft = (row("20-box stack, 1 mm lean", r)
-                                       for r in ("PGS(10)", "PGS(10) block", "SoftStep(4)"))
+    lean_pgs, lean_block, lean_soft = (
+        row("20-box stack, 1 mm lean", r) for r in ("PGS(10)", "PGS(10) block", "SoftStep(4)")
+    )
     assert lean_pgs[3] < seconds
     for straight, lean in ((block, lean_block), (soft, lean_soft)):
         assert lean[0] > 0.02 and lean[0] > 10 * straight[0]
@@ -246,12 +266,17 @@ def gauss_seidel_count(masses, tol=0.05, dt=1 / 60, g=10.0):
     raise AssertionError("no convergence")
 
 
-CATTO_CASES = {"equal, 1 kg on 1 kg": ([1, 1], 5), "light on heavy, 0.5 kg on 1 kg": ([1, 0.5], 3),
-               "heavy on light, 10 kg on 1 kg": ([1, 10], 50), "stack of 4 circles, 1 kg each": ([1, 1, 1, 1], 20)}
+CATTO_CASES = {
+    "equal, 1 kg on 1 kg": ([1, 1], 5),
+    "light on heavy, 0.5 kg on 1 kg": ([1, 0.5], 3),
+    "heavy on light, 10 kg on 1 kg": ([1, 10], 50),
+    "stack of 4 circles, 1 kg each": ([1, 1, 1, 1], 20),
+}
 
 
 def check_11(out: str, out_dir: Path) -> None:
     """Lesson 11's printed figures (a script's stdout or a notebook's), held to Catto and a second method."""
+
     def cells(label: str) -> list[list[str]]:  # every table row with this label, its cells split on 2+ spaces
         return [re.split(r"\s{2,}", m.strip()) for m in re.findall(rf"^  {re.escape(label)}  +(.*)$", out, re.M)]
 

@@ -31,16 +31,33 @@ NAN, INF = float("nan"), float("inf")
 
 # -- bad values ---------------------------------------------------------------------
 
-not_numbers = st.sampled_from([None, "1.0", b"1", [1.0], (1.0,), {"x": 1.0}, 1 + 2j, True, False,
-                               np.array([1.0]), object()])
+not_numbers = st.sampled_from(
+    [None, "1.0", b"1", [1.0], (1.0,), {"x": 1.0}, 1 + 2j, True, False, np.array([1.0]), object()]
+)
 non_finite = st.sampled_from([NAN, INF, -INF, np.float32("nan"), np.float64("-inf")])
 bad_scalars = not_numbers | non_finite
 
-bad_pairs = st.sampled_from([
-    None, "ab", b"xy", 1.0, (1.0,), (1.0, 2.0, 3.0), [[1.0, 2.0]], [[1.0], [2.0, 3.0]], (1 + 1j, 2.0),
-    np.array([True, False]), np.array([1.0, None], dtype=object), {"x": 1.0, "y": 2.0}, np.zeros((2, 1)),
-    (NAN, 0.0), (0.0, INF), (-INF, -INF), np.array([0.0, np.nan]),
-])
+bad_pairs = st.sampled_from(
+    [
+        None,
+        "ab",
+        b"xy",
+        1.0,
+        (1.0,),
+        (1.0, 2.0, 3.0),
+        [[1.0, 2.0]],
+        [[1.0], [2.0, 3.0]],
+        (1 + 1j, 2.0),
+        np.array([True, False]),
+        np.array([1.0, None], dtype=object),
+        {"x": 1.0, "y": 2.0},
+        np.zeros((2, 1)),
+        (NAN, 0.0),
+        (0.0, INF),
+        (-INF, -INF),
+        np.array([0.0, np.nan]),
+    ]
+)
 
 
 def rejects(w: phys2d.World, name: str, call: Callable[[], object]) -> None:
@@ -71,15 +88,28 @@ VALID_SHAPE = {"box": (0.5, 0.5), "circle": 0.5, "polygon": [(0, 0), (1, 0), (0,
 BAD_ARGS: dict[str, st.SearchStrategy] = {
     "position": bad_pairs,
     "velocity": bad_pairs,
-    "half_extents": bad_pairs | st.sampled_from([(0.0, 1.0), (1.0, -1.0), (-2.0, -2.0), (1e-9, 1.0),
-                                                 (1e200, 1e200), (1e-200, 1e-200)]),
+    "half_extents": bad_pairs
+    | st.sampled_from([(0.0, 1.0), (1.0, -1.0), (-2.0, -2.0), (1e-9, 1.0), (1e200, 1e200), (1e-200, 1e-200)]),
     "radius": bad_scalars | st.sampled_from([0.0, -1.0, -INF, 1e-170, 1e160, 1e300]),
-    "vertices": st.sampled_from([None, "abc", 3.0, [], [(0, 0), (1, 0)], [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
-                                 [(0, 0), (1, 0), (NAN, 1)], [(0, 0), (1, 0), (0, INF)],
-                                 [(0, 0), (0, 1), (1, 0)], [(0, 0), (1, 0), (2, 0)],
-                                 [(0, 0), (1, 0), (1, 0), (0, 1)], [(0, 0), ("a", 0), (0, 1)],
-                                 [(0, 0), (1e-200, 0), (0, 1e-200)], [(0, 0), (1e160, 0), (0, 1e160)],
-                                 [(1e155, 0), (-1e155, 1e155), (-1e155, -1e155)]]),
+    "vertices": st.sampled_from(
+        [
+            None,
+            "abc",
+            3.0,
+            [],
+            [(0, 0), (1, 0)],
+            [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
+            [(0, 0), (1, 0), (NAN, 1)],
+            [(0, 0), (1, 0), (0, INF)],
+            [(0, 0), (0, 1), (1, 0)],
+            [(0, 0), (1, 0), (2, 0)],
+            [(0, 0), (1, 0), (1, 0), (0, 1)],
+            [(0, 0), ("a", 0), (0, 1)],
+            [(0, 0), (1e-200, 0), (0, 1e-200)],
+            [(0, 0), (1e160, 0), (0, 1e160)],
+            [(1e155, 0), (-1e155, 1e155), (-1e155, -1e155)],
+        ]
+    ),
     "angle": bad_scalars,
     "density": bad_scalars | st.sampled_from([0.0, -1.0, 1e-320, 5e-324]),
     "friction": bad_scalars | st.sampled_from([-1e-9, -1.0]),
@@ -107,8 +137,7 @@ def bad_polygons(draw) -> tuple[str, list]:
     repeated points, too few or too many points."""
     v = [tuple(p) for p in draw(ellipse_polygons())]
     n = len(v)
-    flaw = draw(st.sampled_from(["non-convex", "star", "clockwise", "collinear", "repeated", "few",
-                                 "many"]))
+    flaw = draw(st.sampled_from(["non-convex", "star", "clockwise", "collinear", "repeated", "few", "many"]))
     if flaw == "non-convex":  # a dent: a new vertex inside edge k, pulled towards the centre
         k = draw(st.integers(0, n - 1))
         a, b = np.array(v[k]), np.array(v[(k + 1) % n])
@@ -157,8 +186,21 @@ def test_body_handles_refuse_bad_values(data, w: phys2d.World) -> None:
     leave the world as it was (including an impulse whose velocity would overflow)."""
     assert len(w.bodies) > 0
     body = data.draw(st.sampled_from(w.bodies))
-    what = data.draw(st.sampled_from(["position", "velocity", "angle", "angular_velocity", "friction",
-                                      "restitution", "impulse", "point", "overflow"]))
+    what = data.draw(
+        st.sampled_from(
+            [
+                "position",
+                "velocity",
+                "angle",
+                "angular_velocity",
+                "friction",
+                "restitution",
+                "impulse",
+                "point",
+                "overflow",
+            ]
+        )
+    )
     if what in ("position", "velocity"):
         value = data.draw(bad_pairs)
         rejects(w, what, lambda: setattr(body, what, value))
@@ -204,8 +246,9 @@ def test_removed_and_foreign_bodies_are_refused(w: phys2d.World, other: phys2d.W
 def test_world_settings_refuse_bad_values(data, w: phys2d.World) -> None:
     """World(...) and the gravity/responder setters refuse bad values naming them;
     so does angular_momentum(about)."""
-    name = data.draw(st.sampled_from(["gravity", "responder", "contact_margin", "max_speed",
-                                      "contact_recycle_distance", "about"]))
+    name = data.draw(
+        st.sampled_from(["gravity", "responder", "contact_margin", "max_speed", "contact_recycle_distance", "about"])
+    )
     if name == "gravity":
         value = data.draw(bad_pairs)
         rejects(w, "gravity", lambda: setattr(w, "gravity", value))
@@ -230,8 +273,7 @@ def test_world_settings_refuse_bad_values(data, w: phys2d.World) -> None:
         rejects(w, "about", lambda: w.angular_momentum(value))
 
 
-@given(data=st.data(), w=scenes(min_bodies=3, max_bodies=4, ground=None, static=False).map(stepped),
-       other=worlds)
+@given(data=st.data(), w=scenes(min_bodies=3, max_bodies=4, ground=None, static=False).map(stepped), other=worlds)
 def test_joints_refuse_bad_input(data, w: phys2d.World, other: phys2d.World) -> None:
     """Joint constructors and joint removal refuse: bodies of another world (joints
     across worlds), removed bodies, a body joined to itself, non-bodies, bad anchors,
@@ -246,12 +288,18 @@ def test_joints_refuse_bad_input(data, w: phys2d.World, other: phys2d.World) -> 
     rejects(w, "a", lambda: add(other.bodies[0], b, **extra))
     rejects(w, "a", lambda: add(data.draw(st.sampled_from([None, 1, "a"])), b, **extra))
     rejects(w, "same body", lambda: add(a, a, **extra))
-    rejects(w, "collide_connected", lambda: add(a, c, collide_connected=data.draw(st.sampled_from([1, None, "no"])),
-                                                **extra))
+    rejects(
+        w,
+        "collide_connected",
+        lambda: add(a, c, collide_connected=data.draw(st.sampled_from([1, None, "no"])), **extra),
+    )
     if kind == "distance":
         name = data.draw(st.sampled_from(["anchor_a", "anchor_b", "length"]))
-        value = data.draw((bad_scalars | st.sampled_from([0.0, -1.0]) if name == "length" else bad_pairs)
-                          .filter(lambda v: v is not None))  # None: the default
+        value = data.draw(
+            (bad_scalars | st.sampled_from([0.0, -1.0]) if name == "length" else bad_pairs).filter(
+                lambda v: v is not None
+            )
+        )  # None: the default
         rejects(w, name, lambda: w.add_distance_joint(a, c, **{name: value}))
         rejects(w, "anchor_a", lambda: w.add_distance_joint(a, c, anchor_a=(0.0, 0.0), anchor_b=(0.0, 0.0)))
     elif kind == "pin":
@@ -263,8 +311,11 @@ def test_joints_refuse_bad_input(data, w: phys2d.World, other: phys2d.World) -> 
         rejects(w, "lower", lambda: w.add_angle_joint(a, c, lower=0.5, upper=-0.5))
     joint = w.joints[0]
     rejects(other, "joint", lambda: other.remove(joint))
-    rejects(w, "responder", lambda: setattr(w, "responder", data.draw(st.sampled_from(
-        [phys2d.NaiveImpulse(), phys2d.IterativeImpulse()]))))  # SoftStep solves joints (issue 11)
+    rejects(
+        w,
+        "responder",
+        lambda: setattr(w, "responder", data.draw(st.sampled_from([phys2d.NaiveImpulse(), phys2d.IterativeImpulse()]))),
+    )  # SoftStep solves joints (issue 11)
     gone = data.draw(st.sampled_from([a, b]))
     w.remove(gone)  # takes its joint with it
     assert not joint.alive
@@ -280,8 +331,7 @@ RESPONDER_ARGS: dict[str, dict[str, st.SearchStrategy]] = {
         "slop": bad_scalars | st.sampled_from([-0.001]),
         "tolerance": not_numbers.filter(lambda v: v is not None) | non_finite | st.just(-1e-9),
         "restitution_threshold": bad_scalars | st.just(-1.0),
-        "friction": st.sampled_from(["", "Coulomb", "none", None, 1, ["coulomb"], ("lecture",),
-                                     np.array(["coulomb"])]),
+        "friction": st.sampled_from(["", "Coulomb", "none", None, 1, ["coulomb"], ("lecture",), np.array(["coulomb"])]),
         "form": st.sampled_from(["", "dense", None, 2, ["impulse"]]),
         "block": st.sampled_from([1, "no", None]),
     },
@@ -365,19 +415,27 @@ def extreme_scenes(draw) -> SceneSpec:
         scale = draw(st.sampled_from([1e-3, 1.0, 1e3]))
         if b.kind == "polygon":  # edges must stay >= MIN_EDGE_LENGTH
             scale = max(scale, 1e-2)
-        size = (tuple(scale * s for s in b.size) if b.kind == "box" else
-                scale * b.size if b.kind == "circle" else [(scale * x, scale * y) for x, y in b.size])
-        out.append(replace(
-            b, size=size, position=(far + scale * b.position[0], scale * b.position[1]),
-            friction=draw(st.sampled_from([0.0, 1.0, 1e3, 1e150, 1e200, 1.7e308])),
-            density=draw(st.sampled_from([1e-6, 1.0, 1e6])),
-            velocity=draw(st.sampled_from([(0.0, 0.0), (9e3, 0.0), (-5e3, 5e3)])),
-        ))
+        size = (
+            tuple(scale * s for s in b.size)
+            if b.kind == "box"
+            else scale * b.size
+            if b.kind == "circle"
+            else [(scale * x, scale * y) for x, y in b.size]
+        )
+        out.append(
+            replace(
+                b,
+                size=size,
+                position=(far + scale * b.position[0], scale * b.position[1]),
+                friction=draw(st.sampled_from([0.0, 1.0, 1e3, 1e150, 1e200, 1.7e308])),
+                density=draw(st.sampled_from([1e-6, 1.0, 1e6])),
+                velocity=draw(st.sampled_from([(0.0, 0.0), (9e3, 0.0), (-5e3, 5e3)])),
+            )
+        )
     return replace(scene, bodies=tuple(out))
 
 
-@given(scene=extreme_scenes(), responder=responders(),
-       dt=st.sampled_from([1e-9, 1e-4, 1 / 60, 1.0, 1e3]))
+@given(scene=extreme_scenes(), responder=responders(), dt=st.sampled_from([1e-9, 1e-4, 1 / 60, 1.0, 1e3]))
 def test_valid_extremes_never_go_non_finite(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
     """Extreme but valid input is accepted, and every step then leaves finite state,
     contacts and impulses, or raises SimulationError and changes nothing."""

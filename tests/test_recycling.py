@@ -20,14 +20,54 @@ def narrowphase_now(w: phys2d.World):
     travel = np.empty(b.n)
     V = w.V.copy()
     V[~b.static, :2] += w.gravity / 60.0  # the step's travel is taken after gravity
-    update_geometry(b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, V, 1 / 60,
-                    w.contact_margin, world_v, world_n, aabb, travel)
+    update_geometry(
+        b.x,
+        b.theta,
+        b.kind,
+        b.radius,
+        b.vstart,
+        b.vcount,
+        b.local_v,
+        b.local_n,
+        V,
+        1 / 60,
+        w.contact_margin,
+        world_v,
+        world_n,
+        aabb,
+        travel,
+    )
     cap = 2 * w._n_pairs
-    out = (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty((cap, 2)), np.empty((cap, 2)),
-           np.empty(cap), np.empty(cap, np.int32), np.empty(cap, np.int64), np.empty(cap), np.empty(cap))
+    out = (
+        np.empty(cap, np.int32),
+        np.empty(cap, np.int32),
+        np.empty((cap, 2)),
+        np.empty((cap, 2)),
+        np.empty(cap),
+        np.empty(cap, np.int32),
+        np.empty(cap, np.int64),
+        np.empty(cap),
+        np.empty(cap),
+    )
     pair_start = np.empty(w._n_pairs + 1, np.int64)
-    k = collide_pairs(w._pairs, w._n_pairs, b.x, b.kind, b.radius, b.vstart, b.vcount, world_v, world_n,
-                      w.contact_margin, travel, b.uid, b.friction, b.restitution, *out, pair_start)
+    k = collide_pairs(
+        w._pairs,
+        w._n_pairs,
+        b.x,
+        b.kind,
+        b.radius,
+        b.vstart,
+        b.vcount,
+        world_v,
+        world_n,
+        w.contact_margin,
+        travel,
+        b.uid,
+        b.friction,
+        b.restitution,
+        *out,
+        pair_start,
+    )
     return {name: a[:k] for name, a in zip(("a", "b", "point", "normal", "separation", "feature", "key"), out)}
 
 
@@ -61,8 +101,9 @@ def test_recycling_off_finds_every_manifold_anew():
     w.step(1 / 60)
     # the step's contacts are the narrowphase's own at the same positions, bit for bit
     assert np.array_equal(np.sort(w.contacts.key), np.sort(fresh["key"]))
-    assert np.array_equal(w.contacts.separation[np.argsort(w.contacts.key)],
-                          fresh["separation"][np.argsort(fresh["key"])])
+    assert np.array_equal(
+        w.contacts.separation[np.argsort(w.contacts.key)], fresh["separation"][np.argsort(fresh["key"])]
+    )
 
 
 def test_a_pair_that_moved_more_than_the_recycle_distance_is_collided_anew():

@@ -121,10 +121,15 @@ def handed_out(w: phys2d.World) -> list[tuple[str, np.ndarray]]:
     out += [(f"last_step.{n}", getattr(s, n)) for n in ("residuals", "joint_impulses", "solve_order")]
     if s.system is not None:
         m = s.system
-        out += [(f"system.{n}", getattr(m, n)) for n in ("M_inv", "V1", "F_ext", "xi", "b", "lo", "hi",
-                                                           "bound_row", "mu", "lam")]
-        out += [(f"system.{m_name}.{n}", getattr(getattr(m, m_name), n))
-                for m_name in ("J", "A") for n in ("indptr", "indices", "data")]
+        out += [
+            (f"system.{n}", getattr(m, n))
+            for n in ("M_inv", "V1", "F_ext", "xi", "b", "lo", "hi", "bound_row", "mu", "lam")
+        ]
+        out += [
+            (f"system.{m_name}.{n}", getattr(getattr(m, m_name), n))
+            for m_name in ("J", "A")
+            for n in ("indptr", "indices", "data")
+        ]
     return out
 
 
@@ -139,8 +144,11 @@ def vandalise(a: np.ndarray) -> None:
         a[...] = 7.5
 
 
-@pytest.mark.parametrize("responder", [phys2d.PGS(form="matrix"), phys2d.PGS(), phys2d.PGS(block=True),
-                                       phys2d.SoftStep(), phys2d.IterativeImpulse()], ids=repr)
+@pytest.mark.parametrize(
+    "responder",
+    [phys2d.PGS(form="matrix"), phys2d.PGS(), phys2d.PGS(block=True), phys2d.SoftStep(), phys2d.IterativeImpulse()],
+    ids=repr,
+)
 def test_editing_any_array_handed_out_leaves_the_next_step_bit_identical(responder):
     edited, untouched = scene(responder), scene(responder)
     for _ in range(20):

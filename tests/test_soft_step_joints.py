@@ -101,9 +101,31 @@ def _rows_of(w: phys2d.World) -> Rows:
     """The joint rows of w at its positions now, with xi = -C (beta = dt = 1)."""
     ja = JointArrays(list(w.joints))
     rows = Rows(ja.n_rows)
-    joint_rows(ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, 0, w.x, w.theta, w.M_inv, 1.0,
-               1.0, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.lo, rows.hi, rows.bound_row,
-               rows.mu)
+    joint_rows(
+        ja.kind,
+        ja.i,
+        ja.j,
+        ja.local_i,
+        ja.local_j,
+        ja.params,
+        ja.row_offset,
+        0,
+        w.x,
+        w.theta,
+        w.M_inv,
+        1.0,
+        1.0,
+        rows.body_a,
+        rows.body_b,
+        rows.J,
+        rows.JM,
+        rows.A_kk,
+        rows.xi,
+        rows.lo,
+        rows.hi,
+        rows.bound_row,
+        rows.mu,
+    )
     return rows
 
 

@@ -68,8 +68,10 @@ class Feature(NamedTuple):
     def __repr__(self) -> str:
         if self.pair == "polygons":
             other = "a" if self.reference == "b" else "b"
-            return (f"Feature(reference edge {self.reference_edge} of {self.reference}, incident edge "
-                    f"{self.incident_edge} of {other}, end {self.end})")
+            return (
+                f"Feature(reference edge {self.reference_edge} of {self.reference}, incident edge "
+                f"{self.incident_edge} of {other}, end {self.end})"
+            )
         if self.pair == "circle-polygon":
             where = f"edge {self.edge}" if self.vertex is None else f"vertex {self.vertex}"
             return f"Feature(circle in the region of polygon {where})"
@@ -90,9 +92,13 @@ def describe_feature(feature: int, pair: str = "polygons") -> Feature:
     if pair == "polygons":
         if not 0 <= feature < 2 * FLIP_BIT or feature & (VERTEX_BIT | 1 << 14):
             raise ValueError(f"feature {feature:#x} is not a polygon-polygon feature id")
-        return Feature(pair, reference="b" if feature & FLIP_BIT else "a",
-                       reference_edge=feature >> REFERENCE_SHIFT & EDGE_MASK,
-                       incident_edge=feature >> INCIDENT_SHIFT & EDGE_MASK, end=feature & END_BIT)
+        return Feature(
+            pair,
+            reference="b" if feature & FLIP_BIT else "a",
+            reference_edge=feature >> REFERENCE_SHIFT & EDGE_MASK,
+            incident_edge=feature >> INCIDENT_SHIFT & EDGE_MASK,
+            end=feature & END_BIT,
+        )
     if pair == "circle-polygon":
         if not 0 <= feature < 2 * VERTEX_BIT:
             raise ValueError(f"feature {feature:#x} is not a circle-polygon feature id")
@@ -101,6 +107,7 @@ def describe_feature(feature: int, pair: str = "polygons") -> Feature:
     if feature != 0:
         raise ValueError(f"feature {feature:#x} is not a circle-circle feature id (always 0)")
     return Feature(pair)
+
 
 # Prefer the first polygon's face unless the second's separates clearly more:
 # nearly equal faces then never trade places from one tick to the next.
@@ -285,8 +292,9 @@ def pair_key(uid, a, b):
 
 
 @njit(cache=True)
-def write_point(k, a, b, px, py, nx, ny, sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f,
-                out_key, out_mu, out_e):
+def write_point(
+    k, a, b, px, py, nx, ny, sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e
+):
     """Contact point k of the step's arrays."""
     out_key[k] = key | feature
     out_mu[k] = mu
@@ -308,9 +316,32 @@ def pair_friction(friction, restitution, a, b):
 
 
 @njit(cache=True)
-def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, world_n, contact_margin, travel, uid,
-                  friction, restitution, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e,
-                  pair_start):
+def collide_pairs(
+    pairs,
+    n_pairs,
+    x,
+    kind,
+    radius,
+    vstart,
+    vcount,
+    world_v,
+    world_n,
+    contact_margin,
+    travel,
+    uid,
+    friction,
+    restitution,
+    out_a,
+    out_b,
+    out_p,
+    out_n,
+    out_s,
+    out_f,
+    out_key,
+    out_mu,
+    out_e,
+    pair_start,
+):
     """Manifolds of the first n_pairs candidate pairs; returns the number of points K.
 
     Points up to contact_margin + travel[a] + travel[b] apart (m) are kept as
@@ -328,12 +359,54 @@ def collide_pairs(pairs, n_pairs, x, kind, radius, vstart, vcount, world_v, worl
         mu, e = pair_friction(friction, restitution, a, b)
         key = pair_key(uid, a, b)
         if m[0] >= 1:
-            write_point(k, a, b, m[3], m[4], m[1], m[2], m[5], m[6], key, mu, e, out_a, out_b, out_p, out_n, out_s,
-                        out_f, out_key, out_mu, out_e)
+            write_point(
+                k,
+                a,
+                b,
+                m[3],
+                m[4],
+                m[1],
+                m[2],
+                m[5],
+                m[6],
+                key,
+                mu,
+                e,
+                out_a,
+                out_b,
+                out_p,
+                out_n,
+                out_s,
+                out_f,
+                out_key,
+                out_mu,
+                out_e,
+            )
             k += 1
         if m[0] == 2:
-            write_point(k, a, b, m[7], m[8], m[1], m[2], m[9], m[10], key, mu, e, out_a, out_b, out_p, out_n, out_s,
-                        out_f, out_key, out_mu, out_e)
+            write_point(
+                k,
+                a,
+                b,
+                m[7],
+                m[8],
+                m[1],
+                m[2],
+                m[9],
+                m[10],
+                key,
+                mu,
+                e,
+                out_a,
+                out_b,
+                out_p,
+                out_n,
+                out_s,
+                out_f,
+                out_key,
+                out_mu,
+                out_e,
+            )
             k += 1
     pair_start[n_pairs] = k
     return k

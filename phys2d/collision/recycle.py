@@ -56,8 +56,9 @@ def relative_pose(a, b, x, theta):
 
 
 @njit(cache=True)
-def may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static, cached_pose, cached_theta,
-                recycle_distance):
+def may_recycle(
+    slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static, cached_pose, cached_theta, recycle_distance
+):
     """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose."""
     if np.cos(theta[a] - cached_theta[slot, 0]) <= RECYCLE_MAX_TURN:
         return False
@@ -65,8 +66,10 @@ def may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, sta
         return False
     px, py, turn = relative_pose(a, b, x, theta)
     distance = np.hypot(px - cached_pose[slot, 0], py - cached_pose[slot, 1])
-    extent = max(body_extent(a, kind, radius, vstart, vcount, local_v, static),
-                 body_extent(b, kind, radius, vstart, vcount, local_v, static))
+    extent = max(
+        body_extent(a, kind, radius, vstart, vcount, local_v, static),
+        body_extent(b, kind, radius, vstart, vcount, local_v, static),
+    )
     return distance + extent * abs(np.sin(turn - cached_pose[slot, 2])) < recycle_distance
 
 
@@ -96,18 +99,61 @@ def all_within(slot, a, b, x, theta, cached_start, cached_theta, anchor, normal,
     """True if every cached point of the slot is still within ``margin`` (m) of its partner:
     the narrowphase would drop one that is not, so the pair is collided anew."""
     for point in range(cached_start[slot], cached_start[slot + 1]):
-        if recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation,
-                          feature)[2] > margin:
+        if (
+            recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation, feature)[2]
+            > margin
+        ):
             return False
     return True
 
 
 @njit(cache=True)
-def collide_recycling(pairs, n_pairs, x, theta, kind, radius, vstart, vcount, local_v, static, world_v, world_n,
-                      contact_margin, travel, uid, friction, restitution, recycle_distance, cached_key, cached_start,
-                      cached_pose, cached_theta, cached_anchor, cached_normal, cached_separation, cached_feature,
-                      out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e, pair_start, new_key,
-                      new_start, new_pose, new_theta, new_anchor, new_normal, new_separation, new_feature):
+def collide_recycling(
+    pairs,
+    n_pairs,
+    x,
+    theta,
+    kind,
+    radius,
+    vstart,
+    vcount,
+    local_v,
+    static,
+    world_v,
+    world_n,
+    contact_margin,
+    travel,
+    uid,
+    friction,
+    restitution,
+    recycle_distance,
+    cached_key,
+    cached_start,
+    cached_pose,
+    cached_theta,
+    cached_anchor,
+    cached_normal,
+    cached_separation,
+    cached_feature,
+    out_a,
+    out_b,
+    out_p,
+    out_n,
+    out_s,
+    out_f,
+    out_key,
+    out_mu,
+    out_e,
+    pair_start,
+    new_key,
+    new_start,
+    new_pose,
+    new_theta,
+    new_anchor,
+    new_normal,
+    new_separation,
+    new_feature,
+):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
     cached_*: last step's manifolds, sorted by pair key (slot s's points are
@@ -131,19 +177,78 @@ def collide_recycling(pairs, n_pairs, x, theta, kind, radius, vstart, vcount, lo
                 slot = s
         new_start[n_new] = k
         margin = contact_margin + travel[a] + travel[b]
-        if slot >= 0 and not (may_recycle(slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static,
-                                          cached_pose, cached_theta, recycle_distance)
-                              and all_within(slot, a, b, x, theta, cached_start, cached_theta, cached_anchor,
-                                             cached_normal, cached_separation, cached_feature, margin)):
+        if slot >= 0 and not (
+            may_recycle(
+                slot,
+                a,
+                b,
+                x,
+                theta,
+                kind,
+                radius,
+                vstart,
+                vcount,
+                local_v,
+                static,
+                cached_pose,
+                cached_theta,
+                recycle_distance,
+            )
+            and all_within(
+                slot,
+                a,
+                b,
+                x,
+                theta,
+                cached_start,
+                cached_theta,
+                cached_anchor,
+                cached_normal,
+                cached_separation,
+                cached_feature,
+                margin,
+            )
+        ):
             slot = -1
         if slot >= 0:
             n_recycled += 1
             for point in range(cached_start[slot], cached_start[slot + 1]):
-                px, py, sep = recycled_point(point, a, b, x, theta, cached_theta, slot, cached_anchor, cached_normal,
-                                             cached_separation, cached_feature)
-                write_point(k, a, b, px, py, cached_normal[point, 0], cached_normal[point, 1], sep,
-                            cached_feature[point], key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f, out_key,
-                            out_mu, out_e)
+                px, py, sep = recycled_point(
+                    point,
+                    a,
+                    b,
+                    x,
+                    theta,
+                    cached_theta,
+                    slot,
+                    cached_anchor,
+                    cached_normal,
+                    cached_separation,
+                    cached_feature,
+                )
+                write_point(
+                    k,
+                    a,
+                    b,
+                    px,
+                    py,
+                    cached_normal[point, 0],
+                    cached_normal[point, 1],
+                    sep,
+                    cached_feature[point],
+                    key,
+                    mu,
+                    e,
+                    out_a,
+                    out_b,
+                    out_p,
+                    out_n,
+                    out_s,
+                    out_f,
+                    out_key,
+                    out_mu,
+                    out_e,
+                )
                 # the cache keeps the manifold as it was found: pose, anchors and separation
                 new_anchor[k] = cached_anchor[point]
                 new_normal[k] = cached_normal[point]
@@ -159,8 +264,29 @@ def collide_recycling(pairs, n_pairs, x, theta, kind, radius, vstart, vcount, lo
                     px, py, sep, feature = m[3], m[4], m[5], m[6]
                 else:
                     px, py, sep, feature = m[7], m[8], m[9], m[10]
-                write_point(k, a, b, px, py, m[1], m[2], sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s,
-                            out_f, out_key, out_mu, out_e)
+                write_point(
+                    k,
+                    a,
+                    b,
+                    px,
+                    py,
+                    m[1],
+                    m[2],
+                    sep,
+                    feature,
+                    key,
+                    mu,
+                    e,
+                    out_a,
+                    out_b,
+                    out_p,
+                    out_n,
+                    out_s,
+                    out_f,
+                    out_key,
+                    out_mu,
+                    out_e,
+                )
                 new_anchor[k, 0] = px - x[a, 0]
                 new_anchor[k, 1] = py - x[a, 1]
                 new_anchor[k, 2] = px - x[b, 0]
@@ -226,18 +352,53 @@ class ManifoldCache:
         for name, value in zip(self._STATE, state):
             setattr(self, name, value)
 
-    def collide(self, pairs, n_pairs, bodies, world_v, world_n, contact_margin, travel, recycle_distance, out,
-                pair_start) -> int:
+    def collide(
+        self, pairs, n_pairs, bodies, world_v, world_n, contact_margin, travel, recycle_distance, out, pair_start
+    ) -> int:
         """The step's contact points into ``out`` (as ``collide_pairs``); returns K."""
         b = bodies
         cap = 2 * n_pairs
-        new = (np.zeros(n_pairs, np.int64), np.zeros(n_pairs + 1, np.int64), np.zeros((n_pairs, 3)),
-               np.zeros((n_pairs, 2)), np.zeros((cap, 4)), np.zeros((cap, 2)), np.zeros(cap),
-               np.zeros(cap, np.int32))
+        new = (
+            np.zeros(n_pairs, np.int64),
+            np.zeros(n_pairs + 1, np.int64),
+            np.zeros((n_pairs, 3)),
+            np.zeros((n_pairs, 2)),
+            np.zeros((cap, 4)),
+            np.zeros((cap, 2)),
+            np.zeros(cap),
+            np.zeros(cap, np.int32),
+        )
         k, n_new, self.recycled = collide_recycling(  # type: ignore[call-arg]
-            pairs, n_pairs, b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static, world_v, world_n,
-            contact_margin, travel, b.uid, b.friction, b.restitution, recycle_distance, self.key, self.start,
-            self.pose, self.theta, self.anchor, self.normal, self.separation, self.feature, *out, pair_start, *new)
+            pairs,
+            n_pairs,
+            b.x,
+            b.theta,
+            b.kind,
+            b.radius,
+            b.vstart,
+            b.vcount,
+            b.local_v,
+            b.static,
+            world_v,
+            world_n,
+            contact_margin,
+            travel,
+            b.uid,
+            b.friction,
+            b.restitution,
+            recycle_distance,
+            self.key,
+            self.start,
+            self.pose,
+            self.theta,
+            self.anchor,
+            self.normal,
+            self.separation,
+            self.feature,
+            *out,
+            pair_start,
+            *new,
+        )
         key, start, pose, theta, anchor, normal, separation, feature = new
         # sorted by pair key for the next step's look-up; points follow their manifolds
         by_key = np.argsort(key[:n_new], kind="stable")

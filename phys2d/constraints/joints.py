@@ -1,9 +1,9 @@
 """Joints as constraint rows: distance, pin (revolute point) and relative angle.
 
-A joint couples bodies a (the row's i) and b (the row's j); either may be static.
+A joint couples bodies a (the row's body_a) and b (the row's body_b); either may be static.
 Anchors are given in world coordinates when the joint is made and stored in each
 body's frame, so they ride with the bodies. Each step the world turns every joint
-into rows (FORMULATION.md, "Constraint rows"), appended after the contact rows,
+into rows (docs/formulation.md#constraint-rows), appended after the contact rows,
 with Baumgarte stabilisation xi = -(beta/dt) C:
 
     distance  1 row   C = (|d|^2 - L^2) / (2 L),   J = [-d, -(r_a x d) | d, r_b x d] / L

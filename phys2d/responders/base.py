@@ -82,13 +82,35 @@ class StepReport:
     Its arrays are read-only: the report describes a step taken.
     """
 
-    __slots__ = ("responder", "dt", "count", "counted", "_residuals", "max_penetration", "contact_count", "cache_hits",
-                 "_joint_impulses", "system", "_solve_order", "_sealed")
+    __slots__ = (
+        "responder",
+        "dt",
+        "count",
+        "counted",
+        "_residuals",
+        "max_penetration",
+        "contact_count",
+        "cache_hits",
+        "_joint_impulses",
+        "system",
+        "_solve_order",
+        "_sealed",
+    )
 
-    def __init__(self, responder: str = "none", dt: float = 0.0, iterations: int = 0,
-                 residuals: np.ndarray = EMPTY, max_penetration: float = 0.0, contact_count: int = 0,
-                 cache_hits: int = 0, joint_impulses: np.ndarray = EMPTY, system: object = None,
-                 solve_order: np.ndarray = EMPTY, counted: str = "iterations") -> None:
+    def __init__(
+        self,
+        responder: str = "none",
+        dt: float = 0.0,
+        iterations: int = 0,
+        residuals: np.ndarray = EMPTY,
+        max_penetration: float = 0.0,
+        contact_count: int = 0,
+        cache_hits: int = 0,
+        joint_impulses: np.ndarray = EMPTY,
+        system: object = None,
+        solve_order: np.ndarray = EMPTY,
+        counted: str = "iterations",
+    ) -> None:
         self.responder = responder
         self.dt = dt
         self.count = iterations
@@ -139,9 +161,11 @@ class StepReport:
 
     def __repr__(self) -> str:
         res = f"{self._residuals[-1]:.3g} m/s" if self._residuals.size else "-"
-        return (f"<StepReport {self.responder}: {self.contact_count} contacts, "
-                f"{self.cache_hits} cached, {self.count} {self.counted}, final residual {res}, "
-                f"max penetration {self.max_penetration:.4g} m>")
+        return (
+            f"<StepReport {self.responder}: {self.contact_count} contacts, "
+            f"{self.cache_hits} cached, {self.count} {self.counted}, final residual {res}, "
+            f"max penetration {self.max_penetration:.4g} m>"
+        )
 
 
 class Responder:

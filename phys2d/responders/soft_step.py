@@ -98,8 +98,25 @@ def _push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, C, static_pair, lam, V, h, use_bias,
-               soft_dyn, soft_static, block):
+def soft_sweep(
+    normal_row,
+    friction_row,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_diag,
+    mu,
+    C,
+    static_pair,
+    lam,
+    V,
+    h,
+    use_bias,
+    soft_dyn,
+    soft_static,
+    block,
+):
     """One sweep over the contacts: normal rows (soft push if use_bias), then friction.
     C[c] is contact c's separation now (m).
 
@@ -174,8 +191,9 @@ def _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impac
 
 
 @njit(cache=True)
-def _note_impacts(normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, threshold, impacted, vn_impact,
-                  dvn_impact, landed):
+def _note_impacts(
+    normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, threshold, impacted, vn_impact, dvn_impact, landed
+):
     """After a sweep: a point that pushed for the first time meets its partner in this
     sub-step's motion (gap sub_C, J V sub_vn before a sub-step of forces dv): its approach
     at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
@@ -281,8 +299,9 @@ def _joint_bias(C, use_bias, soft):
 
 
 @njit(cache=True)
-def solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C, lam, V, h, use_bias,
-                 soft_joint, direct):
+def solve_joints(
+    first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C, lam, V, h, use_bias, soft_joint, direct
+):
     """The joint rows once: limit rows one by one (lambda >= 0, like a contact point whose
     separation is the gap to the stop), then the equality rows, together (``direct``:
     delta lambda = -A^-1 (J V + bias), exact for the joint block) or one by one with the
@@ -295,8 +314,10 @@ def solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A
         a, b = body_a[k], body_b[k]
         if unbounded:  # the soft joint of Box2D v3
             mass_scale, impulse_scale = (soft_joint[1], soft_joint[2]) if use_bias else (1.0, 0.0)
-            d = -mass_scale * (row_velocity(k, a, b, J, V) + _joint_bias(C[k], use_bias, soft_joint)) / A_diag[k] \
+            d = (
+                -mass_scale * (row_velocity(k, a, b, J, V) + _joint_bias(C[k], use_bias, soft_joint)) / A_diag[k]
                 - impulse_scale * lam[k]
+            )
             lam[k] += d
         else:
             if not use_bias and C[k] > MET:
@@ -323,13 +344,62 @@ def solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A
 
 
 @njit(cache=True)
-def prepare_joints(kind, joint_a, joint_b, local_a, local_b, params, row_offset, first_joint_row, x, theta, M_inv,
-                   body_a, body_b, J, JM, A_diag, xi, lo, hi, bound_row, mu, C, eq, L, first, direct):
+def prepare_joints(
+    kind,
+    joint_a,
+    joint_b,
+    local_a,
+    local_b,
+    params,
+    row_offset,
+    first_joint_row,
+    x,
+    theta,
+    M_inv,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_diag,
+    xi,
+    lo,
+    hi,
+    bound_row,
+    mu,
+    C,
+    eq,
+    L,
+    first,
+    direct,
+):
     """The joint rows at the bodies' positions now: J, A_kk and C; with ``direct`` the
     factor of the equality rows' A."""
     n_rows = body_a.shape[0]
-    joint_rows(kind, joint_a, joint_b, local_a, local_b, params, row_offset, first_joint_row, x, theta, M_inv, 1.0,
-               1.0, body_a, body_b, J, JM, A_diag, xi, lo, hi, bound_row, mu)
+    joint_rows(
+        kind,
+        joint_a,
+        joint_b,
+        local_a,
+        local_b,
+        params,
+        row_offset,
+        first_joint_row,
+        x,
+        theta,
+        M_inv,
+        1.0,
+        1.0,
+        body_a,
+        body_b,
+        J,
+        JM,
+        A_diag,
+        xi,
+        lo,
+        hi,
+        bound_row,
+        mu,
+    )
     _joint_C(first_joint_row, n_rows, xi, C)
     if direct:
         factor_joint_rows(eq, body_a, body_b, J, JM, L, first)
@@ -386,14 +456,14 @@ def store(normal_row, friction_row, lam, total, landed):
 
 
 @njit(cache=True)
-def restitution(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, impacted, vn_impact, dvn_impact,
-                threshold, total, V):
+def restitution(
+    normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, impacted, vn_impact, dvn_impact, threshold, total, V
+):
     """Bounce the points that met their partner fast (``constraints.rows.bounce_target``),
     keeping the tick's friction inside mu lambda_n."""
     for c in range(normal_row.shape[0]):
         k, kt = normal_row[c], friction_row[c]
-        if (e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0
-                or A_diag[k] <= 0.0):
+        if e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0 or A_diag[k] <= 0.0:
             continue
         a, b = body_a[k], body_b[k]
         target = bounce_target(e[c], vn_impact[c], dvn_impact[c])
@@ -410,11 +480,52 @@ def restitution(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, 
 
 
 @njit(cache=True)
-def soft_step_solve(normal_row, friction_row, body_a, body_b, J, JM, A_diag, xi, lo, hi, bound_row, mu,
-                    e, C0, point, normal, static_pair, x, theta, M_inv, V, V1, dt, substeps, relax, contact_hertz,
-                    damping_ratio, push_max, joint_hertz, joint_damping_ratio, direct_joints,
-                    restitution_threshold, block, joint_kind, joint_a, joint_b, joint_local_a, joint_local_b,
-                    joint_params, joint_row_offset, first_joint_row, lam, total, residuals):
+def soft_step_solve(
+    normal_row,
+    friction_row,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_diag,
+    xi,
+    lo,
+    hi,
+    bound_row,
+    mu,
+    e,
+    C0,
+    point,
+    normal,
+    static_pair,
+    x,
+    theta,
+    M_inv,
+    V,
+    V1,
+    dt,
+    substeps,
+    relax,
+    contact_hertz,
+    damping_ratio,
+    push_max,
+    joint_hertz,
+    joint_damping_ratio,
+    direct_joints,
+    restitution_threshold,
+    block,
+    joint_kind,
+    joint_a,
+    joint_b,
+    joint_local_a,
+    joint_local_b,
+    joint_params,
+    joint_row_offset,
+    first_joint_row,
+    lam,
+    total,
+    residuals,
+):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
     warm start, solve with bias, integrate positions, relax, store; then restitution.
 
@@ -455,34 +566,175 @@ def soft_step_solve(normal_row, friction_row, body_a, body_b, J, JM, A_diag, xi,
     n_sweeps = 0
     for _ in range(substeps):
         if n_rows > first_joint_row:
-            prepare_joints(joint_kind, joint_a, joint_b, joint_local_a, joint_local_b, joint_params,
-                           joint_row_offset, first_joint_row, x, theta, M_inv, body_a, body_b, J, JM, A_diag, xi,
-                           lo, hi, bound_row, mu, C_joint, eq, L, first, direct)
+            prepare_joints(
+                joint_kind,
+                joint_a,
+                joint_b,
+                joint_local_a,
+                joint_local_b,
+                joint_params,
+                joint_row_offset,
+                first_joint_row,
+                x,
+                theta,
+                M_inv,
+                body_a,
+                body_b,
+                J,
+                JM,
+                A_diag,
+                xi,
+                lo,
+                hi,
+                bound_row,
+                mu,
+                C_joint,
+                eq,
+                L,
+                first,
+                direct,
+            )
         _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
         V += dv  # integrate velocities
         warm_start(body_a, body_b, JM, lam, V)
         # solve with bias: joints first, contacts last (they have the last word on overlap)
-        solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C_joint, lam, V, h,
-                     True, soft_joint, direct)
-        soft_sweep(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, sub_C, static_pair, lam, V, h, True,
-                   soft_dyn, soft_static, block)
-        _note_impacts(normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted,
-                      vn_impact, dvn_impact, landed)
+        solve_joints(
+            first_joint_row,
+            n_rows,
+            eq,
+            L,
+            first,
+            body_a,
+            body_b,
+            J,
+            JM,
+            A_diag,
+            lo,
+            C_joint,
+            lam,
+            V,
+            h,
+            True,
+            soft_joint,
+            direct,
+        )
+        soft_sweep(
+            normal_row,
+            friction_row,
+            body_a,
+            body_b,
+            J,
+            JM,
+            A_diag,
+            mu,
+            sub_C,
+            static_pair,
+            lam,
+            V,
+            h,
+            True,
+            soft_dyn,
+            soft_static,
+            block,
+        )
+        _note_impacts(
+            normal_row,
+            body_a,
+            body_b,
+            J,
+            dv,
+            h,
+            lam,
+            sub_C,
+            sub_vn,
+            restitution_threshold,
+            impacted,
+            vn_impact,
+            dvn_impact,
+            landed,
+        )
         integrate_positions(x, theta, V, h, x0, theta0, moved)
         residuals[n_sweeps] = 0.0
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
             _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
-            worst = solve_joints(first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C_joint,
-                                 lam, V, h, False, soft_joint, direct)
-            worst = max(worst, soft_sweep(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, sub_C,
-                                          static_pair, lam, V, h, False, soft_dyn, soft_static, block))
+            worst = solve_joints(
+                first_joint_row,
+                n_rows,
+                eq,
+                L,
+                first,
+                body_a,
+                body_b,
+                J,
+                JM,
+                A_diag,
+                lo,
+                C_joint,
+                lam,
+                V,
+                h,
+                False,
+                soft_joint,
+                direct,
+            )
+            worst = max(
+                worst,
+                soft_sweep(
+                    normal_row,
+                    friction_row,
+                    body_a,
+                    body_b,
+                    J,
+                    JM,
+                    A_diag,
+                    mu,
+                    sub_C,
+                    static_pair,
+                    lam,
+                    V,
+                    h,
+                    False,
+                    soft_dyn,
+                    soft_static,
+                    block,
+                ),
+            )
             residuals[n_sweeps] = worst
-            _note_impacts(normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted,
-                          vn_impact, dvn_impact, landed)
+            _note_impacts(
+                normal_row,
+                body_a,
+                body_b,
+                J,
+                dv,
+                h,
+                lam,
+                sub_C,
+                sub_vn,
+                restitution_threshold,
+                impacted,
+                vn_impact,
+                dvn_impact,
+                landed,
+            )
         n_sweeps += 1
         store(normal_row, friction_row, lam, total, landed)
-    restitution(normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, impacted, vn_impact, dvn_impact,
-                restitution_threshold, total, V)
+    restitution(
+        normal_row,
+        friction_row,
+        body_a,
+        body_b,
+        J,
+        JM,
+        A_diag,
+        mu,
+        e,
+        impacted,
+        vn_impact,
+        dvn_impact,
+        restitution_threshold,
+        total,
+        V,
+    )
     return n_sweeps
 
 
@@ -526,10 +778,20 @@ class SoftStep(Responder):
     warm_start = Setting(check_bool, "start from last tick's impulses")
     block = Setting(check_bool, "solve two-point manifolds as 2x2 blocks")
 
-    def __init__(self, substeps: int = 4, relax: bool = True, contact_hertz: float = 30.0,
-                 damping_ratio: float = 10.0, push_max: float = 3.0, restitution_threshold: float = 1.0,
-                 warm_start: bool = True, block: bool = True, joint_hertz: float = 60.0,
-                 joint_damping_ratio: float = 2.0, direct_joints: bool = True) -> None:
+    def __init__(
+        self,
+        substeps: int = 4,
+        relax: bool = True,
+        contact_hertz: float = 30.0,
+        damping_ratio: float = 10.0,
+        push_max: float = 3.0,
+        restitution_threshold: float = 1.0,
+        warm_start: bool = True,
+        block: bool = True,
+        joint_hertz: float = 60.0,
+        joint_damping_ratio: float = 2.0,
+        direct_joints: bool = True,
+    ) -> None:
         self.substeps = substeps
         self.relax = relax
         self.contact_hertz = contact_hertz
@@ -549,22 +811,62 @@ class SoftStep(Responder):
         residuals = np.zeros(self.substeps)
         static_pair = (ctx.M_inv[ctx.body_a, 0] == 0.0) | (ctx.M_inv[ctx.body_b, 0] == 0.0)
         ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
-        n = soft_step_solve(rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk,
-                            rows.xi,
-                            rows.lo, rows.hi, rows.bound_row, rows.mu, ctx.restitution, ctx.separation,
-                            ctx.point, ctx.normal, static_pair, ctx.x, ctx.theta, ctx.M_inv, ctx.V, ctx.V1, ctx.dt,
-                            self.substeps, self.relax, self.contact_hertz, self.damping_ratio, self.push_max,
-                            self.joint_hertz, self.joint_damping_ratio, self.direct_joints,
-                            self.restitution_threshold, self.block, ja.kind, ja.i, ja.j, ja.local_i, ja.local_j,
-                            ja.params, ja.row_offset, rows.first_joint_row, lam, total, residuals)
+        n = soft_step_solve(
+            rows.normal_row,
+            rows.friction_row,
+            rows.body_a,
+            rows.body_b,
+            rows.J,
+            rows.JM,
+            rows.A_kk,
+            rows.xi,
+            rows.lo,
+            rows.hi,
+            rows.bound_row,
+            rows.mu,
+            ctx.restitution,
+            ctx.separation,
+            ctx.point,
+            ctx.normal,
+            static_pair,
+            ctx.x,
+            ctx.theta,
+            ctx.M_inv,
+            ctx.V,
+            ctx.V1,
+            ctx.dt,
+            self.substeps,
+            self.relax,
+            self.contact_hertz,
+            self.damping_ratio,
+            self.push_max,
+            self.joint_hertz,
+            self.joint_damping_ratio,
+            self.direct_joints,
+            self.restitution_threshold,
+            self.block,
+            ja.kind,
+            ja.i,
+            ja.j,
+            ja.local_i,
+            ja.local_j,
+            ja.params,
+            ja.row_offset,
+            rows.first_joint_row,
+            lam,
+            total,
+            residuals,
+        )
         rows.lam[:] = total
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
-        return (f"SoftStep(substeps={self.substeps}, relax={self.relax}, contact_hertz={self.contact_hertz:g}, "
-                f"damping_ratio={self.damping_ratio:g}, push_max={self.push_max:g}, warm_start={self.warm_start}, "
-                f"block={self.block}, joint_hertz={self.joint_hertz:g}, "
-                f"joint_damping_ratio={self.joint_damping_ratio:g}, direct_joints={self.direct_joints})")
+        return (
+            f"SoftStep(substeps={self.substeps}, relax={self.relax}, contact_hertz={self.contact_hertz:g}, "
+            f"damping_ratio={self.damping_ratio:g}, push_max={self.push_max:g}, warm_start={self.warm_start}, "
+            f"block={self.block}, joint_hertz={self.joint_hertz:g}, "
+            f"joint_damping_ratio={self.joint_damping_ratio:g}, direct_joints={self.direct_joints})"
+        )
 
 
 __all__ = ["SoftStep", "soft_step_solve"]
