@@ -20,7 +20,7 @@ from .collision import describe_feature
 from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
 from .contacts import Contacts
 from .responders import REGISTRY, make_responder
-from .responders.base import Responder, StepReport
+from .responders.base import Responder, SolveResult, StepContext, StepReport
 from .responders.iterative import IterativeImpulse
 from .responders.naive import NaiveImpulse
 from .responders.pgs import PGS
@@ -45,6 +45,8 @@ __all__ = [
     "Responder",
     "SimulationError",
     "SoftStep",
+    "SolveResult",
+    "StepContext",
     "StepReport",
     "Verdict",
     "Watch",

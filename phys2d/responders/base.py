@@ -202,4 +202,14 @@ class Responder:
         return FRICTION_COULOMB
 
     def respond(self, ctx: StepContext) -> SolveResult:  # pragma: no cover - interface
+        """Solve one step's rows: the protocol every responder follows.
+
+        On entry ``ctx.V`` (N, 3) holds the velocities after external forces (m/s, rad/s),
+        ``ctx.rows`` the step's rows (J, A_kk, xi, bounds; ``rows.lam`` warm started when
+        ``warm_start`` is set) and the contact arrays in row order. The responder changes
+        ``ctx.V`` in place, leaves each row's accumulated impulse in ``rows.lam`` (N s)
+        for the world to report and cache, and may move ``ctx.x`` and ``ctx.theta``
+        itself, saying so with ``SolveResult.integrated``. It returns the work it did
+        (``iterations``, counted in the unit ``counts`` names) and the residual of each.
+        """
         raise NotImplementedError

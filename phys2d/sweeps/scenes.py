@@ -42,7 +42,7 @@ def circle_stack(n: int = 2, responder: Responder | None = None, mass_ratio: flo
     area = math.pi * CIRCLE_RADIUS**2
     for k in range(n):
         mass = ratio * BASE_MASS if k == n - 1 else BASE_MASS
-        w.add_circle(position=(0.0, CIRCLE_RADIUS * (2 * k + 1)), radius=CIRCLE_RADIUS, density=mass / area)
+        w.add_circle(position=(0.0, (k + 0.5) * 2.0 * CIRCLE_RADIUS), radius=CIRCLE_RADIUS, density=mass / area)
     return w
 
 
