@@ -486,6 +486,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     rec = None
     folder = os.path.dirname(os.path.abspath(path)) if path else None
     new_folder = folder is not None and not os.path.isdir(folder)
+    previous = None  # a recording already at path is kept aside until this run has a world to record
+    if path is not None and os.path.isfile(path):
+        previous = f"{path}.previous"
+        os.replace(path, previous)
     if path or stream_to:
         # the writer process starts first, so that it loads rerun while this one builds the world
         # and loads the numba kernels
@@ -508,7 +512,11 @@ def cmd_run(args: argparse.Namespace) -> int:
                 os.unlink(path)
             if new_folder and folder is not None and not os.listdir(folder):
                 os.rmdir(folder)
+        if previous is not None and path is not None:  # and the recording that was there is back
+            os.replace(previous, path)
         raise
+    if previous is not None:
+        os.unlink(previous)
     watch = Watch(w)
     deepest = 0.0
     t0 = time.perf_counter()

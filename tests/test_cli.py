@@ -121,6 +121,18 @@ def test_run_without_series_keeps_the_contact_table(tmp_path):
     assert rec.series_keys("lambda") == [] and len(rec.contacts.key) > 0
 
 
+def test_a_run_that_cannot_build_its_scene_keeps_the_recording_already_there(tmp_path):
+    assert (
+        phys2d_cmd("run", "vertical_stack", "--size", "2", "--steps", "3", "--out", "v.rrd", cwd=tmp_path).returncode
+        == 0
+    )
+    before = (tmp_path / "v.rrd").read_bytes()
+    out = phys2d_cmd("run", "vertical_stack", "--size", "0", "--steps", "3", "--out", "v.rrd", cwd=tmp_path)
+    assert out.returncode != 0 and "size" in out.stderr
+    assert (tmp_path / "v.rrd").read_bytes() == before  # the earlier run's file, byte for byte
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["v.rrd"]
+
+
 def test_run_without_recording_writes_nothing(tmp_path):
     out = phys2d_cmd("run", "dominoes", "--size", "3", "--steps", "10", "--no-record", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
