@@ -358,42 +358,21 @@ def collide_pairs(
         m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, contact_margin + travel[a] + travel[b])
         mu, e = pair_friction(friction, restitution, a, b)
         key = pair_key(uid, a, b)
-        if m[0] >= 1:
+        for point in range(m[0]):  # one or two points
+            if point == 0:
+                px, py, sep, feature = m[3], m[4], m[5], m[6]
+            else:
+                px, py, sep, feature = m[7], m[8], m[9], m[10]
             write_point(
                 k,
                 a,
                 b,
-                m[3],
-                m[4],
+                px,
+                py,
                 m[1],
                 m[2],
-                m[5],
-                m[6],
-                key,
-                mu,
-                e,
-                out_a,
-                out_b,
-                out_p,
-                out_n,
-                out_s,
-                out_f,
-                out_key,
-                out_mu,
-                out_e,
-            )
-            k += 1
-        if m[0] == 2:
-            write_point(
-                k,
-                a,
-                b,
-                m[7],
-                m[8],
-                m[1],
-                m[2],
-                m[9],
-                m[10],
+                sep,
+                feature,
                 key,
                 mu,
                 e,
