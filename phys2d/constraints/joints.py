@@ -248,7 +248,7 @@ class JointArrays:
 
 
 @njit(cache=True)
-def _fill_angular_row(k, i, j, sign, M_inv, J, JM, A_diag):
+def _fill_angular_row(k, i, j, sign, M_inv, J, JM, A_kk):
     """Row k = sign * [0, 0, -1 | 0, 0, 1]: the rate of theta_j - theta_i."""
     for c in range(6):
         J[k, c] = 0.0
@@ -257,7 +257,7 @@ def _fill_angular_row(k, i, j, sign, M_inv, J, JM, A_diag):
     J[k, 5] = sign
     JM[k, 2] = -sign * M_inv[i, 2]
     JM[k, 5] = sign * M_inv[j, 2]
-    A_diag[k] = M_inv[i, 2] + M_inv[j, 2]
+    A_kk[k] = M_inv[i, 2] + M_inv[j, 2]
 
 
 @njit(cache=True)
@@ -287,7 +287,7 @@ def joint_rows(
     out_j,
     J,
     JM,
-    A_diag,
+    A_kk,
     xi,
     lo,
     hi,
@@ -309,14 +309,14 @@ def joint_rows(
         n_rows = 1
         if kind[q] == JOINT_DISTANCE:  # normalised by L
             L = params[q, 0]
-            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_diag)
+            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_kk)
             C = 0.5 * (dx * dx + dy * dy - L * L) / L
             xi[k] = -(beta / dt) * C
             lo[k] = -np.inf
             hi[k] = np.inf
         elif kind[q] == JOINT_PIN:  # x row, then y row
-            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_diag)
-            fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_diag)
+            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_kk)
+            fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_kk)
             xi[k] = -(beta / dt) * dx
             xi[k + 1] = -(beta / dt) * dy
             n_rows = 2
@@ -327,19 +327,19 @@ def joint_rows(
             C = theta[j] - theta[i] - params[q, 1]
             flags = int(params[q, 4])
             if flags == 0:
-                _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_diag)
+                _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_kk)
                 xi[k] = -(beta / dt) * C
                 lo[k] = -np.inf
                 hi[k] = np.inf
             else:
                 n_rows = 0
                 if flags & 1:  # lower: C - lower >= 0, row +[0, 0, -1 | 0, 0, 1]
-                    _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_diag)
+                    _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_kk)
                     xi[k] = _limit_xi(C - params[q, 2], beta, dt)
                     n_rows = 1
                 if flags & 2:  # upper: upper - C >= 0, row -[0, 0, -1 | 0, 0, 1]
                     u = k + n_rows
-                    _fill_angular_row(u, i, j, -1.0, M_inv, J, JM, A_diag)
+                    _fill_angular_row(u, i, j, -1.0, M_inv, J, JM, A_kk)
                     xi[u] = _limit_xi(params[q, 3] - C, beta, dt)
                     n_rows += 1
                 for m in range(n_rows):

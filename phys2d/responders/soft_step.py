@@ -105,7 +105,7 @@ def soft_sweep(
     body_b,
     J,
     JM,
-    A_diag,
+    A_kk,
     mu,
     C,
     static_pair,
@@ -136,7 +136,7 @@ def soft_sweep(
         if block and c + 1 < n_contacts and body_a[normal_row[c + 1]] == a and body_b[normal_row[c + 1]] == b:
             k2 = normal_row[c + 1]
             s2 = C[c + 1]
-            K11, K22 = A_diag[k], A_diag[k2]
+            K11, K22 = A_kk[k], A_kk[k2]
             K12 = 0.0
             for q in range(6):
                 K12 += J[k, q] * JM[k2, q]
@@ -156,27 +156,27 @@ def soft_sweep(
                 continue
         # relax leaves a point still apart alone: the next sweep with the push limits its
         # approach to closing the gap (cutting it here would bounce it off the air)
-        if A_diag[k] > 0.0 and (use_bias or s1 <= MET):
+        if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
             bias, mass_scale, impulse_scale = _push(s1, h, use_bias, soft)
-            d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
+            d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_kk[k] - impulse_scale * lam[k]
             new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
             d = new - lam[k]
             lam[k] = new
             apply_row_impulse(k, a, b, JM, d, V)
-            worst = max(worst, abs(d) * A_diag[k])
+            worst = max(worst, abs(d) * A_kk[k])
         c += 1
     for c in range(n_contacts):
         k, kn = friction_row[c], normal_row[c]
-        if A_diag[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
+        if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
             continue  # static pair, or a point that does not push: its friction cone is [0, 0]
         a, b = body_a[k], body_b[k]
         top = mu[k] * lam[kn]
-        d = -row_velocity(k, a, b, J, V) / A_diag[k]
+        d = -row_velocity(k, a, b, J, V) / A_kk[k]
         new = min(max(lam[k] + d, -top), top)
         d = new - lam[k]
         lam[k] = new
         apply_row_impulse(k, a, b, JM, d, V)
-        worst = max(worst, abs(d) * A_diag[k])
+        worst = max(worst, abs(d) * A_kk[k])
     return worst
 
 
@@ -300,7 +300,7 @@ def _joint_bias(C, use_bias, soft):
 
 @njit(cache=True)
 def solve_joints(
-    first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_diag, lo, C, lam, V, h, use_bias, soft_joint, direct
+    first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_kk, lo, C, lam, V, h, use_bias, soft_joint, direct
 ):
     """The joint rows once: limit rows one by one (lambda >= 0, like a contact point whose
     separation is the gap to the stop), then the equality rows, together (``direct``:
@@ -309,13 +309,13 @@ def solve_joints(
     worst = 0.0
     for k in range(first_joint_row, n_rows):
         unbounded = lo[k] == -np.inf
-        if A_diag[k] <= 0.0 or (direct and unbounded):
+        if A_kk[k] <= 0.0 or (direct and unbounded):
             continue
         a, b = body_a[k], body_b[k]
         if unbounded:  # the soft joint of Box2D v3
             mass_scale, impulse_scale = (soft_joint[1], soft_joint[2]) if use_bias else (1.0, 0.0)
             d = (
-                -mass_scale * (row_velocity(k, a, b, J, V) + _joint_bias(C[k], use_bias, soft_joint)) / A_diag[k]
+                -mass_scale * (row_velocity(k, a, b, J, V) + _joint_bias(C[k], use_bias, soft_joint)) / A_kk[k]
                 - impulse_scale * lam[k]
             )
             lam[k] += d
@@ -323,12 +323,12 @@ def solve_joints(
             if not use_bias and C[k] > MET:
                 continue  # relax leaves a limit still short of its stop alone
             bias, mass_scale, impulse_scale = _push(C[k], h, use_bias, soft_joint)
-            d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_diag[k] - impulse_scale * lam[k]
+            d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_kk[k] - impulse_scale * lam[k]
             new = max(lam[k] + d, 0.0)  # a stop pushes, it never pulls
             d = new - lam[k]
             lam[k] = new
         apply_row_impulse(k, a, b, JM, d, V)
-        worst = max(worst, abs(d) * A_diag[k])
+        worst = max(worst, abs(d) * A_kk[k])
     if direct and eq.shape[0] > 0:
         y = np.empty(eq.shape[0])
         for p in range(eq.shape[0]):
@@ -339,7 +339,7 @@ def solve_joints(
             k = eq[p]
             lam[k] += y[p]
             apply_row_impulse(k, body_a[k], body_b[k], JM, y[p], V)
-            worst = max(worst, abs(y[p]) * A_diag[k])
+            worst = max(worst, abs(y[p]) * A_kk[k])
     return worst
 
 
@@ -360,7 +360,7 @@ def prepare_joints(
     body_b,
     J,
     JM,
-    A_diag,
+    A_kk,
     xi,
     lo,
     hi,
@@ -393,7 +393,7 @@ def prepare_joints(
         body_b,
         J,
         JM,
-        A_diag,
+        A_kk,
         xi,
         lo,
         hi,
@@ -457,17 +457,17 @@ def store(normal_row, friction_row, lam, total, landed):
 
 @njit(cache=True)
 def restitution(
-    normal_row, friction_row, body_a, body_b, J, JM, A_diag, mu, e, impacted, vn_impact, dvn_impact, threshold, total, V
+    normal_row, friction_row, body_a, body_b, J, JM, A_kk, mu, e, impacted, vn_impact, dvn_impact, threshold, total, V
 ):
     """Bounce the points that met their partner fast (``constraints.rows.bounce_target``),
     keeping the tick's friction inside mu lambda_n."""
     for c in range(normal_row.shape[0]):
         k, kt = normal_row[c], friction_row[c]
-        if e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0 or A_diag[k] <= 0.0:
+        if e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0 or A_kk[k] <= 0.0:
             continue
         a, b = body_a[k], body_b[k]
         target = bounce_target(e[c], vn_impact[c], dvn_impact[c])
-        d = (target - row_velocity(k, a, b, J, V)) / A_diag[k]
+        d = (target - row_velocity(k, a, b, J, V)) / A_kk[k]
         new = max(total[k] + d, 0.0)
         d = new - total[k]
         total[k] = new
@@ -480,6 +480,63 @@ def restitution(
 
 
 @njit(cache=True)
+def solve(
+    first_joint_row,
+    n_rows,
+    eq,
+    L,
+    first,
+    direct,
+    normal_row,
+    friction_row,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_kk,
+    lo,
+    mu,
+    static_pair,
+    C_joint,
+    sub_C,
+    sub_vn,
+    dv,
+    lam,
+    V,
+    h,
+    use_bias,
+    soft_joint,
+    soft_dyn,
+    soft_static,
+    block,
+    restitution_threshold,
+    impacted,
+    vn_impact,
+    dvn_impact,
+    landed,
+):
+    """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
+    last (they have the last word on overlap), then note the points that met their partner.
+    Returns the largest velocity correction (m/s)."""
+    worst = solve_joints(
+        first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_kk, lo, C_joint, lam, V, h, use_bias,
+        soft_joint, direct,
+    )  # fmt: skip
+    worst = max(
+        worst,
+        soft_sweep(
+            normal_row, friction_row, body_a, body_b, J, JM, A_kk, mu, sub_C, static_pair, lam, V, h, use_bias,
+            soft_dyn, soft_static, block,
+        ),
+    )  # fmt: skip
+    _note_impacts(
+        normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold, impacted, vn_impact,
+        dvn_impact, landed,
+    )  # fmt: skip
+    return worst
+
+
+@njit(cache=True)
 def soft_step_solve(
     normal_row,
     friction_row,
@@ -487,7 +544,7 @@ def soft_step_solve(
     body_b,
     J,
     JM,
-    A_diag,
+    A_kk,
     xi,
     lo,
     hi,
@@ -582,7 +639,7 @@ def soft_step_solve(
                 body_b,
                 J,
                 JM,
-                A_diag,
+                A_kk,
                 xi,
                 lo,
                 hi,
@@ -597,56 +654,35 @@ def soft_step_solve(
         _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
         V += dv  # integrate velocities
         warm_start(body_a, body_b, JM, lam, V)
-        # solve with bias: joints first, contacts last (they have the last word on overlap)
-        solve_joints(
+        solve(  # with bias
             first_joint_row,
             n_rows,
             eq,
             L,
             first,
-            body_a,
-            body_b,
-            J,
-            JM,
-            A_diag,
-            lo,
-            C_joint,
-            lam,
-            V,
-            h,
-            True,
-            soft_joint,
             direct,
-        )
-        soft_sweep(
             normal_row,
             friction_row,
             body_a,
             body_b,
             J,
             JM,
-            A_diag,
+            A_kk,
+            lo,
             mu,
-            sub_C,
             static_pair,
+            C_joint,
+            sub_C,
+            sub_vn,
+            dv,
             lam,
             V,
             h,
             True,
+            soft_joint,
             soft_dyn,
             soft_static,
             block,
-        )
-        _note_impacts(
-            normal_row,
-            body_a,
-            body_b,
-            J,
-            dv,
-            h,
-            lam,
-            sub_C,
-            sub_vn,
             restitution_threshold,
             impacted,
             vn_impact,
@@ -657,59 +693,35 @@ def soft_step_solve(
         residuals[n_sweeps] = 0.0
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
             _note_approach(normal_row, body_a, body_b, J, C0, r, normal, moved, V, impacted, sub_C, sub_vn)
-            worst = solve_joints(
+            residuals[n_sweeps] = solve(  # relax: without bias
                 first_joint_row,
                 n_rows,
                 eq,
                 L,
                 first,
+                direct,
+                normal_row,
+                friction_row,
                 body_a,
                 body_b,
                 J,
                 JM,
-                A_diag,
+                A_kk,
                 lo,
+                mu,
+                static_pair,
                 C_joint,
+                sub_C,
+                sub_vn,
+                dv,
                 lam,
                 V,
                 h,
                 False,
                 soft_joint,
-                direct,
-            )
-            worst = max(
-                worst,
-                soft_sweep(
-                    normal_row,
-                    friction_row,
-                    body_a,
-                    body_b,
-                    J,
-                    JM,
-                    A_diag,
-                    mu,
-                    sub_C,
-                    static_pair,
-                    lam,
-                    V,
-                    h,
-                    False,
-                    soft_dyn,
-                    soft_static,
-                    block,
-                ),
-            )
-            residuals[n_sweeps] = worst
-            _note_impacts(
-                normal_row,
-                body_a,
-                body_b,
-                J,
-                dv,
-                h,
-                lam,
-                sub_C,
-                sub_vn,
+                soft_dyn,
+                soft_static,
+                block,
                 restitution_threshold,
                 impacted,
                 vn_impact,
@@ -725,7 +737,7 @@ def soft_step_solve(
         body_b,
         J,
         JM,
-        A_diag,
+        A_kk,
         mu,
         e,
         impacted,
