@@ -56,28 +56,37 @@ def relative_pose(a, b, x, theta):
 
 
 @njit(cache=True)
+def turn_since_cached(slot, a, b, theta, cached_theta):
+    """How far bodies a and b have turned since the slot was cached: (cos, sin) of each, once per pair."""
+    turn_a = theta[a] - cached_theta[slot, 0]
+    turn_b = theta[b] - cached_theta[slot, 1]
+    return np.cos(turn_a), np.sin(turn_a), np.cos(turn_b), np.sin(turn_b)
+
+
+@njit(cache=True)
 def may_recycle(
-    slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static, cached_pose, cached_theta, recycle_distance
+    slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static, cached_pose, turn, recycle_distance
 ):
-    """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose."""
-    if np.cos(theta[a] - cached_theta[slot, 0]) <= RECYCLE_MAX_TURN:
+    """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose
+    (``turn``: ``turn_since_cached``)."""
+    if turn[0] <= RECYCLE_MAX_TURN:
         return False
-    if np.cos(theta[b] - cached_theta[slot, 1]) <= RECYCLE_MAX_TURN:
+    if turn[2] <= RECYCLE_MAX_TURN:
         return False
-    px, py, turn = relative_pose(a, b, x, theta)
+    px, py, rel_turn = relative_pose(a, b, x, theta)
     distance = np.hypot(px - cached_pose[slot, 0], py - cached_pose[slot, 1])
     extent = max(
         body_extent(a, kind, radius, vstart, vcount, local_v, static),
         body_extent(b, kind, radius, vstart, vcount, local_v, static),
     )
-    return distance + extent * abs(np.sin(turn - cached_pose[slot, 2])) < recycle_distance
+    return distance + extent * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
 
 
 @njit(cache=True)
-def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation, feature):
-    """(px, py, separation) of a cached point now: its anchors turned with their bodies."""
-    ca, sa = np.cos(theta[a] - cached_theta[slot, 0]), np.sin(theta[a] - cached_theta[slot, 0])
-    cb, sb = np.cos(theta[b] - cached_theta[slot, 1]), np.sin(theta[b] - cached_theta[slot, 1])
+def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature):
+    """(px, py, separation) of a cached point now: its anchors turned with their bodies
+    (``turn``: ``turn_since_cached``)."""
+    ca, sa, cb, sb = turn
     r_ax = ca * anchor[point, 0] - sa * anchor[point, 1]
     r_ay = sa * anchor[point, 0] + ca * anchor[point, 1]
     r_bx = cb * anchor[point, 2] - sb * anchor[point, 3]
@@ -95,14 +104,11 @@ def recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, ba
 
 
 @njit(cache=True)
-def all_within(slot, a, b, x, theta, cached_start, cached_theta, anchor, normal, base_separation, feature, margin):
+def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separation, feature, margin):
     """True if every cached point of the slot is still within ``margin`` (m) of its partner:
     the narrowphase would drop one that is not, so the pair is collided anew."""
     for point in range(cached_start[slot], cached_start[slot + 1]):
-        if (
-            recycled_point(point, a, b, x, theta, cached_theta, slot, anchor, normal, base_separation, feature)[2]
-            > margin
-        ):
+        if recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature)[2] > margin:
             return False
     return True
 
@@ -177,6 +183,7 @@ def collide_recycling(
                 slot = s
         new_start[n_new] = k
         margin = contact_margin + travel[a] + travel[b]
+        turn = turn_since_cached(slot, a, b, theta, cached_theta) if slot >= 0 else (1.0, 0.0, 1.0, 0.0)
         if slot >= 0 and not (
             may_recycle(
                 slot,
@@ -191,7 +198,7 @@ def collide_recycling(
                 local_v,
                 static,
                 cached_pose,
-                cached_theta,
+                turn,
                 recycle_distance,
             )
             and all_within(
@@ -199,9 +206,8 @@ def collide_recycling(
                 a,
                 b,
                 x,
-                theta,
+                turn,
                 cached_start,
-                cached_theta,
                 cached_anchor,
                 cached_normal,
                 cached_separation,
@@ -218,9 +224,7 @@ def collide_recycling(
                     a,
                     b,
                     x,
-                    theta,
-                    cached_theta,
-                    slot,
+                    turn,
                     cached_anchor,
                     cached_normal,
                     cached_separation,
@@ -311,6 +315,15 @@ def collide_recycling(
 
 
 @njit(cache=True)
+def ascending(key, n):
+    """True if key[0] < key[1] < ... < key[n - 1]: the manifolds are already in look-up order."""
+    for m in range(1, n):
+        if key[m] <= key[m - 1]:
+            return False
+    return True
+
+
+@njit(cache=True)
 def points_in_order(start, order, new_start):
     """The points of manifolds order[0], order[1], ... (indices), and each one's first in new_start."""
     points = np.empty(start[order.shape[0]] if order.shape[0] else 0, np.int64)
@@ -328,6 +341,7 @@ class ManifoldCache:
     """Last step's manifolds, kept for recycling (the world owns one)."""
 
     def __init__(self) -> None:
+        self._sets: list[tuple | None] = [None, None]  # the buffers ``collide`` writes into (``_buffers``)
         self.clear()
 
     def clear(self) -> None:
@@ -352,22 +366,34 @@ class ManifoldCache:
         for name, value in zip(self._STATE, state):
             setattr(self, name, value)
 
+    def _buffers(self, n_pairs: int) -> tuple:
+        """Room for n_pairs manifolds (2 n_pairs points) to collide into: kept from step to step,
+        two sets taken in turn, never the set the cache's arrays (read during ``collide``) live in."""
+        sets = self._sets
+        s = 1 if sets[0] is not None and self.key.base is sets[0][0] else 0
+        current = sets[s]
+        if current is None or current[0].shape[0] < n_pairs:
+            size = max(n_pairs, 64)
+            cap = 2 * size
+            current = (
+                np.zeros(size, np.int64),
+                np.zeros(size + 1, np.int64),
+                np.zeros((size, 3)),
+                np.zeros((size, 2)),
+                np.zeros((cap, 4)),
+                np.zeros((cap, 2)),
+                np.zeros(cap),
+                np.zeros(cap, np.int32),
+            )
+            sets[s] = current
+        return current
+
     def collide(
         self, pairs, n_pairs, bodies, world_v, world_n, contact_margin, travel, recycle_distance, out, pair_start
     ) -> int:
         """The step's contact points into ``out`` (as ``collide_pairs``); returns K."""
         b = bodies
-        cap = 2 * n_pairs
-        new = (
-            np.zeros(n_pairs, np.int64),
-            np.zeros(n_pairs + 1, np.int64),
-            np.zeros((n_pairs, 3)),
-            np.zeros((n_pairs, 2)),
-            np.zeros((cap, 4)),
-            np.zeros((cap, 2)),
-            np.zeros(cap),
-            np.zeros(cap, np.int32),
-        )
+        new = self._buffers(n_pairs)
         k, n_new, self.recycled = collide_recycling(  # type: ignore[call-arg]
             pairs,
             n_pairs,
@@ -400,6 +426,15 @@ class ManifoldCache:
             *new,
         )
         key, start, pose, theta, anchor, normal, separation, feature = new
+        if ascending(key, n_new):  # pairs come sorted by (a, b), so their keys ascend: keep them as they are
+            self.key, self.start, self.pose, self.theta = key[:n_new], start[: n_new + 1], pose[:n_new], theta[:n_new]
+            self.anchor, self.normal, self.separation, self.feature = (
+                anchor[:k],
+                normal[:k],
+                separation[:k],
+                feature[:k],
+            )
+            return k
         # sorted by pair key for the next step's look-up; points follow their manifolds
         by_key = np.argsort(key[:n_new], kind="stable")
         self.start = np.zeros(n_new + 1, np.int64)
