@@ -36,7 +36,7 @@ All figures are medians over repeats. Stages:
 | --- | --- |
 | external forces | `apply_external_forces` |
 | broadphase | `update_geometry_in` (and the fat-box check); if a body left its box `sweep_and_prune`, `colour_pairs` |
-| narrowphase | `collide_pairs` |
+| narrowphase | `ManifoldCache.collide` (contact recycling, and the narrowphase for the pairs not recycled) |
 | cache matching | `ContactCache.warm_start` (the merge of sorted keys, into the rows), `ContactCache.store_rows` |
 | rows | `RowBuffer.take`, `solve_order`, `World._context` (contacts in row order), `contact_rows`, `joint_rows` |
 | solve | the responder's `respond` (SoftStep's moves the positions too: its sub-steps integrate) |
@@ -67,6 +67,7 @@ if str(REPO_ROOT) not in sys.path:  # profile the phys2d of this checkout
 
 import phys2d  # noqa: E402
 import phys2d.world as world_module  # noqa: E402
+from phys2d.collision.recycle import ManifoldCache  # noqa: E402
 from phys2d.constraints.rows import RowBuffer  # noqa: E402
 from phys2d.contacts import ContactCache  # noqa: E402
 
@@ -76,12 +77,13 @@ DT = 1.0 / 60.0
 FUNCTION_STAGES = {
     "external forces": ("apply_external_forces",),
     "broadphase": ("update_geometry_in", "sweep_and_prune", "colour_pairs"),
-    "narrowphase": ("collide_pairs",),
+    "narrowphase": ("collide_pairs",),  # (an older world's; now ManifoldCache.collide below)
     "rows": ("solve_order", "contact_rows", "joint_rows"),
     "integrate": ("integrate_positions", "first_too_fast"),
 }
 # stage -> (class, method name) that World.step calls on its objects
 METHOD_STAGES = {
+    "narrowphase": ((ManifoldCache, "collide"),),
     "cache matching": ((ContactCache, "warm_start"), (ContactCache, "store_rows")),
     "rows": ((RowBuffer, "take"), (world_module.World, "_context")),
 }

@@ -31,7 +31,7 @@ from .constraints.joints import (
     local_anchor,
     optional_limit,
 )
-from .constraints.order import colour_pairs, solve_order
+from .constraints.order import colour_pairs, contacts_in_order, solve_order
 from .constraints.rows import FRICTION_LECTURE, RowBuffer, Rows, contact_rows
 from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
@@ -503,8 +503,9 @@ class World:
         """What the responder sees: the contacts in row order (contact q of ctx is contact order[q])."""
         b = self._bodies
         if self._responder.colour_order:  # only the fields a responder reads, in row order
-            body_a, body_b, point, normal = c.body_a[order], c.body_b[order], c.point[order], c.normal[order]
-            separation, restitution = c.separation[order], c.restitution[order]
+            body_a, body_b, point, normal, separation, restitution = contacts_in_order(
+                order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution
+            )
         else:  # pair order: row order is contact order
             body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
             separation, restitution = c.separation, c.restitution

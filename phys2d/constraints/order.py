@@ -54,3 +54,20 @@ def solve_order(pair_order, pair_start):
             order[q] = c
             q += 1
     return order
+
+
+@njit(cache=True)
+def contacts_in_order(order, body_a, body_b, point, normal, separation, restitution):
+    """What a colour-ordered responder reads of the contacts, in solve order: field[order],
+    one pass for all six fields (body_a, body_b, point, normal, separation, restitution)."""
+    k = order.shape[0]
+    out_a, out_b = np.empty(k, body_a.dtype), np.empty(k, body_b.dtype)
+    out_p, out_n = np.empty((k, 2)), np.empty((k, 2))
+    out_s, out_e = np.empty(k), np.empty(k)
+    for q in range(k):
+        c = order[q]
+        out_a[q], out_b[q] = body_a[c], body_b[c]
+        out_p[q, 0], out_p[q, 1] = point[c, 0], point[c, 1]
+        out_n[q, 0], out_n[q, 1] = normal[c, 0], normal[c, 1]
+        out_s[q], out_e[q] = separation[c], restitution[c]
+    return out_a, out_b, out_p, out_n, out_s, out_e

@@ -422,6 +422,16 @@ def prepare_contacts(normal_row, body_a, body_b, point, x):
 
 
 @njit(cache=True)
+def prepare_static_pairs(normal_row, body_a, body_b, M_inv):
+    """Which contact points have a static partner (M^-1 = 0 on either side): (K,) bool."""
+    static_pair = np.empty(normal_row.shape[0], np.bool_)
+    for c in range(normal_row.shape[0]):
+        k = normal_row[c]
+        static_pair[c] = M_inv[body_a[k], 0] == 0.0 or M_inv[body_b[k], 0] == 0.0
+    return static_pair
+
+
+@njit(cache=True)
 def warm_start(body_a, body_b, JM, lam, V):
     """Apply last sub-step's impulses (N s) to V."""
     for k in range(lam.shape[0]):
@@ -554,7 +564,6 @@ def soft_step_solve(
     C0,
     point,
     normal,
-    static_pair,
     x,
     theta,
     M_inv,
@@ -580,16 +589,14 @@ def soft_step_solve(
     joint_row_offset,
     first_joint_row,
     lam,
-    total,
-    residuals,
 ):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
     warm start, solve with bias, integrate positions, relax, store; then restitution.
 
-    ``lam`` holds the impulse per sub-step (warm start in, last sub-step out); ``total``
-    receives the impulse over the whole tick (N s). Joint rows (from first_joint_row)
-    are rebuilt at each sub-step's positions. Returns the number of sweeps recorded in
-    ``residuals``.
+    ``lam`` holds the cached impulse per tick going in and the impulse over the whole tick
+    (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
+    sub-step out). Joint rows (from first_joint_row) are rebuilt at each sub-step's
+    positions. Returns the number of sweeps and each one's residual (m/s).
     """
     n_rows = lam.shape[0]
     n_contacts = normal_row.shape[0]
@@ -599,6 +606,11 @@ def soft_step_solve(
     soft_static = _soft(2.0 * hertz, damping_ratio, h, push_max)
     soft_joint = _soft(min(joint_hertz, 0.25 / h), joint_damping_ratio, h, np.inf)
     # prepare
+    for k in range(n_rows):
+        lam[k] /= substeps  # cached impulse per tick -> per sub-step
+    total = np.zeros(n_rows)
+    residuals = np.zeros(substeps)
+    static_pair = prepare_static_pairs(normal_row, body_a, body_b, M_inv)
     x0 = x.copy()
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
@@ -618,8 +630,6 @@ def soft_step_solve(
     landed = np.zeros(n_contacts, np.bool_)  # met its partner fast in this sub-step
     dv = (V - V1) / substeps  # a sub-step's share of the external forces
     V[:, :] = V1
-    for k in range(n_rows):
-        total[k] = 0.0
     n_sweeps = 0
     for _ in range(substeps):
         if n_rows > first_joint_row:
@@ -747,7 +757,8 @@ def soft_step_solve(
         total,
         V,
     )
-    return n_sweeps
+    lam[:] = total
+    return n_sweeps, residuals
 
 
 class SoftStep(Responder):
@@ -818,12 +829,8 @@ class SoftStep(Responder):
 
     def respond(self, ctx: StepContext) -> SolveResult:
         rows = ctx.rows
-        lam = rows.lam / self.substeps  # cached impulse per tick -> per sub-step
-        total = np.zeros(len(rows))
-        residuals = np.zeros(self.substeps)
-        static_pair = (ctx.M_inv[ctx.body_a, 0] == 0.0) | (ctx.M_inv[ctx.body_b, 0] == 0.0)
         ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
-        n = soft_step_solve(
+        n, residuals = soft_step_solve(
             rows.normal_row,
             rows.friction_row,
             rows.body_a,
@@ -840,7 +847,6 @@ class SoftStep(Responder):
             ctx.separation,
             ctx.point,
             ctx.normal,
-            static_pair,
             ctx.x,
             ctx.theta,
             ctx.M_inv,
@@ -865,11 +871,8 @@ class SoftStep(Responder):
             ja.params,
             ja.row_offset,
             rows.first_joint_row,
-            lam,
-            total,
-            residuals,
+            rows.lam,
         )
-        rows.lam[:] = total
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
