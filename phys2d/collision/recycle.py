@@ -114,6 +114,17 @@ def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separatio
 
 
 @njit(cache=True)
+def next_slot(cached_key, key, m):
+    """The first slot whose cached key is >= key. The pairs' keys ascend, so the look-up walks on
+    from the last one (``m``): a merge of two sorted lists; a key below the last looks from the start."""
+    if m > 0 and cached_key[m - 1] >= key:
+        return np.searchsorted(cached_key, key)
+    while m < cached_key.shape[0] and cached_key[m] < key:
+        m += 1
+    return m
+
+
+@njit(cache=True)
 def collide_recycling(
     pairs,
     n_pairs,
@@ -170,6 +181,7 @@ def collide_recycling(
     n_new = 0
     n_recycled = 0
     n_cached = cached_key.shape[0]
+    look = 0  # the cached slot looked at last
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
@@ -178,12 +190,12 @@ def collide_recycling(
         slot = -1
         polygons = kind[a] != CIRCLE and kind[b] != CIRCLE  # a circle rolls: its point moves over it
         if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
-            s = np.searchsorted(cached_key, key)
-            if s < n_cached and cached_key[s] == key:
-                slot = s
+            look = next_slot(cached_key, key, look)
+            if look < n_cached and cached_key[look] == key:
+                slot = look
         new_start[n_new] = k
         margin = contact_margin + travel[a] + travel[b]
-        turn = turn_since_cached(slot, a, b, theta, cached_theta) if slot >= 0 else (1.0, 0.0, 1.0, 0.0)
+        turned = turn_since_cached(slot, a, b, theta, cached_theta) if slot >= 0 else (1.0, 0.0, 1.0, 0.0)
         if slot >= 0 and not (
             may_recycle(
                 slot,
@@ -198,7 +210,7 @@ def collide_recycling(
                 local_v,
                 static,
                 cached_pose,
-                turn,
+                turned,
                 recycle_distance,
             )
             and all_within(
@@ -206,7 +218,7 @@ def collide_recycling(
                 a,
                 b,
                 x,
-                turn,
+                turned,
                 cached_start,
                 cached_anchor,
                 cached_normal,
@@ -224,7 +236,7 @@ def collide_recycling(
                     a,
                     b,
                     x,
-                    turn,
+                    turned,
                     cached_anchor,
                     cached_normal,
                     cached_separation,
