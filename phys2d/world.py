@@ -595,7 +595,7 @@ class World:
             out,
             pair_start,
         )
-        body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
+        body_a, body_b, point, normal, separation, feature, key, mu, e = [a[:k] for a in out]
         if self._responder.colour_order:
             order = solve_order(self._pair_order, pair_start)
         else:
@@ -631,7 +631,8 @@ class World:
         k = len(c)
         ja = self._joint_arrays
         rows = self._rows.take(order, ja.n_rows)
-        if r.friction_model == FRICTION_LECTURE:
+        friction_model = r.friction_model
+        if friction_model == FRICTION_LECTURE:
             pair = (c.body_a.astype(np.int64) << 32) | c.body_b
             _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
             points_in_manifold = counts[inverse].astype(np.float64)
@@ -657,7 +658,7 @@ class World:
             r.slop,
             r.push_max,
             r.restitution_threshold,
-            r.friction_model,
+            friction_model,
             self._gravity_norm,
             points_in_manifold,
             rows.body_a,

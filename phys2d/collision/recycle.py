@@ -371,8 +371,19 @@ class ManifoldCache:
     _STATE = ("key", "start", "pose", "theta", "anchor", "normal", "separation", "feature", "recycled")
 
     def state(self) -> tuple:
-        """What ``restore`` needs to undo a step (``collide`` replaces the arrays, never edits them)."""
-        return tuple(getattr(self, name) for name in self._STATE)
+        """What ``restore`` needs to undo a step (``collide`` replaces the arrays, never edits them):
+        the attributes of ``_STATE``, in its order."""
+        return (
+            self.key,
+            self.start,
+            self.pose,
+            self.theta,
+            self.anchor,
+            self.normal,
+            self.separation,
+            self.feature,
+            self.recycled,
+        )
 
     def restore(self, state: tuple) -> None:
         for name, value in zip(self._STATE, state):
