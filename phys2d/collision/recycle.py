@@ -266,13 +266,17 @@ def collide_recycling(
                     out_e,
                 )
                 # the cache keeps the manifold as it was found: pose, anchors and separation
-                new_anchor[k] = cached_anchor[point]
-                new_normal[k] = cached_normal[point]
+                for i in range(4):
+                    new_anchor[k, i] = cached_anchor[point, i]
+                new_normal[k, 0] = cached_normal[point, 0]
+                new_normal[k, 1] = cached_normal[point, 1]
                 new_separation[k] = cached_separation[point]
                 new_feature[k] = cached_feature[point]
                 k += 1
-            new_pose[n_new] = cached_pose[slot]
-            new_theta[n_new] = cached_theta[slot]
+            for i in range(3):
+                new_pose[n_new, i] = cached_pose[slot, i]
+            new_theta[n_new, 0] = cached_theta[slot, 0]
+            new_theta[n_new, 1] = cached_theta[slot, 1]
         else:
             m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin)
             for point in range(m[0]):
