@@ -48,6 +48,15 @@ def body_extent(b, kind, radius, vstart, vcount, local_v, static):
 
 
 @njit(cache=True)
+def body_extents(kind, radius, vstart, vcount, local_v, static):
+    """``body_extent`` of every body (m), once per step: a body is in several pairs."""
+    extent = np.empty(kind.shape[0])
+    for b in range(kind.shape[0]):
+        extent[b] = body_extent(b, kind, radius, vstart, vcount, local_v, static)
+    return extent
+
+
+@njit(cache=True)
 def relative_pose(a, b, x, theta):
     """B's pose in A's frame: (px, py, theta_b - theta_a) in m and rad."""
     c, s = np.cos(theta[a]), np.sin(theta[a])
@@ -64,22 +73,17 @@ def turn_since_cached(slot, a, b, theta, cached_theta):
 
 
 @njit(cache=True)
-def may_recycle(
-    slot, a, b, x, theta, kind, radius, vstart, vcount, local_v, static, cached_pose, turn, recycle_distance
-):
+def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distance):
     """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose
-    (``turn``: ``turn_since_cached``)."""
+    (``turn``: ``turn_since_cached``; ``extent``: ``body_extents``)."""
     if turn[0] <= RECYCLE_MAX_TURN:
         return False
     if turn[2] <= RECYCLE_MAX_TURN:
         return False
     px, py, rel_turn = relative_pose(a, b, x, theta)
     distance = np.hypot(px - cached_pose[slot, 0], py - cached_pose[slot, 1])
-    extent = max(
-        body_extent(a, kind, radius, vstart, vcount, local_v, static),
-        body_extent(b, kind, radius, vstart, vcount, local_v, static),
-    )
-    return distance + extent * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
+    reach = max(extent[a], extent[b])
+    return distance + reach * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
 
 
 @njit(cache=True)
@@ -182,6 +186,7 @@ def collide_recycling(
     n_recycled = 0
     n_cached = cached_key.shape[0]
     look = 0  # the cached slot looked at last
+    extent = body_extents(kind, radius, vstart, vcount, local_v, static) if recycle_distance > 0.0 else np.zeros(0)
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
@@ -203,12 +208,7 @@ def collide_recycling(
                 b,
                 x,
                 theta,
-                kind,
-                radius,
-                vstart,
-                vcount,
-                local_v,
-                static,
+                extent,
                 cached_pose,
                 turned,
                 recycle_distance,
