@@ -1,0 +1,77 @@
+"""The kernels that replaced numpy work in a step (issue 11, "Fast"), each against a second method."""
+
+import numpy as np
+import pytest
+
+from phys2d import SoftStep, scenes
+from phys2d.collision.recycle import ascending, body_extent, body_extents, next_slot
+from phys2d.constraints.order import contacts_in_order
+
+
+def test_contacts_in_order_is_fancy_indexing():
+    rng = np.random.default_rng(3)
+    k = 17
+    order = rng.permutation(k).astype(np.int32)
+    body_a = rng.integers(0, 9, k).astype(np.int32)
+    body_b = rng.integers(0, 9, k).astype(np.int32)
+    point, normal = rng.normal(size=(k, 2)), rng.normal(size=(k, 2))
+    separation, restitution = rng.normal(size=k), rng.random(k)
+    got = contacts_in_order(order, body_a, body_b, point, normal, separation, restitution)
+    for g, field in zip(got, (body_a, body_b, point, normal, separation, restitution)):
+        assert g.dtype == field.dtype
+        assert np.array_equal(g, field[order])
+
+
+@pytest.mark.parametrize("ascending_queries", [True, False])
+def test_next_slot_is_a_binary_search(ascending_queries):
+    rng = np.random.default_rng(5)
+    cached = np.unique(rng.integers(0, 1000, 60)).astype(np.int64)
+    queries = rng.integers(-5, 1005, 200).astype(np.int64)
+    if ascending_queries:
+        queries = np.sort(queries)
+    look = 0
+    for key in queries:
+        look = next_slot(cached, key, look)
+        assert look == np.searchsorted(cached, key)
+
+
+def test_ascending():
+    assert ascending(np.array([1, 4, 9, 100], np.int64), 4)
+    assert ascending(np.array([1, 4, 3], np.int64), 2)  # only the first n count
+    assert not ascending(np.array([1, 4, 4], np.int64), 3)
+    assert ascending(np.zeros(0, np.int64), 0)
+
+
+def test_body_extents_are_the_farthest_surface_points():
+    """mixed_shapes' bodies in turn: box 0.4 x 0.3 (half extents), circle r 0.35, the triangle
+    (-0.5, -0.3), (0.5, -0.3), (0, 0.5) about its centroid (0, -1/30), hexagon r 0.4; static: 0."""
+    w = scenes.mixed_shapes(8)
+    b = w._bodies
+    got = body_extents(b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static)
+    triangle = np.hypot(0.5, -0.3 + 1.0 / 30.0)
+    expected = [0.0] + [np.hypot(0.4, 0.3), 0.35, triangle, 0.4] * 2
+    assert got == pytest.approx(expected, rel=1e-12)
+    for i in range(b.n):
+        assert got[i] == body_extent(i, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static)
+
+
+def test_manifold_buffers_are_taken_in_turn_and_never_the_ones_read():
+    w = scenes.vertical_stack(3, SoftStep())
+    m = w._manifolds
+    bases = []
+    for _ in range(4):
+        before = m.key.base
+        w.step(1 / 60)
+        assert m.key.base is not before  # this step's manifolds were written beside last step's
+        bases.append(m.key.base)
+    assert bases[0] is bases[2] and bases[1] is bases[3] and bases[0] is not bases[1]
+
+
+def test_soft_step_reports_the_tick_s_impulse_in_rows_and_contacts():
+    """rows.lam comes back as the impulse over the whole tick: the contacts' lambda_n of a box
+    resting on the ground carries its weight, m g dt (N s), summed over its points."""
+    w = scenes.vertical_stack(1, SoftStep())
+    for _ in range(120):
+        w.step(1 / 60)
+    m = w.bodies[1].mass
+    assert np.sum(w.contacts.lambda_n) == pytest.approx(m * 10.0 / 60.0, rel=1e-6)
