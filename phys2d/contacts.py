@@ -57,6 +57,19 @@ def _root(parent, b):
 
 
 @njit(cache=True)
+def lost_a_load(cache_keys, cache_pushed, keys):
+    """True if a pair that pushed last tick has no contact now (a merge of the sorted keys by pair)."""
+    m = 0
+    for e in range(cache_keys.shape[0]):
+        pair = cache_keys[e] >> FEATURE_BITS
+        while m < keys.shape[0] and (keys[m] >> FEATURE_BITS) < pair:
+            m += 1
+        if cache_pushed[e] and not (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
+            return True
+    return False
+
+
+@njit(cache=True)
 def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold):
     """cold[c] = True for every contact c whose island lost a load since last tick.
 
@@ -66,6 +79,9 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
     contact connected to either body through dynamic bodies starts cold. Static bodies
     do not connect islands: nothing flows through the ground.
     """
+    if not lost_a_load(cache_keys, cache_pushed, keys):  # the usual tick: no island to look for
+        cold[:] = False
+        return
     n = uid.shape[0]
     parent = np.arange(n)
     for c in range(keys.shape[0]):

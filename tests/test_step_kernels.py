@@ -75,3 +75,18 @@ def test_soft_step_reports_the_tick_s_impulse_in_rows_and_contacts():
         w.step(1 / 60)
     m = w.bodies[1].mass
     assert np.sum(w.contacts.lambda_n) == pytest.approx(m * 10.0 / 60.0, rel=1e-6)
+
+
+def test_lost_a_load_is_a_pushed_pair_gone():
+    """Against sets of pairs: True exactly when a cached pair that pushed has no key now."""
+    from phys2d.contacts import FEATURE_BITS, lost_a_load
+
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        pairs = np.unique(rng.integers(1, 40, 12))
+        cache_keys = np.sort((pairs[:, None] << FEATURE_BITS) + np.arange(2)).ravel().astype(np.int64)
+        pushed = rng.random(cache_keys.shape[0]) < 0.5
+        now = pairs[rng.random(pairs.shape[0]) < 0.8]
+        keys = np.sort((now[:, None] << FEATURE_BITS) + np.arange(2)).ravel().astype(np.int64)
+        gone = {int(k) >> FEATURE_BITS for k, p in zip(cache_keys, pushed) if p} - {int(p) for p in now}
+        assert lost_a_load(cache_keys, pushed, keys) == bool(gone)
