@@ -504,10 +504,10 @@ class World:
         b = self._bodies
         if self._responder.colour_order:  # only the fields a responder reads, in row order
             body_a, body_b, point, normal = c.body_a[order], c.body_b[order], c.point[order], c.normal[order]
-            separation, restitution = c.separation[order], c.restitution[order]
+            separation, restitution, anchor = c.separation[order], c.restitution[order], c.anchor[order]
         else:  # pair order: row order is contact order
             body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
-            separation, restitution = c.separation, c.restitution
+            separation, restitution, anchor = c.separation, c.restitution, c.anchor
         return StepContext(
             dt,
             b.x,
@@ -525,6 +525,7 @@ class World:
             restitution,
             gravity=self._gravity,
             joints=self._joint_arrays,
+            anchor=anchor,
         )
 
     def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -580,6 +581,7 @@ class World:
             np.empty(cap, np.int64),
             np.empty(cap),
             np.empty(cap),
+            np.empty((cap, 4)),
         )
         pair_start = np.empty(self._n_pairs + 1, np.int64)
         k = self._manifolds.collide(
@@ -594,7 +596,7 @@ class World:
             out,
             pair_start,
         )
-        body_a, body_b, point, normal, separation, feature, key, mu, e = (a[:k] for a in out)
+        body_a, body_b, point, normal, separation, feature, key, mu, e, anchor = (a[:k] for a in out)
         if self._responder.colour_order:
             order = solve_order(self._pair_order, pair_start)
         else:
@@ -603,6 +605,7 @@ class World:
             body_a=body_a,
             body_b=body_b,
             point=point,
+            anchor=anchor,
             normal=normal,
             separation=separation,
             lambda_n=EMPTY,
@@ -642,12 +645,11 @@ class World:
             rows.friction_row,
             c.body_a,
             c.body_b,
-            c.point,
+            c.anchor,
             c.normal,
             c.separation,
             c.friction,
             c.restitution,
-            b.x,
             V1,
             V,
             b.M_inv,

@@ -8,15 +8,25 @@ frame, and each body's angle. In a later step, while
 
 (extent: the larger distance from a moving body's centre to its surface) and
 neither body has turned by more than RECYCLE_MAX_TURN since, the narrowphase is
-skipped: each point keeps its anchors, r_a and r_b turned with their bodies, its
-normal and feature id (the point itself rides with the incident polygon, whose
-corner made it), and only its separation follows the motion,
+skipped: each point keeps its normal, its feature id and the lever arms r_a, r_b
+it was found with (``anchor``: the rows' Jacobian stays the one found), and only
+its separation follows the motion, the anchors turned with their bodies,
 
-    C = C_cached + (x_b - x_a + r_b - r_a) . n
+    C = C_cached + (x_b - x_a + R_b r_b - R_a r_a) . n
 
-as within the soft step's sub-steps. A stack whose boxes lean by a hair then keeps
-the points it had instead of the ones clipping would find at each new tilt, and a
-pair that stays put costs no narrowphase. Fast pairs (whose velocities could carry
+as within the soft step's sub-steps (the point reported rides with the incident
+polygon, whose corner made it). A stack whose boxes lean by a hair then keeps the
+points it had instead of the ones clipping would find at each new tilt, and a pair
+that stays put costs no narrowphase.
+
+Why the lever arms are not turned: a soft contact lets a box tilt on its partner
+by the spring's give. Lever arms that turn with that tilt add the torque of the
+load through them (lambda_n times the arm's change), which pushes the tilt further:
+a tall stack, leaning by a millimetre a box, buckles within seconds. Kept as found,
+the torques are those of the pose the manifold was found in, as for rigid contacts;
+what that leaves out is bounded by contact_recycle_distance and RECYCLE_MAX_TURN,
+past which the pair is collided anew (Box2D v3 keeps its anchors so, and so holds
+the same stack). Fast pairs (whose velocities could carry
 them further than contact_margin within the step) are always collided anew, so
 speculative contacts still see what is coming; so is a pair that had no points, one
 whose recycled points would lie further apart than the narrowphase keeps them, and
@@ -144,6 +154,7 @@ def collide_recycling(
     out_key,
     out_mu,
     out_e,
+    out_r,
     pair_start,
     new_key,
     new_start,
@@ -158,7 +169,8 @@ def collide_recycling(
 
     cached_*: last step's manifolds, sorted by pair key (slot s's points are
     cached_start[s] up to cached_start[s + 1]). new_*: this step's, to cache (room for
-    n_pairs manifolds and 2 n_pairs points). Returns (points K, manifolds cached, recycled).
+    n_pairs manifolds and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b)
+    for the rows, as its manifold was found. Returns (points K, manifolds cached, recycled).
     """
     k = 0
     n_new = 0
@@ -254,6 +266,7 @@ def collide_recycling(
                 new_normal[k] = cached_normal[point]
                 new_separation[k] = cached_separation[point]
                 new_feature[k] = cached_feature[point]
+                out_r[k] = new_anchor[k]  # the lever arms it was found with, unturned
                 k += 1
             new_pose[n_new] = cached_pose[slot]
             new_theta[n_new] = cached_theta[slot]
@@ -295,6 +308,7 @@ def collide_recycling(
                 new_normal[k, 1] = m[2]
                 new_separation[k] = sep
                 new_feature[k] = feature
+                out_r[k] = new_anchor[k]
                 k += 1
             px, py, turn = relative_pose(a, b, x, theta)
             new_pose[n_new, 0] = px

@@ -273,12 +273,11 @@ def contact_rows(
     friction_row,
     body_a,
     body_b,
-    point,
+    anchor,
     normal,
     separation,
     mu,
     e,
-    x,
     V1,
     V,
     M_inv,
@@ -316,6 +315,8 @@ def contact_rows(
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
 
+    anchor[c] = (r_a, r_b): the lever arms (m) from each body's centre to the point.
+
     Returns the deepest overlap, max(0, -min C) (m).
     """
     deepest = 0.0
@@ -324,8 +325,7 @@ def contact_rows(
         a, b = body_a[c], body_b[c]
         deepest = max(deepest, -separation[c])
         nx, ny = normal[c, 0], normal[c, 1]
-        r_ax, r_ay = point[c, 0] - x[a, 0], point[c, 1] - x[a, 1]
-        r_bx, r_by = point[c, 0] - x[b, 0], point[c, 1] - x[b, 1]
+        r_ax, r_ay, r_bx, r_by = anchor[c, 0], anchor[c, 1], anchor[c, 2], anchor[c, 3]
         k = normal_row[q]
         out_a[k] = a
         out_b[k] = b

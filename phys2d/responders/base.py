@@ -37,6 +37,7 @@ class StepContext:
     restitution: np.ndarray  # (K,) mixed e of each contact
     gravity: np.ndarray | None = None  # (2,) m/s^2, the only external force
     joints: object = None  # the world's packed joints (``JointArrays``), for responders that rebuild joint rows
+    anchor: np.ndarray | None = None  # (K, 4) lever arms r_a, r_b (m) the rows were built with
 
     @property
     def F_ext(self) -> np.ndarray:

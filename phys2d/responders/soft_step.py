@@ -4,8 +4,9 @@ What the field learned after the lecture, kept beside its PGS, not in place of i
 The tick of length dt is split into n sub-steps of h = dt/n. The stages carry
 Box2D v3's names:
 
-    prepare                                  lever arms; per sub-step, the joint rows at the
-                                             positions now (and their factor, below)
+    prepare                                  lever arms (the contacts' own: a recycled point
+                                             keeps those it was found with); per sub-step, the
+                                             joint rows at the positions now (and their factor)
     integrate velocities  V += h M^-1 F_ext  external forces, a slice at a time
     warm start            V += M^-1 J^T lam  the impulse per sub-step
     solve (with bias)                        joint rows, then one PGS sweep of the contacts
@@ -407,21 +408,6 @@ def prepare_joints(
 
 # -- the stages of a sub-step ---------------------------------------------------------------------
 @njit(cache=True)
-def prepare_contacts(normal_row, body_a, body_b, point, x):
-    """Each contact point's lever arms (r_a, r_b) (m) at the start of the tick: (K, 4)."""
-    n_contacts = normal_row.shape[0]
-    r = np.empty((n_contacts, 4))
-    for c in range(n_contacts):
-        k = normal_row[c]
-        a, b = body_a[k], body_b[k]
-        r[c, 0] = point[c, 0] - x[a, 0]
-        r[c, 1] = point[c, 1] - x[a, 1]
-        r[c, 2] = point[c, 0] - x[b, 0]
-        r[c, 3] = point[c, 1] - x[b, 1]
-    return r
-
-
-@njit(cache=True)
 def warm_start(body_a, body_b, JM, lam, V):
     """Apply last sub-step's impulses (N s) to V."""
     for k in range(lam.shape[0]):
@@ -552,7 +538,7 @@ def soft_step_solve(
     mu,
     e,
     C0,
-    point,
+    anchor,
     normal,
     static_pair,
     x,
@@ -603,7 +589,7 @@ def soft_step_solve(
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     moved[:, 2] = 1.0
-    r = prepare_contacts(normal_row, body_a, body_b, point, x)
+    r = anchor  # each point's lever arms (r_a, r_b), those its rows were built with
     eq = _equality_rows(first_joint_row, n_rows, lo)
     direct = direct_joints and 0 < eq.shape[0] <= DIRECT_JOINT_ROWS_MAX
     L = np.zeros((eq.shape[0], eq.shape[0])) if direct else np.zeros((0, 0))
@@ -838,7 +824,7 @@ class SoftStep(Responder):
             rows.mu,
             ctx.restitution,
             ctx.separation,
-            ctx.point,
+            ctx.anchor,
             ctx.normal,
             static_pair,
             ctx.x,
