@@ -28,16 +28,19 @@ manifold in the first second (|lambda_1 - lambda_2| / (lambda_1 + lambda_2):
 and ms per step (wall clock, informative only).
 
 (c) The same stack with box k shifted sideways by 1 mm * k: no longer symmetric.
-Row-by-row PGS falls within seconds. The block solver and the soft step sway (by
-about 6 and 9 cm in the full 30 s run) and come back. They stand because a pair
+Row-by-row PGS falls within seconds, the block solver at about 6 s. The soft step
+sways (by about 9 cm in the full 30 s run) and comes back. It stands because a pair
 that barely moves keeps its contact points from tick to tick
-(World.contact_recycle_distance), and a kept point keeps the lever arms it was
-found with (Contacts.anchor). The soft step's springs (30 Hz) let each box tilt on
-the one below; lever arms turned with that tilt add the torque of the load above
-through them, which tilts the box further: a 20-box column on such springs buckles.
-With recycling off (contact_recycle_distance = 0) the points are found anew every
-tick, their arms follow the tilt, and both fall at about 5 s, as Box2D v3's stack
-does without its recycling.
+(World.contact_recycle_distance), and the soft step builds its rows with the lever
+arms a kept point was found with (Contacts.anchor), as Box2D v3 does. Its springs
+(30 Hz) let each box tilt on the one below; lever arms turned with that tilt add the
+torque of the load above through them, which tilts the box further, and a 20-box
+column on such springs buckles: with recycling off (contact_recycle_distance = 0) the
+points are found anew every tick, their arms follow the tilt, and the soft step's
+stack falls at about 5 s, as Box2D v3's does without its recycling. PGS keeps arms
+taken at each tick's positions, so its impulses act at one point of both bodies and
+keep angular momentum exactly; the soft step's found arms part as the boxes shift,
+by millimetres here.
 
 In the viewer: nine worlds side by side. stack-pgs sways and falls while
 stack-pgs-block and stack-soft-step stand still; ratio-pgs topples, ratio-pgs-block

@@ -159,8 +159,9 @@ class Contacts:
 
     body_a, body_b    indices into ``w.bodies`` (body_a < body_b)
     point             (K, 2) contact point p, m
-    anchor            (K, 4) lever arms r_a, r_b (m) the rows use: p - x_a and p - x_b when
-                      the manifold was found (a recycled point keeps them, unturned)
+    anchor            (K, 4) lever arms r_a, r_b (m): p - x_a and p - x_b when the manifold
+                      was found (a recycled point keeps them, unturned); SoftStep's rows use
+                      them (``Responder.found_lever_arms``), other responders' p - x now
     normal            (K, 2) unit normal n, from a to b
     separation        (K,) C in m, negative when overlapping
     lambda_n          (K,) the accumulated normal impulse of the step, N s (>= 0 under PGS)

@@ -134,7 +134,7 @@ def test_a_fresh_point_has_the_lever_arms_from_each_centre_to_it():
 
 
 def test_a_recycled_point_keeps_the_lever_arms_it_was_found_with():
-    # the rows' Jacobian stays the one found: arms turned with the bodies would let a soft contact's
+    # SoftStep's rows keep the Jacobian found: arms turned with the bodies would let a soft contact's
     # tilt feed back into its torques (a leaning stack buckles)
     w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.SoftStep())
     w.add_box(position=(0.0, 0.0), half_extents=(1.0, 0.5), static=True)

@@ -1,9 +1,9 @@
 """Issue 11's robustness scenes under SoftStep(4), at shorter durations than the issue's 30 s (no timed tests).
 
 The full-length figures are in the branch report and README.md. The leaning 20-stack stands because
-a recycled manifold keeps the lever arms it was found with (``phys2d.collision.recycle``): with arms
-turned with the boxes, its 1 mm version crossed 0.1 m at 3.1 s and fell at 5.2 s; now its largest
-sideways movement is 0.09 m at 5 s (0.095 m over 30 s).
+SoftStep's rows keep the lever arms a recycled manifold was found with (``phys2d.collision.recycle``):
+with arms turned with the boxes, its 1 mm version crossed 0.1 m at 3.1 s and fell at 5.2 s; now its
+largest sideways movement is 0.09 m at 5 s (0.095 m over 30 s).
 """
 
 from __future__ import annotations

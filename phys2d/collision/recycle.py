@@ -9,8 +9,8 @@ frame, and each body's angle. In a later step, while
 (extent: the larger distance from a moving body's centre to its surface) and
 neither body has turned by more than RECYCLE_MAX_TURN since, the narrowphase is
 skipped: each point keeps its normal, its feature id and the lever arms r_a, r_b
-it was found with (``anchor``: the rows' Jacobian stays the one found), and only
-its separation follows the motion, the anchors turned with their bodies,
+it was found with (``anchor``), and only its separation follows the motion, the
+anchors turned with their bodies,
 
     C = C_cached + (x_b - x_a + R_b r_b - R_a r_a) . n
 
@@ -19,18 +19,23 @@ polygon, whose corner made it). A stack whose boxes lean by a hair then keeps th
 points it had instead of the ones clipping would find at each new tilt, and a pair
 that stays put costs no narrowphase.
 
-Why the lever arms are not turned: a soft contact lets a box tilt on its partner
-by the spring's give. Lever arms that turn with that tilt add the torque of the
-load through them (lambda_n times the arm's change), which pushes the tilt further:
-a tall stack, leaning by a millimetre a box, buckles within seconds. Kept as found,
-the torques are those of the pose the manifold was found in, as for rigid contacts;
-what that leaves out is bounded by contact_recycle_distance and RECYCLE_MAX_TURN,
-past which the pair is collided anew (Box2D v3 keeps its anchors so, and so holds
-the same stack). Fast pairs (whose velocities could carry
-them further than contact_margin within the step) are always collided anew, so
-speculative contacts still see what is coming; so is a pair that had no points, one
-whose recycled points would lie further apart than the narrowphase keeps them, and
-any pair with a circle (a rolling circle's point moves over its surface as it turns).
+A responder with ``found_lever_arms`` (SoftStep) builds its rows with those arms as
+found, unturned, as Box2D v3 does. A soft contact lets a box tilt on its partner by
+the spring's give; arms that turn with the tilt add the torque of the load through
+them (lambda_n times the arm's change), which tilts the box further: a 20-box stack
+leaning by a millimetre a box buckles within seconds. With the arms as found, the
+torques are those of the pose the manifold was found in, as for rigid contacts. The
+price: the two arms' points part as the bodies move relative to each other (by less
+than contact_recycle_distance, or the pair is collided anew), and a pair's impulse
+lambda then acts at two points, a couple of lambda times their offset; angular
+momentum is no longer exact. Other responders take the arms p - x at the positions
+now: an impulse acts at one point of both bodies.
+
+Fast pairs (whose velocities could carry them further than contact_margin within
+the step) are always collided anew, so speculative contacts still see what is
+coming; so is a pair that had no points, one whose recycled points would lie
+further apart than the narrowphase keeps them, and any pair with a circle (a
+rolling circle's point moves over its surface as it turns).
 """
 
 from __future__ import annotations
