@@ -236,6 +236,83 @@ HARNESS_API int harness_contacts(Harness* h, double* deepest)
 	return points;
 }
 
+/* The harness index of body `id`, -1 if it is not one of the harness's bodies. */
+static int body_index(const Harness* h, b2BodyId id)
+{
+	for (int k = 0; k < h->bodyCount; ++k)
+	{
+		if (B2_ID_EQUALS(h->bodies[k], id))
+		{
+			return k;
+		}
+	}
+	return -1;
+}
+
+/* Contact recycling: Box2D v3 keeps a manifold's points while the two bodies move less than
+   `distance` m relative to each other (0 turns it off). */
+HARNESS_API void harness_set_recycle_distance(Harness* h, double distance)
+{
+	b2World_SetContactRecycleDistance(h->world, (float)distance);
+}
+
+/*
+ * Every point of the touching contacts of the last step (each contact once), for comparing
+ * with phys2d point by point. For point i: pair[2i], pair[2i+1] are the harness indices of
+ * bodies A and B; data[10i ...] holds anchorA (x, y) and anchorB (x, y) in m (the lever arms
+ * from each body's centre of mass the solver used), the separation (m), the normal impulse of
+ * the last sub-step, the friction impulse (N s), the normal impulse over the whole step
+ * (totalNormalImpulse, N s), and the manifold's normal (x, y). Writes at most `capacity`
+ * points; returns how many there are (more than capacity: call again with room), or -1 if
+ * the contact buffer could not be grown.
+ */
+HARNESS_API int harness_manifold_points(Harness* h, int capacity, int* pair, double* data)
+{
+	int points = 0;
+	for (int k = 0; k < h->bodyCount; ++k)
+	{
+		b2BodyId id = h->bodies[k];
+		int room = b2Body_GetContactCapacity(id);
+		if (!reserve((void**)&h->contacts, &h->contactCapacity, room, sizeof(b2ContactData)))
+		{
+			return -1;
+		}
+		int count = b2Body_GetContactData(id, h->contacts, room);
+		for (int c = 0; c < count; ++c)
+		{
+			b2BodyId a = b2Shape_GetBody(h->contacts[c].shapeIdA);
+			if (B2_ID_EQUALS(a, id) == false)
+			{
+				continue; /* listed on both bodies: take it from body A's list only */
+			}
+			int b = body_index(h, b2Shape_GetBody(h->contacts[c].shapeIdB));
+			const b2Manifold* m = &h->contacts[c].manifold;
+			for (int p = 0; p < m->pointCount; ++p, ++points)
+			{
+				if (points >= capacity)
+				{
+					continue;
+				}
+				const b2ManifoldPoint* mp = m->points + p;
+				pair[2 * points] = k;
+				pair[2 * points + 1] = b;
+				double* out = data + 10 * points;
+				out[0] = mp->anchorA.x;
+				out[1] = mp->anchorA.y;
+				out[2] = mp->anchorB.x;
+				out[3] = mp->anchorB.y;
+				out[4] = mp->separation;
+				out[5] = mp->normalImpulse;
+				out[6] = mp->tangentImpulse;
+				out[7] = mp->totalNormalImpulse;
+				out[8] = m->normal.x;
+				out[9] = m->normal.y;
+			}
+		}
+	}
+	return points;
+}
+
 /* For each joint, the distance (m) between its two anchor points now. */
 HARNESS_API void harness_joint_gaps(Harness* h, double* gap)
 {

@@ -387,6 +387,8 @@ def load_box2d_v3(path) -> ctypes.CDLL:
         "harness_read": (None, [h, pi, i, pd, pd]),
         "harness_contacts": (i, [h, pd]),
         "harness_joint_gaps": (None, [h, pd]),
+        "harness_set_recycle_distance": (None, [h, d]),
+        "harness_manifold_points": (i, [h, i, pi, pd]),
     }
     for name, (res, args) in signatures.items():
         f = getattr(lib, name)
@@ -478,6 +480,30 @@ class Box2DV3Adapter:
 
     def max_overlap(self) -> float:
         return self._contacts()[1]
+
+    def set_recycle_distance(self, distance: float) -> None:
+        """Box2D v3's contact recycling distance (m); 0 turns recycling off."""
+        self._lib.harness_set_recycle_distance(self._h, distance)
+
+    def manifold_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last step's contact points: (P, 2) harness body indices (A, B), and (P, 10) rows
+        [anchorA x, y, anchorB x, y, separation, normal impulse of the last sub-step, friction
+        impulse, normal impulse of the step, normal x, y] (see harness_manifold_points)."""
+        capacity = 64
+        while True:
+            pair = np.zeros((capacity, 2), dtype=np.int32)
+            data = np.zeros((capacity, 10))
+            n = self._lib.harness_manifold_points(
+                self._h,
+                capacity,
+                pair.ctypes.data_as(ctypes.POINTER(ctypes.c_int)),
+                data.ctypes.data_as(ctypes.POINTER(ctypes.c_double)),
+            )
+            if n < 0:
+                raise MemoryError("the Box2D v3 harness could not grow its contact buffer")
+            if n <= capacity:
+                return pair[:n], data[:n]
+            capacity = n
 
     def joint_gaps(self) -> np.ndarray:
         gaps = np.zeros(self._n_joints)

@@ -175,6 +175,9 @@ class Contacts:
 
     body_a, body_b    indices into ``w.bodies`` (body_a < body_b)
     point             (K, 2) contact point p, m
+    anchor            (K, 4) lever arms r_a, r_b (m): p - x_a and p - x_b when the manifold
+                      was found (a recycled point keeps them, unturned); SoftStep's rows use
+                      them (``Responder.found_lever_arms``), other responders' p - x now
     normal            (K, 2) unit normal n, from a to b
     separation        (K,) C in m, negative when overlapping
     lambda_n          (K,) the accumulated normal impulse of the step, N s (>= 0 under PGS)
@@ -188,6 +191,7 @@ class Contacts:
     body_a: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     body_b: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     point: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    anchor: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     separation: np.ndarray = field(default_factory=lambda: np.zeros(0))
     lambda_n: np.ndarray = field(default_factory=lambda: np.zeros(0))

@@ -503,12 +503,12 @@ class World:
         """What the responder sees: the contacts in row order (contact q of ctx is contact order[q])."""
         b = self._bodies
         if self._responder.colour_order:  # only the fields a responder reads, in row order
-            body_a, body_b, point, normal, separation, restitution = contacts_in_order(
-                order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution
+            body_a, body_b, point, normal, separation, restitution, anchor = contacts_in_order(
+                order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution, c.anchor
             )
         else:  # pair order: row order is contact order
             body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
-            separation, restitution = c.separation, c.restitution
+            separation, restitution, anchor = c.separation, c.restitution, c.anchor
         return StepContext(
             dt,
             b.x,
@@ -526,6 +526,7 @@ class World:
             restitution,
             gravity=self._gravity,
             joints=self._joint_arrays,
+            anchor=anchor,
         )
 
     def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -581,6 +582,7 @@ class World:
             np.empty(cap, np.int64),
             np.empty(cap),
             np.empty(cap),
+            np.empty((cap, 4)),
         )
         pair_start = np.empty(self._n_pairs + 1, np.int64)
         k = self._manifolds.collide(
@@ -595,7 +597,7 @@ class World:
             out,
             pair_start,
         )
-        body_a, body_b, point, normal, separation, feature, key, mu, e = [a[:k] for a in out]
+        body_a, body_b, point, normal, separation, feature, key, mu, e, anchor = [a[:k] for a in out]
         if self._responder.colour_order:
             order = solve_order(self._pair_order, pair_start)
         else:
@@ -604,6 +606,7 @@ class World:
             body_a=body_a,
             body_b=body_b,
             point=point,
+            anchor=anchor,
             normal=normal,
             separation=separation,
             lambda_n=EMPTY,
@@ -645,6 +648,8 @@ class World:
             c.body_a,
             c.body_b,
             c.point,
+            c.anchor,
+            r.found_lever_arms,
             c.normal,
             c.separation,
             c.friction,

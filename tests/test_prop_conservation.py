@@ -73,7 +73,8 @@ def test_angular_momentum_is_conserved(
     naive takes' push-apart. SoftStep moves the bodies between its sub-steps but keeps
     the tick's lever arms, so its impulses act at points that have drifted apart by the
     bodies' motion within the tick, and angular momentum is kept only to O(dt) (as in
-    Box2D v3).
+    Box2D v3); a recycled manifold keeps its arms as found for longer still
+    (``Responder.found_lever_arms``).
     """
     responder.split = False
     scene = replace(scene, bodies=tuple(replace(b, restitution=0.0) for b in scene.bodies))

@@ -121,6 +121,38 @@ def test_a_pair_that_moved_more_than_the_recycle_distance_is_collided_anew():
     np.testing.assert_allclose(np.sort(w.contacts.point[:, 0]), np.sort(fresh["point"][:, 0]), atol=1e-9)
 
 
+def test_a_fresh_point_has_the_lever_arms_from_each_centre_to_it():
+    w = scenes.vertical_stack(3, phys2d.SoftStep(), lean=0.01)
+    w.contact_recycle_distance = 0.0
+    for _ in range(10):
+        w.step(1 / 60)
+    x = w.x.copy()  # where the next step's collision detection looks
+    w.step(1 / 60)
+    c = w.contacts
+    np.testing.assert_allclose(c.anchor[:, :2], c.point - x[c.body_a], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c.anchor[:, 2:], c.point - x[c.body_b], rtol=0, atol=1e-12)
+
+
+def test_a_recycled_point_keeps_the_lever_arms_it_was_found_with():
+    # SoftStep's rows keep the Jacobian found: arms turned with the bodies would let a soft contact's
+    # tilt feed back into its torques (a leaning stack buckles)
+    w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.SoftStep())
+    w.add_box(position=(0.0, 0.0), half_extents=(1.0, 0.5), static=True)
+    box = w.add_box(position=(0.0, 1.0), half_extents=(0.5, 0.5))
+    w.step(1 / 60)
+    x = w.x.copy()
+    w.step(1 / 60)  # found here, at positions x
+    c = w.contacts
+    found = np.hstack([c.point - x[c.body_a], c.point - x[c.body_b]])
+    box.position = (0.01, 1.0)  # 1 cm across and 0.6 degrees round: within what is recycled
+    box.angle = 0.01
+    w.step(1 / 60)
+    assert w._manifolds.recycled == 1
+    np.testing.assert_allclose(w.contacts.anchor, found, rtol=0, atol=1e-12)
+    # while the separation follows the turn: the corner of the box that went down by 5 mm overlaps
+    assert w.contacts.separation.min() < -0.004
+
+
 def test_points_that_would_lie_beyond_the_margin_are_not_kept():
     # a box lifted by 3 cm: its recycled points would be 3 cm apart, past the 2 cm margin
     w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.PGS())

@@ -15,9 +15,10 @@ def test_contacts_in_order_is_fancy_indexing():
     body_a = rng.integers(0, 9, k).astype(np.int32)
     body_b = rng.integers(0, 9, k).astype(np.int32)
     point, normal = rng.normal(size=(k, 2)), rng.normal(size=(k, 2))
-    separation, restitution = rng.normal(size=k), rng.random(k)
-    got = contacts_in_order(order, body_a, body_b, point, normal, separation, restitution)
-    for g, field in zip(got, (body_a, body_b, point, normal, separation, restitution)):
+    separation, restitution, anchor = rng.normal(size=k), rng.random(k), rng.normal(size=(k, 4))
+    got = contacts_in_order(order, body_a, body_b, point, normal, separation, restitution, anchor)
+    assert len(got) == 7
+    for g, field in zip(got, (body_a, body_b, point, normal, separation, restitution, anchor)):
         assert g.dtype == field.dtype
         assert np.array_equal(g, field[order])
 

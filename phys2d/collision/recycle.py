@@ -8,19 +8,34 @@ frame, and each body's angle. In a later step, while
 
 (extent: the larger distance from a moving body's centre to its surface) and
 neither body has turned by more than RECYCLE_MAX_TURN since, the narrowphase is
-skipped: each point keeps its anchors, r_a and r_b turned with their bodies, its
-normal and feature id (the point itself rides with the incident polygon, whose
-corner made it), and only its separation follows the motion,
+skipped: each point keeps its normal, its feature id and the lever arms r_a, r_b
+it was found with (``anchor``), and only its separation follows the motion, the
+anchors turned with their bodies,
 
-    C = C_cached + (x_b - x_a + r_b - r_a) . n
+    C = C_cached + (x_b - x_a + R_b r_b - R_a r_a) . n
 
-as within the soft step's sub-steps. A stack whose boxes lean by a hair then keeps
-the points it had instead of the ones clipping would find at each new tilt, and a
-pair that stays put costs no narrowphase. Fast pairs (whose velocities could carry
-them further than contact_margin within the step) are always collided anew, so
-speculative contacts still see what is coming; so is a pair that had no points, one
-whose recycled points would lie further apart than the narrowphase keeps them, and
-any pair with a circle (a rolling circle's point moves over its surface as it turns).
+as within the soft step's sub-steps (the point reported rides with the incident
+polygon, whose corner made it). A stack whose boxes lean by a hair then keeps the
+points it had instead of the ones clipping would find at each new tilt, and a pair
+that stays put costs no narrowphase.
+
+A responder with ``found_lever_arms`` (SoftStep) builds its rows with those arms as
+found, unturned, as Box2D v3 does. A soft contact lets a box tilt on its partner by
+the spring's give; arms that turn with the tilt add the torque of the load through
+them (lambda_n times the arm's change), which tilts the box further: a 20-box stack
+leaning by a millimetre a box buckles within seconds. With the arms as found, the
+torques are those of the pose the manifold was found in, as for rigid contacts. The
+price: the two arms' points part as the bodies move relative to each other (by less
+than contact_recycle_distance, or the pair is collided anew), and a pair's impulse
+lambda then acts at two points, a couple of lambda times their offset; angular
+momentum is no longer exact. Other responders take the arms p - x at the positions
+now: an impulse acts at one point of both bodies.
+
+Fast pairs (whose velocities could carry them further than contact_margin within
+the step) are always collided anew, so speculative contacts still see what is
+coming; so is a pair that had no points, one whose recycled points would lie
+further apart than the narrowphase keeps them, and any pair with a circle (a
+rolling circle's point moves over its surface as it turns).
 """
 
 from __future__ import annotations
@@ -165,6 +180,7 @@ def collide_recycling(
     out_key,
     out_mu,
     out_e,
+    out_r,
     pair_start,
     new_key,
     new_start,
@@ -179,7 +195,8 @@ def collide_recycling(
 
     cached_*: last step's manifolds, sorted by pair key (slot s's points are
     cached_start[s] up to cached_start[s + 1]). new_*: this step's, to cache (room for
-    n_pairs manifolds and 2 n_pairs points). Returns (points K, manifolds cached, recycled).
+    n_pairs manifolds and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b)
+    for the rows, as its manifold was found. Returns (points K, manifolds cached, recycled).
     """
     k = 0
     n_new = 0
@@ -272,6 +289,7 @@ def collide_recycling(
                 new_normal[k, 1] = cached_normal[point, 1]
                 new_separation[k] = cached_separation[point]
                 new_feature[k] = cached_feature[point]
+                out_r[k] = new_anchor[k]  # the lever arms it was found with, unturned
                 k += 1
             for i in range(3):
                 new_pose[n_new, i] = cached_pose[slot, i]
@@ -315,6 +333,7 @@ def collide_recycling(
                 new_normal[k, 1] = m[2]
                 new_separation[k] = sep
                 new_feature[k] = feature
+                out_r[k] = new_anchor[k]
                 k += 1
             px, py, turn = relative_pose(a, b, x, theta)
             new_pose[n_new, 0] = px

@@ -274,6 +274,8 @@ def contact_rows(
     body_a,
     body_b,
     point,
+    anchor,
+    found_arms,
     normal,
     separation,
     mu,
@@ -316,6 +318,10 @@ def contact_rows(
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points.
 
+    Lever arms (m): with ``found_arms``, anchor[c] = (r_a, r_b) as the point's manifold was
+    found (a recycled one keeps them: Box2D v3's soft step); else p - x_a and p - x_b at the
+    positions x now, so every impulse acts at one point of both bodies (angular momentum exact).
+
     Returns the deepest overlap, max(0, -min C) (m).
     """
     deepest = 0.0
@@ -324,8 +330,11 @@ def contact_rows(
         a, b = body_a[c], body_b[c]
         deepest = max(deepest, -separation[c])
         nx, ny = normal[c, 0], normal[c, 1]
-        r_ax, r_ay = point[c, 0] - x[a, 0], point[c, 1] - x[a, 1]
-        r_bx, r_by = point[c, 0] - x[b, 0], point[c, 1] - x[b, 1]
+        if found_arms:
+            r_ax, r_ay, r_bx, r_by = anchor[c, 0], anchor[c, 1], anchor[c, 2], anchor[c, 3]
+        else:
+            r_ax, r_ay = point[c, 0] - x[a, 0], point[c, 1] - x[a, 1]
+            r_bx, r_by = point[c, 0] - x[b, 0], point[c, 1] - x[b, 1]
         k = normal_row[q]
         out_a[k] = a
         out_b[k] = b

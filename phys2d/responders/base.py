@@ -37,6 +37,7 @@ class StepContext:
     restitution: np.ndarray  # (K,) mixed e of each contact
     gravity: np.ndarray | None = None  # (2,) m/s^2, the only external force
     joints: object = None  # the world's packed joints (``JointArrays``), for responders that rebuild joint rows
+    anchor: np.ndarray | None = None  # (K, 4) lever arms r_a, r_b (m) as each manifold was found
 
     @property
     def F_ext(self) -> np.ndarray:
@@ -180,6 +181,10 @@ class Responder:
     counts  the word for the work ``SolveResult.iterations`` counts: 'sweeps', 'passes', 'substeps'
     colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
                     instead of in pair order: faster sweeps, a different Gauss-Seidel order
+    found_lever_arms  build contact rows with the lever arms each manifold was found with
+                    (``Contacts.anchor``: a recycled one keeps them) instead of p - x now;
+                    see ``collision.recycle``. False keeps angular momentum exact: an
+                    impulse then acts at one point of both bodies
     """
 
     counts = "iterations"  # what StepReport.count counts for this responder
@@ -190,6 +195,7 @@ class Responder:
     warm_start = False
     handles_joints = False
     colour_order = False
+    found_lever_arms = False
 
     @property
     def name(self) -> str:
