@@ -46,8 +46,9 @@ from typing import Any
 
 import numpy as np
 
+from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
-from .sample import Sample, Sampler, pack
+from .sample import Sample, Sampler, pack, window_parts
 
 
 def _checked_path(path: Any) -> str:
@@ -103,23 +104,32 @@ class _Local:
 
 class _Background:
     """The Sink in a writer process of its own (forked: it starts at once and imports rerun
-    there); ticks go over a queue a window at a time. The queue's feeder thread does the
-    sending, so a busy writer never holds up the simulation."""
+    there); ticks go over a queue a window at a time, their arrays through a shared arena
+    (``arena``: one copy in, one copy out, no pickling), so a busy writer never holds up the
+    simulation for longer than it takes to free a slot."""
 
     def __init__(self, kwargs: dict[str, Any], window: int) -> None:
         import multiprocessing as mp
 
+        from .arena import Arena
         from .writer import serve
 
         ctx = mp.get_context("fork")
         self.queue = ctx.Queue()
+        self.arena = Arena()  # before the fork: the writer shares it
         self.reply, child = ctx.Pipe(duplex=False)
+        self.freed, child_freed = ctx.Pipe(duplex=False)  # the writer hands slots back
         self.proc = ctx.Process(
-            target=serve, args=(self.queue, child, kwargs), daemon=True, name="phys2d-recording-writer"
+            target=serve,
+            args=(self.queue, child, kwargs, self.arena, child_freed),
+            daemon=True,
+            name="phys2d-recording-writer",
         )
         self.proc.start()
         child.close()
+        child_freed.close()
         self.window = window
+        self.free = list(range(self.arena.slots))
         self.pending: list[tuple[str | None, Sample, dict[str, Any] | None]] = []
         self.sent: dict[str | None, set[int]] = {}  # per run, the layout versions the writer has
 
@@ -128,8 +138,20 @@ class _Background:
         if len(self.pending) >= self.window:
             self._send()
 
+    def _free_slot(self) -> int:
+        """A slot the writer is done with; waits for one while the writer is behind."""
+        while self.freed.poll():
+            self.free.append(self.freed.recv())
+        while not self.free:
+            if self.freed.poll(1.0):
+                self.free.append(self.freed.recv())
+            elif not self.proc.is_alive():
+                raise RuntimeError("the recording's writer process stopped")
+        return self.free.pop()
+
     def _send(self) -> None:
-        """The pending ticks as one message: per run, its samples packed into a few long arrays."""
+        """The pending ticks as one message: per run, its samples packed into a few long arrays,
+        in a slot of the arena when they fit (else pickled with the message)."""
         if self.pending:
             if not self.proc.is_alive():
                 raise RuntimeError("the recording's writer process stopped")
@@ -139,15 +161,13 @@ class _Background:
                 runs.setdefault(label, []).append(s)
                 if info is not None:
                     infos[label] = info
-            self.queue.put(
-                (
-                    "add",
-                    [
-                        (label, pack(ss, self.sent.setdefault(label, set())), infos.get(label))
-                        for label, ss in runs.items()
-                    ],
-                )
-            )
+            parts = [p for ss in runs.values() for p in window_parts(ss)]
+            slot = SlotWriter(self.arena, self._free_slot()) if self.arena.fits(parts) else None
+            packed = [
+                (label, pack(ss, self.sent.setdefault(label, set()), slot), infos.get(label))
+                for label, ss in runs.items()
+            ]
+            self.queue.put(("add", packed, None if slot is None else slot.slot))
             self.pending = []
 
     def close(self) -> dict[str | None, list[str]]:
@@ -160,6 +180,7 @@ class _Background:
         finally:
             self.proc.join(60)
             self.reply.close()
+            self.freed.close()
             self.queue.close()
         if reply[0] == "error":
             raise RuntimeError(f"writing the recording failed: {reply[1]}")

@@ -10,10 +10,11 @@ from __future__ import annotations
 from typing import Any
 
 
-def serve(queue, conn, kwargs: dict[str, Any]) -> None:
-    """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...]) and
-    ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text). When the
-    simulating process dies, the file is closed too, so every tick sent is readable."""
+def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
+    """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...],
+    slot) and ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text).
+    Packed arrays in a slot of ``arena`` are copied out and the slot number sent back on ``freed``.
+    When the simulating process dies, the file is closed too, so every tick sent is readable."""
     import os
     import queue as queues
 
@@ -35,8 +36,14 @@ def serve(queue, conn, kwargs: dict[str, Any]) -> None:
             except (EOFError, OSError):
                 break
             if msg[0] == "add":
-                for label, packed, info in msg[1]:
-                    for k, sample in enumerate(unpack(packed, layouts.setdefault(label, {}))):
+                _, runs, slot = msg
+                unpacked = [
+                    (label, unpack(packed, layouts.setdefault(label, {}), arena), info) for label, packed, info in runs
+                ]
+                if slot is not None and freed is not None:
+                    freed.send(slot)  # copied out: the simulating process may refill it
+                for label, samples, info in unpacked:
+                    for k, sample in enumerate(samples):
                         sink.add(label, sample, info if k == 0 else None)
             else:
                 break
