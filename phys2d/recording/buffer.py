@@ -21,10 +21,14 @@ DEFAULT_DEEPEST = 4  # contacts plotted when nothing else is asked for
 
 
 def member(key: np.ndarray, among: np.ndarray) -> np.ndarray:
-    """``np.isin(key, among)``, quicker for the few keys a plot shows."""
-    if among.size <= 16:
-        return (key[:, None] == among[None, :]).any(axis=1) if among.size else np.zeros(key.shape, np.bool_)
-    return np.isin(key, among)
+    """``np.isin(key, among)``, quicker for the few keys a plot shows: one comparison pass per
+    key of ``among`` (a (K, n) comparison reduced along its short axis is several times slower)."""
+    if among.size > 16:
+        return np.isin(key, among)
+    out = np.zeros(key.shape, np.bool_)
+    for k in among:
+        out |= key == k
+    return out
 
 
 class ContactChoice:
@@ -218,7 +222,11 @@ class RunBuffer:
         if contact_series:
             keep = self.choice.mask(s.key, self.chosen)
             sel = slice(None) if keep is None else keep
-            values = np.stack([s.lambda_n[sel], s.lambda_t[sel], -s.separation[sel] * schema.PENETRATION_SCALE], axis=1)
+            lambda_n = s.lambda_n[sel]
+            values = np.empty((lambda_n.size, 3))
+            values[:, 0] = lambda_n
+            values[:, 1] = s.lambda_t[sel]
+            np.multiply(s.separation[sel], -schema.PENETRATION_SCALE, out=values[:, 2])
             self.contacts.append(s.tick, s.time, s.key[sel], values)
             if keep is None and self.choice.kind == "deepest":  # choosing: rank as the ticks arrive
                 k, p = self.choice.candidates(s.key, values[:, 2])

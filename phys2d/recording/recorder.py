@@ -112,7 +112,7 @@ class _Background:
         import multiprocessing as mp
 
         from .arena import Arena
-        from .writer import serve
+        from .writer import run
 
         ctx = mp.get_context("fork")
         self.queue = ctx.Queue()
@@ -120,7 +120,7 @@ class _Background:
         self.reply, child = ctx.Pipe(duplex=False)
         self.freed, child_freed = ctx.Pipe(duplex=False)  # the writer hands slots back
         self.proc = ctx.Process(
-            target=serve,
+            target=run,
             args=(self.queue, child, kwargs, self.arena, child_freed),
             daemon=True,
             name="phys2d-recording-writer",
@@ -171,6 +171,7 @@ class _Background:
             self.pending = []
 
     def close(self) -> dict[str | None, list[str]]:
+        reply: tuple = ("error", "the recording's writer process stopped")
         try:
             self._send()
             self.queue.put(("close",))
@@ -178,7 +179,9 @@ class _Background:
         except (EOFError, OSError, RuntimeError):
             reply = ("error", "the recording's writer process stopped")
         finally:
-            self.proc.join(60)
+            # once the reply is in, the file is complete: the writer's exit (unmapping its memory,
+            # ~20 ms) need not be waited for; multiprocessing reaps it at the latest at exit
+            self.proc.join(0 if reply[0] == "closed" else 60)
             self.reply.close()
             self.freed.close()
             self.queue.close()

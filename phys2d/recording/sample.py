@@ -66,8 +66,12 @@ class Strips:
 
 
 def on_grid(a: np.ndarray, grid: float) -> np.ndarray:
-    """float32 of ``a`` rounded to multiples of ``grid`` (a power of two, so exact below 2^24 grid)."""
-    return (np.round(a / grid) * grid).astype(np.float32)
+    """float32 of ``a`` rounded to multiples of ``grid`` (a power of two, so exact below 2^24 grid).
+    One float64 temporary, rounded and scaled in place."""
+    steps = np.multiply(a, 1.0 / grid)  # exact: 1 / grid is a power of two
+    np.rint(steps, out=steps)  # as np.round: halves to even
+    steps *= grid
+    return steps.astype(np.float32)
 
 
 @dataclass(eq=False)

@@ -59,3 +59,13 @@ def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
             conn.send(("error", f"{type(e).__name__}: {e}"))
         except Exception:
             pass
+
+
+def run(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
+    """The writer process's target: ``serve``, then exit at once. The file is complete and the
+    reply sent by then; the interpreter's teardown (rerun's and arrow's threads and modules,
+    20-40 ms) would only hold up the recorder, which joins this process in ``close``."""
+    import os
+
+    serve(queue, conn, kwargs, arena, freed)
+    os._exit(0)
