@@ -763,3 +763,33 @@ def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path
     assert_verified(path)
     back = playback.load(path)
     assert list(back.tick) == list(range(1, 91))  # the 9 whole windows sent; 5 ticks were still buffered
+
+
+def test_a_plotted_entity_holds_no_numeric_column_but_its_scalars(tmp_path):
+    """Rerun (0.30 on) draws every numeric component of an entity in a time series view: an entity
+    a plot shows must carry its Scalars and nothing else numeric (the exact residuals once sat beside
+    the log10 ones and were drawn as a flat line at 0). The exact residuals still read back."""
+    path = tmp_path / "plotted.rrd"
+    w = phys2d.scenes.pyramid(4)
+    residuals = []
+    with Recorder(path, flush_every=5) as rec:
+        for _ in range(12):
+            w.step(1 / 60)
+            rec.log(w)
+            residuals.append(w.last_step.residuals.copy())
+    store = RrdReader(str(path)).store()
+    plotted = ("/solver/residual", "/stats/", "/contacts/lambda/", "/contacts/penetration/")
+    timelines = {schema.TICK, schema.SIM_TIME, schema.SWEEP}
+    seen = set()
+    for ch in store.stream().filter(is_static=False):
+        rb = ch.to_record_batch()
+        entity = rb.schema.metadata.get(b"rerun:entity_path", b"").decode() if rb.schema.metadata else ""
+        if not entity.startswith(plotted):
+            continue
+        seen.add(entity.split("/")[1])
+        for field in rb.schema:
+            if field.name in timelines or field.name.startswith("rerun.") or "RowId" in field.name:
+                continue
+            assert field.name == "Scalars:scalars", (entity, field.name)
+    assert {"solver", "stats", "contacts"} <= seen
+    assert np.array_equal(playback.load(path).residual, np.concatenate(residuals))

@@ -142,10 +142,10 @@ def write_stats(rec: Stream, b: RunBuffer) -> None:
         rec.send(
             f"{b.prefix}{schema.RESIDUAL}",
             index,
-            {
-                native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
-                native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones),
-            },
+            {native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones)},
+        )
+        rec.send(
+            f"{b.prefix}{schema.SWEEPS}", index, {native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones)}
         )
     b.stats, b.residuals, b.stats_ticks = [], [], 0
 
@@ -290,8 +290,8 @@ def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
 
 
 def _keep_residuals(b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
-    """One row per sweep (written by ``write_stats``): log10 for the plot, the residual itself
-    (m/s) exactly."""
+    """One row per sweep (written by ``write_stats``): log10 for the plot (``schema.RESIDUAL``), the
+    residual itself (m/s) exactly (``schema.SWEEPS``)."""
     n = np.fromiter((s.residuals.size for s in ss), dtype=np.int64, count=len(ss))
     if not n.sum():
         return
