@@ -313,15 +313,10 @@ def write_series(rec: Stream, b: RunBuffer) -> None:
                 b.chosen = b.choice.decide(w.cand_keys, w.cand_depth, b.chosen)
             else:
                 b.chosen = b.choice.decide(w.keys, [v[:, 2] for v in w.values], b.chosen)
-            # keep the chosen contacts' values: one mask over the window's ticks
-            T = len(w.keys)
-            lengths = np.fromiter((k.size for k in w.keys), dtype=np.int64, count=T)
-            keys = np.concatenate(w.keys)
-            keep = member(keys, b.chosen)
-            kept = np.bincount(np.repeat(np.arange(T), lengths)[keep], minlength=T)
-            cuts = np.cumsum(kept)[:-1]
-            w.keys = np.split(keys[keep], cuts)
-            w.values = np.split(np.concatenate(w.values)[keep], cuts)
+            # keep the chosen contacts' values, tick by tick (no copy of the whole window)
+            keeps = [member(k, b.chosen) for k in w.keys]
+            w.keys = [k[m] for k, m in zip(w.keys, keeps, strict=True)]
+            w.values = [v[m] for v, m in zip(w.values, keeps, strict=True)]
         new = _style_contacts(rec, b, w)
         b.plotted = b.plotted or bool(new) or bool(b.styled)
         batches.append(
