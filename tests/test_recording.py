@@ -793,3 +793,27 @@ def test_a_plotted_entity_holds_no_numeric_column_but_its_scalars(tmp_path):
             assert field.name == "Scalars:scalars", (entity, field.name)
     assert {"solver", "stats", "contacts"} <= seen
     assert np.array_equal(playback.load(path).residual, np.concatenate(residuals))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_unique_is_numpy_s(seed):
+    """buffer.unique (the writer's, without numpy.ma) gives what np.unique(..., return_inverse=True) does."""
+    from phys2d.recording.buffer import unique
+
+    keys = np.random.default_rng(seed).integers(-5, 9, size=seed * 7).astype(np.int64)
+    got, inv = unique(keys)
+    want, want_inv = np.unique(keys, return_inverse=True)
+    assert np.array_equal(got, want) and np.array_equal(inv, want_inv.reshape(-1))
+    assert np.array_equal(got[inv], keys)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_member_is_numpy_s_isin(seed):
+    """buffer.member gives np.isin's answer, for few keys (comparisons) and many (binary search)."""
+    from phys2d.recording.buffer import member
+
+    rng = np.random.default_rng(seed)
+    key = rng.integers(0, 60, size=200).astype(np.int64)
+    for n in (0, 1, 5, 16, 17, 40):
+        among = rng.integers(0, 60, size=n).astype(np.int64)
+        assert np.array_equal(member(key, among), np.isin(key, among)), n
