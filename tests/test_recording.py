@@ -817,3 +817,48 @@ def test_member_is_numpy_s_isin(seed):
     for n in (0, 1, 5, 16, 17, 40):
         among = rng.integers(0, 60, size=n).astype(np.int64)
         assert np.array_equal(member(key, among), np.isin(key, among)), n
+
+
+def test_packed_windows_come_back_through_an_arena_as_they_went_in():
+    """sample.pack into a shared arena's slot, then unpack: the same samples, field by field, and
+    the copies do not share the slot (it may be refilled at once)."""
+    from phys2d.recording.arena import Arena, SlotWriter
+    from phys2d.recording.sample import Sampler, pack, unpack, window_parts
+
+    w = phys2d.scenes.mixed_shapes(5)
+    sampler = Sampler()
+    samples = []
+    for _ in range(7):
+        w.step(1 / 60)
+        samples.append(sampler.sample(w))
+    arena = Arena(slots=2, slot_bytes=1 << 20)
+    assert arena.fits(window_parts(samples))
+    packed = pack(samples, set(), SlotWriter(arena, 1))
+    back = unpack(packed, {}, arena)
+    arena.map[:] = b"\xff" * len(arena.map)  # the slot is refilled: the unpacked copies stay
+    assert [s.tick for s in back] == [s.tick for s in samples]
+    for a, b in zip(samples, back, strict=True):
+        for name in ("x", "theta", "V", "key", "point", "normal", "separation", "lambda_n", "warm", "residuals"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+            assert getattr(a, name).dtype == getattr(b, name).dtype, name
+    assert not Arena(slots=1, slot_bytes=64).fits(window_parts(samples))
+
+
+def test_a_background_writer_takes_windows_too_big_for_its_arena(tmp_path, monkeypatch):
+    """A window larger than a slot goes pickled over the queue: the file is the same."""
+    from phys2d.recording import arena
+
+    out = {}
+    for slot_bytes in (arena.SLOT_BYTES, 4096):
+        monkeypatch.setattr(arena, "SLOT_BYTES", slot_bytes)
+        path = tmp_path / f"slot{slot_bytes}.rrd"
+        w = phys2d.scenes.pyramid(4)
+        with Recorder(path, flush_every=8, background=True) as rec:
+            for _ in range(30):
+                w.step(1 / 60)
+                rec.log(w)
+        out[slot_bytes] = playback.load(path)
+    a, b = out.values()
+    for name in ("tick", "x", "V", "residual"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert np.array_equal(a.contacts.key, b.contacts.key)

@@ -41,7 +41,8 @@ class Arena:
     """``slots`` slots of ``slot_bytes`` bytes in one anonymous shared mapping (untouched pages
     cost nothing); make it before forking the writer."""
 
-    def __init__(self, slots: int = SLOTS, slot_bytes: int = SLOT_BYTES) -> None:
+    def __init__(self, slots: int = SLOTS, slot_bytes: int | None = None) -> None:
+        slot_bytes = SLOT_BYTES if slot_bytes is None else slot_bytes
         if slots < 1 or slot_bytes < ALIGN:
             raise ValueError(f"an arena needs slots >= 1 and slot_bytes >= {ALIGN}, got {slots}, {slot_bytes}")
         self.slots = slots

@@ -140,13 +140,16 @@ class _Background:
 
     def _free_slot(self) -> int:
         """A slot the writer is done with; waits for one while the writer is behind."""
-        while self.freed.poll():
-            self.free.append(self.freed.recv())
-        while not self.free:
-            if self.freed.poll(1.0):
+        try:
+            while self.freed.poll():
                 self.free.append(self.freed.recv())
-            elif not self.proc.is_alive():
-                raise RuntimeError("the recording's writer process stopped")
+            while not self.free:
+                if self.freed.poll(1.0):
+                    self.free.append(self.freed.recv())
+                elif not self.proc.is_alive():
+                    raise EOFError
+        except (EOFError, OSError):
+            raise RuntimeError("the recording's writer process stopped") from None
         return self.free.pop()
 
     def _send(self) -> None:
