@@ -8,7 +8,8 @@ slot back. Pickling a window and pushing it through a pipe cost pyramid_20 about
 CPU per 600 ticks (52 MB, pickled, written, read and unpickled), and fresh pages for each
 copy; the slots are the same pages window after window.
 
-A window too big for a slot goes the old way, pickled (``fits``).
+A window too big for a slot (``fits``), or sent while the writer still holds both slots, goes
+the old way, pickled with the message: the simulation never waits for the writer.
 """
 
 from __future__ import annotations

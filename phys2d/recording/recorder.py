@@ -105,8 +105,8 @@ class _Local:
 class _Background:
     """The Sink in a writer process of its own (forked: it starts at once and imports rerun
     there); ticks go over a queue a window at a time, their arrays through a shared arena
-    (``arena``: one copy in, one copy out, no pickling), so a busy writer never holds up the
-    simulation for longer than it takes to free a slot."""
+    (``arena``: one copy in, one copy out, no pickling) when a slot is free, else pickled, so a
+    busy writer never holds up the simulation."""
 
     def __init__(self, kwargs: dict[str, Any], window: int) -> None:
         import multiprocessing as mp
@@ -138,19 +138,15 @@ class _Background:
         if len(self.pending) >= self.window:
             self._send()
 
-    def _free_slot(self) -> int:
-        """A slot the writer is done with; waits for one while the writer is behind."""
+    def _free_slot(self) -> int | None:
+        """A slot the writer is done with, or None while the writer is behind (then the window
+        goes pickled: the simulation never waits for the writer)."""
         try:
             while self.freed.poll():
                 self.free.append(self.freed.recv())
-            while not self.free:
-                if self.freed.poll(1.0):
-                    self.free.append(self.freed.recv())
-                elif not self.proc.is_alive():
-                    raise EOFError
         except (EOFError, OSError):
             raise RuntimeError("the recording's writer process stopped") from None
-        return self.free.pop()
+        return self.free.pop() if self.free else None
 
     def _send(self) -> None:
         """The pending ticks as one message: per run, its samples packed into a few long arrays,
@@ -165,7 +161,8 @@ class _Background:
                 if info is not None:
                     infos[label] = info
             parts = [p for ss in runs.values() for p in window_parts(ss)]
-            slot = SlotWriter(self.arena, self._free_slot()) if self.arena.fits(parts) else None
+            free = self._free_slot() if self.arena.fits(parts) else None
+            slot = None if free is None else SlotWriter(self.arena, free)
             packed = [
                 (label, pack(ss, self.sent.setdefault(label, set()), slot), infos.get(label))
                 for label, ss in runs.items()
