@@ -41,7 +41,10 @@ def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
                     (label, unpack(packed, layouts.setdefault(label, {}), arena), info) for label, packed, info in runs
                 ]
                 if slot is not None and freed is not None:
-                    freed.send(slot)  # copied out: the simulating process may refill it
+                    try:
+                        freed.send(slot)  # copied out: the simulating process may refill it
+                    except OSError:  # the simulating process is gone: write what it sent all the same
+                        freed = None
                 for label, samples, info in unpacked:
                     for k, sample in enumerate(samples):
                         sink.add(label, sample, info if k == 0 else None)
