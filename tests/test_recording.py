@@ -763,3 +763,102 @@ def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path
     assert_verified(path)
     back = playback.load(path)
     assert list(back.tick) == list(range(1, 91))  # the 9 whole windows sent; 5 ticks were still buffered
+
+
+def test_a_plotted_entity_holds_no_numeric_column_but_its_scalars(tmp_path):
+    """Rerun (0.30 on) draws every numeric component of an entity in a time series view: an entity
+    a plot shows must carry its Scalars and nothing else numeric (the exact residuals once sat beside
+    the log10 ones and were drawn as a flat line at 0). The exact residuals still read back."""
+    path = tmp_path / "plotted.rrd"
+    w = phys2d.scenes.pyramid(4)
+    residuals = []
+    with Recorder(path, flush_every=5) as rec:
+        for _ in range(12):
+            w.step(1 / 60)
+            rec.log(w)
+            residuals.append(w.last_step.residuals.copy())
+    store = RrdReader(str(path)).store()
+    plotted = ("/solver/residual", "/stats/", "/contacts/lambda/", "/contacts/penetration/")
+    timelines = {schema.TICK, schema.SIM_TIME, schema.SWEEP}
+    seen = set()
+    for ch in store.stream().filter(is_static=False):
+        rb = ch.to_record_batch()
+        entity = rb.schema.metadata.get(b"rerun:entity_path", b"").decode() if rb.schema.metadata else ""
+        if not entity.startswith(plotted):
+            continue
+        seen.add(entity.split("/")[1])
+        for field in rb.schema:
+            if field.name in timelines or field.name.startswith("rerun.") or "RowId" in field.name:
+                continue
+            assert field.name == "Scalars:scalars", (entity, field.name)
+    assert {"solver", "stats", "contacts"} <= seen
+    assert np.array_equal(playback.load(path).residual, np.concatenate(residuals))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_unique_is_numpy_s(seed):
+    """buffer.unique (the writer's, without numpy.ma) gives what np.unique(..., return_inverse=True) does."""
+    from phys2d.recording.buffer import unique
+
+    keys = np.random.default_rng(seed).integers(-5, 9, size=seed * 7).astype(np.int64)
+    got, inv = unique(keys)
+    want, want_inv = np.unique(keys, return_inverse=True)
+    assert np.array_equal(got, want) and np.array_equal(inv, want_inv.reshape(-1))
+    assert np.array_equal(got[inv], keys)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_member_is_numpy_s_isin(seed):
+    """buffer.member gives np.isin's answer, for few keys (comparisons) and many (binary search)."""
+    from phys2d.recording.buffer import member
+
+    rng = np.random.default_rng(seed)
+    key = rng.integers(0, 60, size=200).astype(np.int64)
+    for n in (0, 1, 5, 16, 17, 40):
+        among = rng.integers(0, 60, size=n).astype(np.int64)
+        assert np.array_equal(member(key, among), np.isin(key, among)), n
+
+
+def test_packed_windows_come_back_through_an_arena_as_they_went_in():
+    """sample.pack into a shared arena's slot, then unpack: the same samples, field by field, and
+    the copies do not share the slot (it may be refilled at once)."""
+    from phys2d.recording.arena import Arena, SlotWriter
+    from phys2d.recording.sample import Sampler, pack, unpack, window_parts
+
+    w = phys2d.scenes.mixed_shapes(5)
+    sampler = Sampler()
+    samples = []
+    for _ in range(7):
+        w.step(1 / 60)
+        samples.append(sampler.sample(w))
+    arena = Arena(slots=2, slot_bytes=1 << 20)
+    assert arena.fits(window_parts(samples))
+    packed = pack(samples, set(), SlotWriter(arena, 1))
+    back = unpack(packed, {}, arena)
+    arena.map[:] = b"\xff" * len(arena.map)  # the slot is refilled: the unpacked copies stay
+    assert [s.tick for s in back] == [s.tick for s in samples]
+    for a, b in zip(samples, back, strict=True):
+        for name in ("x", "theta", "V", "key", "point", "normal", "separation", "lambda_n", "warm", "residuals"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+            assert getattr(a, name).dtype == getattr(b, name).dtype, name
+    assert not Arena(slots=1, slot_bytes=64).fits(window_parts(samples))
+
+
+def test_a_background_writer_takes_windows_too_big_for_its_arena(tmp_path, monkeypatch):
+    """A window larger than a slot goes pickled over the queue: the file is the same."""
+    from phys2d.recording import arena
+
+    out = {}
+    for slot_bytes in (arena.SLOT_BYTES, 4096):
+        monkeypatch.setattr(arena, "SLOT_BYTES", slot_bytes)
+        path = tmp_path / f"slot{slot_bytes}.rrd"
+        w = phys2d.scenes.pyramid(4)
+        with Recorder(path, flush_every=8, background=True) as rec:
+            for _ in range(30):
+                w.step(1 / 60)
+                rec.log(w)
+        out[slot_bytes] = playback.load(path)
+    a, b = out.values()
+    for name in ("tick", "x", "V", "residual"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert np.array_equal(a.contacts.key, b.contacts.key)

@@ -108,7 +108,7 @@ class _Layout:
             rng = pa.array([{"x_range": [x0, x1], "y_range": [-y1, -y0]}], _BOUNDS_TYPE)  # the view is y-down
             self.rows.append((f"{path}/VisualBounds2D", {VISUAL_BOUNDS: rng}, False))
         if not legend:
-            self.rows.append((f"{path}/PlotLegend", {LEGEND_VISIBLE: pa.array([False])}, False))
+            self.rows.append((f"{path}/PlotLegend", {LEGEND_VISIBLE: pa.array([False], pa.bool_())}, False))
         return path
 
     def container(

@@ -13,7 +13,7 @@ import numpy as np
 import pyarrow as pa
 
 from . import native, schema
-from .buffer import RunBuffer, SeriesWindow, member
+from .buffer import RunBuffer, SeriesWindow, member, unique
 from .native import Stream
 from .sample import Sample, Strips, aggregates, on_grid
 
@@ -31,7 +31,9 @@ def _strips_column(points: np.ndarray, lengths: np.ndarray) -> pa.Array:
     S = points.shape[0]
     inner = np.zeros(S * lengths.size + 1, dtype=np.int32)
     np.cumsum(np.tile(lengths, S), out=inner[1:])
-    strips = pa.ListArray.from_arrays(pa.array(inner), native.points2(points.reshape(-1, 2)), type=native.STRIP_TYPE)
+    strips = pa.ListArray.from_arrays(
+        native.array(inner), native.points2(points.reshape(-1, 2)), type=native.STRIP_TYPE
+    )
     return native.lists(strips, np.full(S, lengths.size))
 
 
@@ -79,14 +81,14 @@ def write_start(rec: Stream, b: RunBuffer, colour: tuple[int, int, int]) -> None
             f"{p}{path}",
             {
                 native.STRIP_RADII: pa.array([schema.LINE_RADIUS], pa.float32()),
-                native.STRIP_SHOW_LABELS: pa.array([False]),
+                native.STRIP_SHOW_LABELS: pa.array([False], pa.bool_()),
             },
         )
     rec.static(
         f"{p}{schema.CONTACTS}",
         {
             native.ARROW_RADII: pa.array([schema.ARROW_RADIUS], pa.float32()),
-            native.ARROW_SHOW_LABELS: pa.array([False]),
+            native.ARROW_SHOW_LABELS: pa.array([False], pa.bool_()),
         },
     )
     for st in schema.STATS:
@@ -142,10 +144,10 @@ def write_stats(rec: Stream, b: RunBuffer) -> None:
         rec.send(
             f"{b.prefix}{schema.RESIDUAL}",
             index,
-            {
-                native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones),
-                native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones),
-            },
+            {native.SCALARS: native.lists(np.log10(np.maximum(res, schema.RESIDUAL_FLOOR)), ones)},
+        )
+        rec.send(
+            f"{b.prefix}{schema.SWEEPS}", index, {native.any_value(schema.RESIDUAL_FIELD.name): native.lists(res, ones)}
         )
     b.stats, b.residuals, b.stats_ticks = [], [], 0
 
@@ -275,7 +277,7 @@ def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
     t = np.fromiter((s.tick for s in js), dtype=np.int64, count=len(js))
     tm = np.fromiter((s.time for s in js), dtype=np.float64, count=len(js))
     strips = pa.ListArray.from_arrays(
-        pa.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)),
+        native.array(np.arange(0, 2 * len(ends) + 1, 2, dtype=np.int32)),
         native.points2(ends.reshape(-1, 2)),
         type=native.STRIP_TYPE,
     )
@@ -290,8 +292,8 @@ def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
 
 
 def _keep_residuals(b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
-    """One row per sweep (written by ``write_stats``): log10 for the plot, the residual itself
-    (m/s) exactly."""
+    """One row per sweep (written by ``write_stats``): log10 for the plot (``schema.RESIDUAL``), the
+    residual itself (m/s) exactly (``schema.SWEEPS``)."""
     n = np.fromiter((s.residuals.size for s in ss), dtype=np.int64, count=len(ss))
     if not n.sum():
         return
@@ -313,15 +315,10 @@ def write_series(rec: Stream, b: RunBuffer) -> None:
                 b.chosen = b.choice.decide(w.cand_keys, w.cand_depth, b.chosen)
             else:
                 b.chosen = b.choice.decide(w.keys, [v[:, 2] for v in w.values], b.chosen)
-            # keep the chosen contacts' values: one mask over the window's ticks
-            T = len(w.keys)
-            lengths = np.fromiter((k.size for k in w.keys), dtype=np.int64, count=T)
-            keys = np.concatenate(w.keys)
-            keep = member(keys, b.chosen)
-            kept = np.bincount(np.repeat(np.arange(T), lengths)[keep], minlength=T)
-            cuts = np.cumsum(kept)[:-1]
-            w.keys = np.split(keys[keep], cuts)
-            w.values = np.split(np.concatenate(w.values)[keep], cuts)
+            # keep the chosen contacts' values, tick by tick (no copy of the whole window)
+            keeps = [member(k, b.chosen) for k in w.keys]
+            w.keys = [k[m] for k, m in zip(w.keys, keeps, strict=True)]
+            w.values = [v[m] for v, m in zip(w.values, keeps, strict=True)]
         new = _style_contacts(rec, b, w)
         b.plotted = b.plotted or bool(new) or bool(b.styled)
         batches.append(
@@ -344,7 +341,7 @@ def write_series(rec: Stream, b: RunBuffer) -> None:
         times = np.asarray(window.times, dtype=np.float64)
         index = {
             schema.TICK: native.sequence(ticks),
-            schema.SIM_TIME: pa.array(np.round(times * 1e9).astype("timedelta64[ns]"), pa.duration("ns")),
+            schema.SIM_TIME: native.array(np.round(times * 1e9).astype("timedelta64[ns]")),
         }
         for entity, column in _series_columns(window, families, entity_of):
             rec.send(entity, index, {native.SCALARS: column})
@@ -354,7 +351,7 @@ def write_series(rec: Stream, b: RunBuffer) -> None:
 
 def _style_contacts(rec: Stream, b: RunBuffer, w: SeriesWindow) -> list[int]:
     """Legend names and colours of contacts plotted for the first time."""
-    seen = np.unique(np.concatenate(w.keys)) if w.keys else np.zeros(0, np.int64)
+    seen = unique(np.concatenate(w.keys))[0] if w.keys else np.zeros(0, np.int64)
     new = [int(k) for k in seen if int(k) not in b.styled]
     tag = f"{b.label} " if b.label else ""
     for k in new:
@@ -383,10 +380,10 @@ def _series_columns(
     row = np.repeat(np.arange(T, dtype=np.int64), lengths)
     keys = np.concatenate(w.keys)
     vals = np.concatenate(w.values) if keys.size else np.zeros((0, max((len(f[1]) for f in families), default=1)))
-    gone0 = np.setdiff1d(w.last, w.keys[0])  # series that ended exactly at this window's first tick
+    gone0 = unique(w.last[~member(w.last, w.keys[0])])[0]  # series that ended exactly at this window's first tick
     if keys.size == 0 and gone0.size == 0:
         return []
-    uniq, col = np.unique(np.concatenate([keys, gone0]), return_inverse=True)
+    uniq, col = unique(np.concatenate([keys, gone0]))
     col, col0 = col[: keys.size], col[keys.size :]
     U = uniq.size
     present = np.zeros((U, T), dtype=np.bool_)

@@ -347,7 +347,9 @@ class Recording:
         else:
             contacts = ContactFrames.empty(T)
 
-        res = self._temporal(f"{p}{schema.RESIDUAL}")
+        res = self._temporal(f"{p}{schema.SWEEPS}")
+        if res is None:  # written before the exact residuals had an entity of their own
+            res = self._temporal(f"{p}{schema.RESIDUAL}")
         stats = {st.name: _scalars(self._temporal(f"{p}{schema.STATS_ROOT}/{st.name}")) for st in schema.STATS}
         joints = self._temporal(f"{p}{schema.JOINTS}")
         anchors: list[np.ndarray] = []

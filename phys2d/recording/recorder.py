@@ -46,8 +46,9 @@ from typing import Any
 
 import numpy as np
 
+from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
-from .sample import Sample, Sampler, pack
+from .sample import Sample, Sampler, pack, window_parts
 
 
 def _checked_path(path: Any) -> str:
@@ -103,23 +104,32 @@ class _Local:
 
 class _Background:
     """The Sink in a writer process of its own (forked: it starts at once and imports rerun
-    there); ticks go over a queue a window at a time. The queue's feeder thread does the
-    sending, so a busy writer never holds up the simulation."""
+    there); ticks go over a queue a window at a time, their arrays through a shared arena
+    (``arena``: one copy in, one copy out, no pickling) when a slot is free, else pickled, so a
+    busy writer never holds up the simulation."""
 
     def __init__(self, kwargs: dict[str, Any], window: int) -> None:
         import multiprocessing as mp
 
-        from .writer import serve
+        from .arena import Arena
+        from .writer import run
 
         ctx = mp.get_context("fork")
         self.queue = ctx.Queue()
+        self.arena = Arena()  # before the fork: the writer shares it
         self.reply, child = ctx.Pipe(duplex=False)
+        self.freed, child_freed = ctx.Pipe(duplex=False)  # the writer hands slots back
         self.proc = ctx.Process(
-            target=serve, args=(self.queue, child, kwargs), daemon=True, name="phys2d-recording-writer"
+            target=run,
+            args=(self.queue, child, kwargs, self.arena, child_freed),
+            daemon=True,
+            name="phys2d-recording-writer",
         )
         self.proc.start()
         child.close()
+        child_freed.close()
         self.window = window
+        self.free = list(range(self.arena.slots))
         self.pending: list[tuple[str | None, Sample, dict[str, Any] | None]] = []
         self.sent: dict[str | None, set[int]] = {}  # per run, the layout versions the writer has
 
@@ -128,8 +138,19 @@ class _Background:
         if len(self.pending) >= self.window:
             self._send()
 
+    def _free_slot(self) -> int | None:
+        """A slot the writer is done with, or None while the writer is behind (then the window
+        goes pickled: the simulation never waits for the writer)."""
+        try:
+            while self.freed.poll():
+                self.free.append(self.freed.recv())
+        except (EOFError, OSError):
+            raise RuntimeError("the recording's writer process stopped") from None
+        return self.free.pop() if self.free else None
+
     def _send(self) -> None:
-        """The pending ticks as one message: per run, its samples packed into a few long arrays."""
+        """The pending ticks as one message: per run, its samples packed into a few long arrays,
+        in a slot of the arena when they fit (else pickled with the message)."""
         if self.pending:
             if not self.proc.is_alive():
                 raise RuntimeError("the recording's writer process stopped")
@@ -139,18 +160,18 @@ class _Background:
                 runs.setdefault(label, []).append(s)
                 if info is not None:
                     infos[label] = info
-            self.queue.put(
-                (
-                    "add",
-                    [
-                        (label, pack(ss, self.sent.setdefault(label, set())), infos.get(label))
-                        for label, ss in runs.items()
-                    ],
-                )
-            )
+            parts = [p for ss in runs.values() for p in window_parts(ss)]
+            free = self._free_slot() if self.arena.fits(parts) else None
+            slot = None if free is None else SlotWriter(self.arena, free)
+            packed = [
+                (label, pack(ss, self.sent.setdefault(label, set()), slot), infos.get(label))
+                for label, ss in runs.items()
+            ]
+            self.queue.put(("add", packed, None if slot is None else slot.slot))
             self.pending = []
 
     def close(self) -> dict[str | None, list[str]]:
+        reply: tuple = ("error", "the recording's writer process stopped")
         try:
             self._send()
             self.queue.put(("close",))
@@ -158,8 +179,11 @@ class _Background:
         except (EOFError, OSError, RuntimeError):
             reply = ("error", "the recording's writer process stopped")
         finally:
-            self.proc.join(60)
+            # once the reply is in, the file is complete: the writer's exit (unmapping its memory,
+            # ~20 ms) need not be waited for; multiprocessing reaps it at the latest at exit
+            self.proc.join(0 if reply[0] == "closed" else 60)
             self.reply.close()
+            self.freed.close()
             self.queue.close()
         if reply[0] == "error":
             raise RuntimeError(f"writing the recording failed: {reply[1]}")

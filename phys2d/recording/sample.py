@@ -16,6 +16,7 @@ import numpy as np
 
 from ..shapes import CIRCLE
 from . import schema
+from .arena import Arena, Ref, SlotWriter
 
 
 @dataclass(eq=False)
@@ -65,8 +66,12 @@ class Strips:
 
 
 def on_grid(a: np.ndarray, grid: float) -> np.ndarray:
-    """float32 of ``a`` rounded to multiples of ``grid`` (a power of two, so exact below 2^24 grid)."""
-    return (np.round(a / grid) * grid).astype(np.float32)
+    """float32 of ``a`` rounded to multiples of ``grid`` (a power of two, so exact below 2^24 grid).
+    One float64 temporary, rounded and scaled in place."""
+    steps = np.multiply(a, 1.0 / grid)  # exact: 1 / grid is a power of two
+    np.rint(steps, out=steps)  # as np.round: halves to even
+    steps *= grid
+    return steps.astype(np.float32)
 
 
 @dataclass(eq=False)
@@ -240,10 +245,11 @@ _PACKED = (
 )
 
 
-def pack(samples: list[Sample], sent: set[int]) -> dict:
-    """One run's samples as a few long arrays (one concatenation per field), cheap to pickle and
-    to send to a writer process; the layouts whose versions are not in ``sent`` go along once
-    and are added to it."""
+def pack(samples: list[Sample], sent: set[int], slot: SlotWriter | None = None) -> dict:
+    """One run's samples as a few long arrays (one concatenation per field), cheap to send to a
+    writer process; the layouts whose versions are not in ``sent`` go along once and are added to
+    it. With ``slot``, the long arrays are written into that slot of a shared arena and only
+    their places (``Ref``) are kept (``window_parts`` and ``Arena.fits`` say whether they fit)."""
     out: dict = {
         "tick": np.fromiter((s.tick for s in samples), np.int64, len(samples)),
         "time": np.fromiter((s.time for s in samples), np.float64, len(samples)),
@@ -258,22 +264,30 @@ def pack(samples: list[Sample], sent: set[int]) -> dict:
         arrays = [getattr(s, name) for s in samples]
         present = np.array([a is not None for a in arrays])
         kept = [a for a in arrays if a is not None]
-        out[name] = (
-            present,
-            np.fromiter((a.shape[0] for a in kept), np.int64, len(kept)),
-            np.concatenate(kept) if kept else None,
-        )
+        flat: np.ndarray | Ref | None = None
+        if kept:
+            flat = slot.put(kept) if slot is not None else np.concatenate(kept)
+        out[name] = (present, np.fromiter((a.shape[0] for a in kept), np.int64, len(kept)), flat)
     return out
 
 
-def unpack(packed: dict, layouts: dict[int, Layout]) -> list[Sample]:
-    """The samples ``pack`` packed (views into its arrays); ``layouts`` (by version) remembers the
-    run's layouts sent so far."""
+def window_parts(samples: list[Sample]) -> list[list[np.ndarray]]:
+    """Per packed field, the arrays ``pack`` concatenates (for ``Arena.fits``)."""
+    return [[a for a in (getattr(s, name) for s in samples) if a is not None] for name in _PACKED]
+
+
+def unpack(packed: dict, layouts: dict[int, Layout], arena: Arena | None = None) -> list[Sample]:
+    """The samples ``pack`` packed (views into its arrays; arrays in ``arena`` are copied out, so
+    the slot may be reused at once); ``layouts`` (by version) remembers the run's layouts sent so far."""
     layouts.update(packed["layouts"])
     n = packed["tick"].size
     fields: dict[str, list] = {}
     for name in _PACKED:
         present, lengths, flat = packed[name]
+        if isinstance(flat, Ref):
+            if arena is None:
+                raise ValueError(f"field {name!r} lies in a shared arena, but no arena was given")
+            flat = arena.view(flat).copy()
         parts = iter(np.split(flat, np.cumsum(lengths)[:-1]) if flat is not None else [])
         fields[name] = [next(parts) if p else None for p in present]
     return [

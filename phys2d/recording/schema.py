@@ -29,8 +29,10 @@ solver sweeps, on which they read as one continuous curve.
     <run>contacts/lambda/<name>  Scalars [lambda_n, lambda_t] (N s), float64, for the plotted contacts
     <run>contacts/penetration/<name>  Scalars -separation (mm), float64, for the same contacts
     <run>joints/reaction/j<k>/r<row>  the impulse of each joint row (N s)
-    <run>solver/residual         Scalars log10 of the residual (for the plot) and the field
-                                 ``residual`` (m/s, float64), one row per sweep
+    <run>solver/residual         Scalars log10 of the residual (for the plot), one row per sweep
+    <run>solver/sweeps           the field ``residual`` (m/s, float64), one row per sweep: apart from
+                                 the plotted entity, as Rerun (0.30 on) plots every numeric component
+                                 of an entity in a time series view (it drew this as a flat line at 0)
     <run>stats/<name>            STATS: energies, momenta, deepest overlap, counts, one row per tick
 
 A contact's ``<name>`` is ``b<uid_a>-b<uid_b>/f<feature>`` (``contact_entity``): the
@@ -59,6 +61,7 @@ LAMBDA = "contacts/lambda"
 PENETRATION = "contacts/penetration"
 REACTION = "joints/reaction"
 RESIDUAL = "solver/residual"
+SWEEPS = "solver/sweeps"  # the exact residual per sweep, not plotted
 STATS_ROOT = "stats"
 RUNS_ROOT = "runs"
 PROPERTIES_ENGINE = "phys2d"  # recording property: engine version, scene, name

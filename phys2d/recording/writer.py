@@ -10,10 +10,11 @@ from __future__ import annotations
 from typing import Any
 
 
-def serve(queue, conn, kwargs: dict[str, Any]) -> None:
-    """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...]) and
-    ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text). When the
-    simulating process dies, the file is closed too, so every tick sent is readable."""
+def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
+    """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...],
+    slot) and ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text).
+    Packed arrays in a slot of ``arena`` are copied out and the slot number sent back on ``freed``.
+    When the simulating process dies, the file is closed too, so every tick sent is readable."""
     import os
     import queue as queues
 
@@ -35,8 +36,17 @@ def serve(queue, conn, kwargs: dict[str, Any]) -> None:
             except (EOFError, OSError):
                 break
             if msg[0] == "add":
-                for label, packed, info in msg[1]:
-                    for k, sample in enumerate(unpack(packed, layouts.setdefault(label, {}))):
+                _, runs, slot = msg
+                unpacked = [
+                    (label, unpack(packed, layouts.setdefault(label, {}), arena), info) for label, packed, info in runs
+                ]
+                if slot is not None and freed is not None:
+                    try:
+                        freed.send(slot)  # copied out: the simulating process may refill it
+                    except OSError:  # the simulating process is gone: write what it sent all the same
+                        freed = None
+                for label, samples, info in unpacked:
+                    for k, sample in enumerate(samples):
                         sink.add(label, sample, info if k == 0 else None)
             else:
                 break
@@ -52,3 +62,13 @@ def serve(queue, conn, kwargs: dict[str, Any]) -> None:
             conn.send(("error", f"{type(e).__name__}: {e}"))
         except Exception:
             pass
+
+
+def run(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
+    """The writer process's target: ``serve``, then exit at once. The file is complete and the
+    reply sent by then; the interpreter's teardown (rerun's and arrow's threads and modules,
+    20-40 ms) would only hold up the recorder, which joins this process in ``close``."""
+    import os
+
+    serve(queue, conn, kwargs, arena, freed)
+    os._exit(0)
