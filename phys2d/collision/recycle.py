@@ -396,17 +396,11 @@ class ManifoldCache:
     def state(self) -> tuple:
         """What ``restore`` needs to undo a step (``collide`` replaces the arrays, never edits them):
         the attributes of ``_STATE``, in its order."""
-        return (
-            self.key,
-            self.start,
-            self.pose,
-            self.theta,
-            self.anchor,
-            self.normal,
-            self.separation,
-            self.feature,
-            self.recycled,
-        )
+        return (*self._cached(), self.recycled)
+
+    def _cached(self) -> tuple:
+        """The cached manifolds' arrays, in ``collide_recycling``'s argument order."""
+        return (self.key, self.start, self.pose, self.theta, self.anchor, self.normal, self.separation, self.feature)
 
     def restore(self, state: tuple) -> None:
         for name, value in zip(self._STATE, state):
@@ -459,14 +453,7 @@ class ManifoldCache:
             b.friction,
             b.restitution,
             recycle_distance,
-            self.key,
-            self.start,
-            self.pose,
-            self.theta,
-            self.anchor,
-            self.normal,
-            self.separation,
-            self.feature,
+            *self._cached(),
             *out,
             pair_start,
             *new,
