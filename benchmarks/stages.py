@@ -28,7 +28,7 @@ the wrapped one.
   what a step costs whatever the scene's size. As a check, the step time of a
   one-box scene, timed in the same repeats. On large scenes the Python left over
   also holds numpy work that grows with the contacts (arrays allocated per pair,
-  fancy-indexed copies), so there it is not a fixed cost.
+  the contact arrays sliced and handed on each step), so there it is not a fixed cost.
 
 All figures are medians over repeats. Stages:
 

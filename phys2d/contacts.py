@@ -7,7 +7,8 @@ packs into one int64 key:
     key = uid_a << 39 | uid_b << 16 | feature          (uid_a < uid_b)
 
 Keys of a step come out of the narrowphase in ascending order, so matching the
-new contacts against last tick's is one ``searchsorted``: contact caching.
+new contacts against last tick's is one walk along both sorted lists (a merge):
+contact caching.
 """
 
 from __future__ import annotations
