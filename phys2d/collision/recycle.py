@@ -285,11 +285,11 @@ def collide_recycling(
                 # the cache keeps the manifold as it was found: pose, anchors and separation
                 for i in range(4):
                     new_anchor[k, i] = cached_anchor[point, i]
+                    out_r[k, i] = cached_anchor[point, i]  # the lever arms it was found with, unturned
                 new_normal[k, 0] = cached_normal[point, 0]
                 new_normal[k, 1] = cached_normal[point, 1]
                 new_separation[k] = cached_separation[point]
                 new_feature[k] = cached_feature[point]
-                out_r[k] = new_anchor[k]  # the lever arms it was found with, unturned
                 k += 1
             for i in range(3):
                 new_pose[n_new, i] = cached_pose[slot, i]
@@ -325,15 +325,14 @@ def collide_recycling(
                     out_mu,
                     out_e,
                 )
-                new_anchor[k, 0] = px - x[a, 0]
-                new_anchor[k, 1] = py - x[a, 1]
-                new_anchor[k, 2] = px - x[b, 0]
-                new_anchor[k, 3] = py - x[b, 1]
+                new_anchor[k, 0] = out_r[k, 0] = px - x[a, 0]
+                new_anchor[k, 1] = out_r[k, 1] = py - x[a, 1]
+                new_anchor[k, 2] = out_r[k, 2] = px - x[b, 0]
+                new_anchor[k, 3] = out_r[k, 3] = py - x[b, 1]
                 new_normal[k, 0] = m[1]
                 new_normal[k, 1] = m[2]
                 new_separation[k] = sep
                 new_feature[k] = feature
-                out_r[k] = new_anchor[k]
                 k += 1
             px, py, turn = relative_pose(a, b, x, theta)
             new_pose[n_new, 0] = px
