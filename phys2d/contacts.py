@@ -101,7 +101,7 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
         if not cache_pushed[e] or (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
             continue  # it carried nothing, or the pair still touches
         for u in (pair >> UID_BITS, pair & ((1 << UID_BITS) - 1)):
-            b = np.searchsorted(uid, u)  # uids are ascending in the body arrays
+            b = np.int32(np.searchsorted(uid, u))  # uids ascend in the body arrays; int32 as body_a's
             if b < n and uid[b] == u and not static[b]:
                 unloaded[_root(parent, b)] = True
                 any_unloaded = True

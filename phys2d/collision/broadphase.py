@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from ..shapes import CIRCLE
+from .sort import stable_argsort
 
 
 @njit(cache=True)
@@ -110,7 +111,7 @@ def sweep_and_prune(aabb, static, excluded, pairs):
     Static-static pairs and the pairs in ``excluded`` are skipped.
     """
     n = aabb.shape[0]
-    order = np.argsort(aabb[:, 0], kind="mergesort")
+    order = stable_argsort(aabb[:, 0])
     count = 0
     cap = pairs.shape[0]
     for ii in range(n):
@@ -137,7 +138,8 @@ def sweep_and_prune(aabb, static, excluded, pairs):
     keys = np.empty(count, np.int64)
     for k in range(count):
         keys[k] = (np.int64(pairs[k, 0]) << 32) | np.int64(pairs[k, 1])
-    perm = np.argsort(keys, kind="mergesort")
-    sorted_pairs = pairs[:count][perm].copy()
-    pairs[:count] = sorted_pairs
+    by_key = stable_argsort(keys)
+    for k in range(count):  # a key holds its pair: a = key >> 32, b = its low 32 bits
+        pairs[k, 0] = keys[by_key[k]] >> 32
+        pairs[k, 1] = keys[by_key[k]] & 0xFFFFFFFF
     return count

@@ -351,7 +351,7 @@ def collide_pairs(
     sqrt(mu_a mu_b) and restitution max(e_a, e_b). The out arrays need room for
     2 * n_pairs points; pair q's points are pair_start[q] up to pair_start[q + 1].
     """
-    k = 0
+    k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]

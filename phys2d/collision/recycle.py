@@ -198,11 +198,11 @@ def collide_recycling(
     n_pairs manifolds and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b)
     for the rows, as its manifold was found. Returns (points K, manifolds cached, recycled).
     """
-    k = 0
+    k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
     n_recycled = 0
     n_cached = cached_key.shape[0]
-    look = 0  # the cached slot looked at last
+    look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
     extent = body_extents(kind, radius, vstart, vcount, local_v, static) if recycle_distance > 0.0 else np.zeros(0)
     for q in range(n_pairs):
         pair_start[q] = k
@@ -268,7 +268,7 @@ def collide_recycling(
                     cached_normal[point, 0],
                     cached_normal[point, 1],
                     sep,
-                    cached_feature[point],
+                    np.int64(cached_feature[point]),  # as the narrowphase's: one write_point
                     key,
                     mu,
                     e,
