@@ -1,5 +1,6 @@
 """The kernels' stable sort gives exactly NumPy's stable argsort (ascending, ties in index order,
-NaN last), and the broadphase's pairs come out sorted by (a, b) as the sort promises."""
+NaN last), their binary search NumPy's searchsorted, and the broadphase's pairs come out
+sorted by (a, b) as the sort promises."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from phys2d.collision.broadphase import sweep_and_prune
-from phys2d.collision.sort import stable_argsort
+from phys2d.collision.sort import lower_bound, stable_argsort
 
 # few distinct values, so ties (and -0.0 beside 0.0, NaN beside NaN) are common
 FLOATS = st.sampled_from([-np.inf, -1.5, -0.0, 0.0, 1e-300, 2.0, np.inf, np.nan]) | st.floats(allow_nan=True)
@@ -30,6 +31,12 @@ def test_ints_sort_as_numpy_stable(keys):
 def test_a_strided_column_sorts_as_numpy_stable(table):
     # the broadphase sorts aabb[:, 0], a view with a stride of four floats
     assert np.array_equal(stable_argsort(table[:, 0]), np.argsort(table[:, 0], kind="stable"))
+
+
+@given(arrays(np.int64, st.integers(0, 40), elements=st.integers(-5, 5)), st.integers(-7, 7))
+def test_lower_bound_is_searchsorted(keys, key):
+    keys = np.sort(keys)  # with repeats, so "the first of equal keys" is tested
+    assert lower_bound(keys, np.int64(key)) == np.searchsorted(keys, key)
 
 
 @given(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20), st.integers(1, 4), st.integers(1, 4)), max_size=30))

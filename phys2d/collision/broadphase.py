@@ -16,10 +16,10 @@ import numpy as np
 from numba import njit
 
 from ..shapes import CIRCLE
-from .sort import stable_argsort
+from .sort import lower_bound, stable_argsort
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def update_geometry(
     x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel
 ):
@@ -65,7 +65,7 @@ def update_geometry(
         aabb[b, 3] = hi_y + grow
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def fits_inside(aabb, fat):
     """True when every tight box lies inside its fat box: last step's pairs still hold."""
     if aabb.shape[0] != fat.shape[0]:
@@ -88,18 +88,12 @@ def update_geometry_in(
     return fits_inside(aabb, fat)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _excluded(excluded, a, b):
     """Binary search of the sorted pair keys a * 2^32 + b (a < b) of joined bodies."""
     key = (np.int64(a) << 32) | np.int64(b)
-    lo, hi = 0, excluded.shape[0]
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if excluded[mid] < key:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo < excluded.shape[0] and excluded[lo] == key
+    at = lower_bound(excluded, key)
+    return at < excluded.shape[0] and excluded[at] == key
 
 
 @njit(cache=True)

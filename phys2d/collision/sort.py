@@ -1,10 +1,13 @@
-"""A stable sort for the kernels: the order np.argsort(keys, kind="stable") gives.
+"""A stable sort and a binary search for the kernels: what np.argsort(keys, kind="stable") and
+np.searchsorted(keys, key) give.
 
 The broadphase sorts boxes by their left edge and pairs by their key, and the
 graph colouring sorts pairs by colour, each inside a numba kernel. NumPy's stable
 argsort compiled there costs seconds of the first run's wait (numba's generic
 merge sort); this plain merge sort compiles in a fraction of that and gives the
-same indices: ascending, equal keys in index order, NaN last.
+same indices: ascending, equal keys in index order, NaN last. The look-ups in sorted
+keys (joined pairs, cached manifolds, body uids) share one binary search, ``lower_bound``,
+for the same reason.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def merge_runs(keys, src, dst, lo, mid, hi):
     """Merge the sorted runs src[lo:mid] and src[mid:hi] (indices into keys) into dst[lo:hi].
 
@@ -49,3 +52,17 @@ def stable_argsort(keys):
         src, dst = dst, src
         width *= 2
     return src
+
+
+@njit(cache=True, inline="always")
+def lower_bound(keys, key):
+    """The first index i with keys[i] >= key in the ascending array keys (keys.shape[0] if none):
+    np.searchsorted(keys, key). Binary search: keys[lo - 1] < key <= keys[hi] throughout."""
+    lo, hi = 0, keys.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
