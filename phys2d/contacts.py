@@ -18,10 +18,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from .collision.sort import lower_bound
 from .constraints.rows import Rows, rows_to_contacts
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit):
     """Contact caching: walk both sorted key lists together (a merge), and for every
     contact c found in last tick's cache set hit[c] and lambda_n[c], lambda_t[c] to the
@@ -48,7 +49,7 @@ UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pai
 FEATURE_BITS = 16
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _root(parent, b):
     """The representative of body b's island (union-find with path halving)."""
     while parent[b] != b:
@@ -57,7 +58,7 @@ def _root(parent, b):
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lost_a_load(cache_keys, cache_pushed, keys):
     """True if a pair that pushed last tick has no contact now (a merge of the sorted keys by pair)."""
     m = 0
@@ -70,7 +71,7 @@ def lost_a_load(cache_keys, cache_pushed, keys):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold):
     """cold[c] = True for every contact c whose island lost a load since last tick.
 
@@ -101,7 +102,7 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
         if not cache_pushed[e] or (m < keys.shape[0] and (keys[m] >> FEATURE_BITS) == pair):
             continue  # it carried nothing, or the pair still touches
         for u in (pair >> UID_BITS, pair & ((1 << UID_BITS) - 1)):
-            b = np.searchsorted(uid, u)  # uids are ascending in the body arrays
+            b = np.int32(lower_bound(uid, u))  # uids ascend in the body arrays; int32 as body_a's
             if b < n and uid[b] == u and not static[b]:
                 unloaded[_root(parent, b)] = True
                 any_unloaded = True
@@ -160,7 +161,7 @@ def impulses_to_contacts_and_cache(
     impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed):
     """What the cache keeps of this step's impulses (N s): 0 for a contact that met its partner
     fast within the step (``impact``: an event, not a load), and which contacts pushed."""

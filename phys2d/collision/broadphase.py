@@ -16,9 +16,10 @@ import numpy as np
 from numba import njit
 
 from ..shapes import CIRCLE
+from .sort import lower_bound, stable_argsort
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def update_geometry(
     x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel
 ):
@@ -64,7 +65,7 @@ def update_geometry(
         aabb[b, 3] = hi_y + grow
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def fits_inside(aabb, fat):
     """True when every tight box lies inside its fat box: last step's pairs still hold."""
     if aabb.shape[0] != fat.shape[0]:
@@ -87,18 +88,12 @@ def update_geometry_in(
     return fits_inside(aabb, fat)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _excluded(excluded, a, b):
     """Binary search of the sorted pair keys a * 2^32 + b (a < b) of joined bodies."""
     key = (np.int64(a) << 32) | np.int64(b)
-    lo, hi = 0, excluded.shape[0]
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if excluded[mid] < key:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo < excluded.shape[0] and excluded[lo] == key
+    at = lower_bound(excluded, key)
+    return at < excluded.shape[0] and excluded[at] == key
 
 
 @njit(cache=True)
@@ -110,7 +105,7 @@ def sweep_and_prune(aabb, static, excluded, pairs):
     Static-static pairs and the pairs in ``excluded`` are skipped.
     """
     n = aabb.shape[0]
-    order = np.argsort(aabb[:, 0], kind="mergesort")
+    order = stable_argsort(aabb[:, 0])
     count = 0
     cap = pairs.shape[0]
     for ii in range(n):
@@ -137,7 +132,8 @@ def sweep_and_prune(aabb, static, excluded, pairs):
     keys = np.empty(count, np.int64)
     for k in range(count):
         keys[k] = (np.int64(pairs[k, 0]) << 32) | np.int64(pairs[k, 1])
-    perm = np.argsort(keys, kind="mergesort")
-    sorted_pairs = pairs[:count][perm].copy()
-    pairs[:count] = sorted_pairs
+    by_key = stable_argsort(keys)
+    for k in range(count):  # a key holds its pair: a = key >> 32, b = its low 32 bits
+        pairs[k, 0] = keys[by_key[k]] >> 32
+        pairs[k, 1] = keys[by_key[k]] & 0xFFFFFFFF
     return count

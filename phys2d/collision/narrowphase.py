@@ -208,7 +208,7 @@ def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     return none
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide_circle_polygon(world_v, world_n, s, n, cx, cy, r, margin):
     """Circle (centre c, radius r) against the polygon with vertices s..s+n.
 
@@ -253,7 +253,7 @@ def collide_circle_polygon(world_v, world_n, s, n, cx, cy, r, margin):
     return 1, nx, ny, cx - nx * (r + 0.5 * sep), cy - ny * (r + 0.5 * sep), sep, feature
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide_circles(xa, ya, ra, xb, yb, rb, margin):
     """Circle A against circle B: (count, nx, ny, px, py, sep, feature), normal from A to B."""
     dx, dy = xb - xa, yb - ya
@@ -285,13 +285,13 @@ def manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin):
     return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pair_key(uid, a, b):
     """The key of pair (a, b): uid_a << 39 | uid_b << 16; a point's key adds its feature id."""
     return (uid[a] << 39) | (uid[b] << 16)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def write_point(
     k, a, b, px, py, nx, ny, sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e
 ):
@@ -309,7 +309,7 @@ def write_point(
     out_f[k] = feature
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pair_friction(friction, restitution, a, b):
     """The pair's friction sqrt(mu_a mu_b) and restitution max(e_a, e_b)."""
     return np.sqrt(friction[a]) * np.sqrt(friction[b]), max(restitution[a], restitution[b])  # no overflow
@@ -351,7 +351,7 @@ def collide_pairs(
     sqrt(mu_a mu_b) and restitution max(e_a, e_b). The out arrays need room for
     2 * n_pairs points; pair q's points are pair_start[q] up to pair_start[q + 1].
     """
-    k = 0
+    k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]

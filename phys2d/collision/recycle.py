@@ -45,11 +45,12 @@ from numba import njit
 
 from ..shapes import CIRCLE
 from .narrowphase import FLIP_BIT, manifold, pair_friction, pair_key, write_point
+from .sort import lower_bound
 
 RECYCLE_MAX_TURN = 0.98  # cos of the largest turn (about 11.5 degrees) of either body since caching
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def body_extent(b, kind, radius, vstart, vcount, local_v, static):
     """The largest distance (m) from body b's centre to its surface; 0 for a static body."""
     if static[b]:
@@ -62,7 +63,7 @@ def body_extent(b, kind, radius, vstart, vcount, local_v, static):
     return np.sqrt(r2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def body_extents(kind, radius, vstart, vcount, local_v, static):
     """``body_extent`` of every body (m), once per step: a body is in several pairs."""
     extent = np.empty(kind.shape[0])
@@ -71,7 +72,7 @@ def body_extents(kind, radius, vstart, vcount, local_v, static):
     return extent
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def relative_pose(a, b, x, theta):
     """B's pose in A's frame: (px, py, theta_b - theta_a) in m and rad."""
     c, s = np.cos(theta[a]), np.sin(theta[a])
@@ -79,7 +80,7 @@ def relative_pose(a, b, x, theta):
     return c * dx + s * dy, -s * dx + c * dy, theta[b] - theta[a]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def turn_since_cached(slot, a, b, theta, cached_theta):
     """How far bodies a and b have turned since the slot was cached: (cos, sin) of each, once per pair."""
     turn_a = theta[a] - cached_theta[slot, 0]
@@ -87,7 +88,7 @@ def turn_since_cached(slot, a, b, theta, cached_theta):
     return np.cos(turn_a), np.sin(turn_a), np.cos(turn_b), np.sin(turn_b)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distance):
     """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose
     (``turn``: ``turn_since_cached``; ``extent``: ``body_extents``)."""
@@ -101,7 +102,7 @@ def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distanc
     return distance + reach * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature):
     """(px, py, separation) of a cached point now: its anchors turned with their bodies
     (``turn``: ``turn_since_cached``)."""
@@ -122,7 +123,7 @@ def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, featur
     return x[b, 0] + r_bx - shift * normal[point, 0], x[b, 1] + r_by - shift * normal[point, 1], separation
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separation, feature, margin):
     """True if every cached point of the slot is still within ``margin`` (m) of its partner:
     the narrowphase would drop one that is not, so the pair is collided anew."""
@@ -132,12 +133,12 @@ def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separatio
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def next_slot(cached_key, key, m):
     """The first slot whose cached key is >= key. The pairs' keys ascend, so the look-up walks on
     from the last one (``m``): a merge of two sorted lists; a key below the last looks from the start."""
     if m > 0 and cached_key[m - 1] >= key:
-        return np.searchsorted(cached_key, key)
+        return lower_bound(cached_key, key)
     while m < cached_key.shape[0] and cached_key[m] < key:
         m += 1
     return m
@@ -198,11 +199,11 @@ def collide_recycling(
     n_pairs manifolds and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b)
     for the rows, as its manifold was found. Returns (points K, manifolds cached, recycled).
     """
-    k = 0
+    k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
     n_recycled = 0
     n_cached = cached_key.shape[0]
-    look = 0  # the cached slot looked at last
+    look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
     extent = body_extents(kind, radius, vstart, vcount, local_v, static) if recycle_distance > 0.0 else np.zeros(0)
     for q in range(n_pairs):
         pair_start[q] = k
@@ -268,7 +269,7 @@ def collide_recycling(
                     cached_normal[point, 0],
                     cached_normal[point, 1],
                     sep,
-                    cached_feature[point],
+                    np.int64(cached_feature[point]),  # as the narrowphase's: one write_point
                     key,
                     mu,
                     e,

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..collision.sort import stable_argsort
+
 MAX_COLOURS = 64  # a body in more pairs than this shares the last colour
 
 
@@ -40,7 +42,7 @@ def colour_pairs(pairs, n_pairs, static, n_bodies):
             used[a, chosen] = True
         if not static[b]:
             used[b, chosen] = True
-    return np.argsort(colour, kind="mergesort").astype(np.int32)
+    return stable_argsort(colour).astype(np.int32)
 
 
 @njit(cache=True)

@@ -185,7 +185,7 @@ class RowBuffer:
         return self._head
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
     """Row k of J for direction d acting at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]."""
     J[k, 0] = -dx
@@ -221,21 +221,21 @@ def apply_row_impulse(k, a, b, JM, impulse, V):
         V[b, c] += JM[k, 3 + c] * impulse
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def speculative_target(C, dt):
     """xi of a normal row: a point still C > 0 apart may approach at C/dt (close the gap
     within the step, no more); a touching one may not approach at all (m/s)."""
     return -C / dt if C > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def baumgarte_push(C, dt, beta, slop, push_max):
     """The speed (m/s) at which to push out an overlap deeper than slop: (beta/dt) of the
     excess, never more than push_max (Box2D v3's contactPushMaxVelocity)."""
     return min((beta / dt) * max(0.0, -(C + slop)), push_max)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def approach_at_impact(C, vn_start, vn_forced, dt):
     """The normal velocity (m/s, negative when approaching) a point meets its partner with.
 
@@ -256,7 +256,7 @@ def approach_at_impact(C, vn_start, vn_forced, dt):
     return -np.sqrt(max(p0 * p0 - 2.0 * (dvn / dt) * C, 0.0))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def bounce_target(e, vn_impact, dvn):
     """The J V a point of restitution e leaves with when it met its partner at vn_impact (m/s):
     the path's velocity reversed e times, turned back into V (plus half the forces' share dvn).

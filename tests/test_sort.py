@@ -1,0 +1,59 @@
+"""The kernels' stable sort gives exactly NumPy's stable argsort (ascending, ties in index order,
+NaN last), their binary search NumPy's searchsorted, and the broadphase's pairs come out
+sorted by (a, b) as the sort promises."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from phys2d.collision.broadphase import sweep_and_prune
+from phys2d.collision.sort import lower_bound, stable_argsort
+
+# few distinct values, so ties (and -0.0 beside 0.0, NaN beside NaN) are common
+FLOATS = st.sampled_from([-np.inf, -1.5, -0.0, 0.0, 1e-300, 2.0, np.inf, np.nan]) | st.floats(allow_nan=True)
+INTS = st.integers(-3, 3) | st.integers(-(2**63), 2**63 - 1)
+
+
+@given(arrays(np.float64, st.integers(0, 80), elements=FLOATS))
+def test_floats_sort_as_numpy_stable(keys):
+    assert np.array_equal(stable_argsort(keys), np.argsort(keys, kind="stable"))
+
+
+@given(arrays(np.int64, st.integers(0, 80), elements=INTS))
+def test_ints_sort_as_numpy_stable(keys):
+    assert np.array_equal(stable_argsort(keys), np.argsort(keys, kind="stable"))
+
+
+@given(arrays(np.float64, st.tuples(st.integers(0, 40), st.just(4)), elements=FLOATS))
+def test_a_strided_column_sorts_as_numpy_stable(table):
+    # the broadphase sorts aabb[:, 0], a view with a stride of four floats
+    assert np.array_equal(stable_argsort(table[:, 0]), np.argsort(table[:, 0], kind="stable"))
+
+
+@given(arrays(np.int64, st.integers(0, 40), elements=st.integers(-5, 5)), st.integers(-7, 7))
+def test_lower_bound_is_searchsorted(keys, key):
+    keys = np.sort(keys)  # with repeats, so "the first of equal keys" is tested
+    assert lower_bound(keys, np.int64(key)) == np.searchsorted(keys, key)
+
+
+@given(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20), st.integers(1, 4), st.integers(1, 4)), max_size=30))
+def test_sweep_pairs_are_every_overlap_sorted_by_pair(boxes):
+    # second method: every pair of boxes whose closed intervals overlap on both axes, by brute force
+    aabb = np.array([(x, y, x + w, y + h) for x, y, w, h in boxes], float).reshape(-1, 4)
+    n = aabb.shape[0]
+    static = np.zeros(n, np.bool_)
+    pairs = np.zeros((n * n + 1, 2), np.int32)
+    count = sweep_and_prune(aabb, static, np.zeros(0, np.int64), pairs)
+    expected = [
+        (a, b)
+        for a in range(n)
+        for b in range(a + 1, n)
+        if aabb[a, 0] <= aabb[b, 2]
+        and aabb[b, 0] <= aabb[a, 2]
+        and aabb[a, 1] <= aabb[b, 3]
+        and aabb[b, 1] <= aabb[a, 3]
+    ]
+    assert [tuple(p) for p in pairs[:count].tolist()] == expected
