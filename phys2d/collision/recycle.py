@@ -88,7 +88,7 @@ def turn_since_cached(slot, a, b, theta, cached_theta):
     return np.cos(turn_a), np.sin(turn_a), np.cos(turn_b), np.sin(turn_b)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distance):
     """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose
     (``turn``: ``turn_since_cached``; ``extent``: ``body_extents``)."""
@@ -102,7 +102,7 @@ def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distanc
     return distance + reach * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature):
     """(px, py, separation) of a cached point now: its anchors turned with their bodies
     (``turn``: ``turn_since_cached``)."""
@@ -123,7 +123,7 @@ def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, featur
     return x[b, 0] + r_bx - shift * normal[point, 0], x[b, 1] + r_by - shift * normal[point, 1], separation
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separation, feature, margin):
     """True if every cached point of the slot is still within ``margin`` (m) of its partner:
     the narrowphase would drop one that is not, so the pair is collided anew."""
