@@ -229,13 +229,13 @@ def pgs_solve(
 ):
     """Warm start from ``lam``, then sweep all rows in solve order (rows are stored in it)
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
-    residuals[s] is sweep s's."""
+    residuals[s] is sweep s's. ``block``: see ``pgs_step``."""
     apply_impulses(body_a, body_b, JM, lam, V)
     inv_A_kk = inverse_diagonal(A_kk)
     all_rows = np.arange(lam.shape[0])
     joint_rows = all_rows[first_joint_row:]
     for s in range(iterations):
-        if block:
+        if block is not None:
             residuals[s] = block_sweep(
                 normal_row,
                 friction_row,
@@ -271,6 +271,7 @@ def push_out(
     Positions then move with V + V_push, and V_push is dropped: the push removes overlap
     without ever becoming velocity, so a stack pushed out of a deep overlap is not thrown.
     Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
+    ``block``: see ``pgs_step``.
     """
     pushing = False
     for k in normal_row:
@@ -280,7 +281,7 @@ def push_out(
     inv_A_kk = inverse_diagonal(A_kk)
     none = normal_row[:0]  # no friction rows, no joint rows: the normal rows only
     for s in range(iterations):
-        if block:
+        if block is not None:
             worst = block_sweep(
                 normal_row,
                 none,
@@ -339,7 +340,13 @@ def pgs_step(
 ):
     """``PGS.respond`` in one call: warm start and sweeps on V, the push pass (split) or
     the push inside xi (not split), positions moved, then the restitution pass.
-    Returns the sweeps made on A lambda = b."""
+    Returns the sweeps made on A lambda = b.
+
+    ``block`` is True for Box2D's block sweep (``block_sweep``), None for the lecture's
+    row-by-row sweep. Not False: numba compiles a function once per type of its arguments,
+    and ``block is None`` is settled when it compiles, so a PGS compiles only the sweep it
+    uses (the block sweep takes seconds to compile).
+    """
     target = xi if split else xi + push  # the lecture: the push is part of the target
     n = pgs_solve(
         normal_row,
@@ -563,7 +570,7 @@ class PGS(Responder):
             ctx.dt,
             self.iterations,
             tol,
-            self.block,
+            True if self.block else None,  # a type of its own: see pgs_step
             self.split,
             residuals,
         )
