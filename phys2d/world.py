@@ -94,7 +94,7 @@ class World:
         self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
         self._pairs = np.zeros((64, 2), np.int32)
         self._n_pairs = 0
-        self._pair_order = np.zeros(0, np.int32)  # pair indices in solve order (graph colouring)
+        self._pair_order: np.ndarray | None = None  # pair indices in solve order (graph colouring), made when needed
         self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with
         self._geometry: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._sweep_again = True  # bodies or exclusions changed since: the pairs must be found anew
@@ -570,7 +570,7 @@ class World:
                 self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
                 n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
             self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
-            self._pair_order = colour_pairs(self._pairs, n_pairs, b.static, b.n)
+            self._pair_order = None  # coloured when a responder first visits these pairs by colour
         cap = 2 * self._n_pairs
         out = (
             np.empty(cap, np.int32),
@@ -599,6 +599,8 @@ class World:
         )
         body_a, body_b, point, normal, separation, feature, key, mu, e, anchor = [a[:k] for a in out]
         if self._responder.colour_order:
+            if self._pair_order is None:
+                self._pair_order = colour_pairs(self._pairs, self._n_pairs, b.static, b.n)
             order = solve_order(self._pair_order, pair_start)
         else:
             order = np.arange(k, dtype=np.int32)
