@@ -232,7 +232,7 @@ def pgs_solve(
     residuals[s] is sweep s's. ``block``: see ``pgs_step``."""
     apply_impulses(body_a, body_b, JM, lam, V)
     inv_A_kk = inverse_diagonal(A_kk)
-    all_rows = np.arange(lam.shape[0])
+    all_rows = np.arange(lam.shape[0], dtype=normal_row.dtype)  # the row map's dtype: sweep compiles once
     joint_rows = all_rows[first_joint_row:]
     for s in range(iterations):
         if block is not None:
