@@ -415,7 +415,7 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
         as_block     (M,)      ``block`` and its 2x2 K is well conditioned: solve them together
     """
     n_contacts = normal_row.shape[0]
-    start = np.empty(n_contacts + 1, np.int64)
+    start = np.empty(n_contacts + 1, np.uint32)
     n = 0
     c = 0
     while c < n_contacts:
@@ -634,7 +634,7 @@ def soft_step_solve(
     landed = np.zeros(n_contacts, np.bool_)  # met its partner fast in this sub-step
     dv = (V - V1) / substeps  # a sub-step's share of the external forces
     V[:, :] = V1
-    pending = np.arange(n_contacts)  # the points not yet met: their approach is still to be taken
+    pending = np.arange(n_contacts, dtype=np.uint32)  # the points not yet met: their approach is still to come
     n_pending = n_contacts
     n_sweeps = 0
     for i in range(substeps):
