@@ -5,8 +5,10 @@ The tick of length dt is split into n sub-steps of h = dt/n. The stages carry
 Box2D v3's names:
 
     prepare                                  lever arms (as each manifold was found: a recycled
-                                             one keeps them); per sub-step, the joint rows at
-                                             the positions now (and their factor, below)
+                                             one keeps them); once per tick, per manifold, what
+                                             the sweeps reuse (``prepare_manifolds``); per
+                                             sub-step, the joint rows at the positions now (and
+                                             their factor, below)
     integrate velocities  V += h M^-1 F_ext  external forces, a slice at a time
     warm start            V += M^-1 J^T lam  the impulse per sub-step
     solve (with bias)                        joint rows, then one PGS sweep of the contacts
