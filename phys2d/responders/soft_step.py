@@ -446,9 +446,23 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
 
 
 @njit(cache=True)
-def warm_start(body_a, body_b, JM, lam, V):
-    """Apply last sub-step's impulses (N s) to V."""
-    for k in range(lam.shape[0]):
+def warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row):
+    """Apply last sub-step's impulses (N s) to V: a manifold's rows (normal, then friction, point
+    by point) on its two bodies' velocities held in locals, stored once; then the joint rows."""
+    start = manifolds[0]
+    for m in range(start.shape[0] - 1):
+        k = normal_row[start[m]]
+        a, b = body_a[k], body_b[k]
+        va0, va1, va2 = V[a, 0], V[a, 1], V[a, 2]
+        vb0, vb1, vb2 = V[b, 0], V[b, 1], V[b, 2]
+        for c in range(start[m], start[m + 1]):
+            for k in (normal_row[c], friction_row[c]):
+                if lam[k] != 0.0:
+                    va0, va1, va2 = va0 + JM[k, 0] * lam[k], va1 + JM[k, 1] * lam[k], va2 + JM[k, 2] * lam[k]
+                    vb0, vb1, vb2 = vb0 + JM[k, 3] * lam[k], vb1 + JM[k, 4] * lam[k], vb2 + JM[k, 5] * lam[k]
+        V[a, 0], V[a, 1], V[a, 2] = va0, va1, va2
+        V[b, 0], V[b, 1], V[b, 2] = vb0, vb1, vb2
+    for k in range(first_joint_row, lam.shape[0]):
         if lam[k] != 0.0:
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
@@ -673,7 +687,7 @@ def soft_step_solve(
             _separations(normal_row, body_a, body_b, C0, r, normal, moved, sub_C)
         _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
         V += dv  # integrate velocities
-        warm_start(body_a, body_b, JM, lam, V)
+        warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row)
         solve(  # with bias
             first_joint_row,
             n_rows,
