@@ -1,0 +1,57 @@
+"""SoftStep's once-per-tick preparation (``prepare_manifolds``), checked against a second computation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import phys2d
+from phys2d import scenes
+from phys2d.responders.base import StepContext
+from phys2d.responders.soft_step import prepare_manifolds
+
+
+def rows_after(world: phys2d.World, responder: phys2d.SoftStep, steps: int) -> tuple[tuple, np.ndarray]:
+    """(normal_row, body_a, body_b, J, A_kk) as ``responder.respond`` saw them at the last of ``steps``
+    steps (copied before the solve), and the bodies' M^-1."""
+    seen: list[tuple] = []
+    respond = responder.respond
+
+    def keep(ctx: StepContext):
+        rows = ctx.rows
+        seen.append((rows.normal_row.copy(), rows.body_a.copy(), rows.body_b.copy(), rows.J.copy(), rows.A_kk.copy()))
+        return respond(ctx)
+
+    responder.respond = keep  # type: ignore[method-assign]
+    for _ in range(steps):
+        world.step(1 / 60)
+    return seen[-1], world.M_inv.copy()
+
+
+@pytest.mark.parametrize("block", [True, False])
+def test_manifolds_of_a_resting_stack(block):
+    responder = phys2d.SoftStep(substeps=4, block=block)
+    w = scenes.vertical_stack(3, responder)
+    (normal_row, body_a, body_b, J, A_kk), M_inv = rows_after(w, responder, 30)
+    JM = np.zeros_like(J)
+    JM[:, :3] = M_inv[body_a] * J[:, :3]  # M^-1 J^T row by row, from the bodies' masses
+    JM[:, 3:] = M_inv[body_b] * J[:, 3:]
+    start, static_pair, K12, as_block = prepare_manifolds(
+        normal_row.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32), J, JM, A_kk, M_inv, block
+    )
+    # three boxes resting flat: each touches the one below (or the ground) at two corners
+    assert start.tolist() == [0, 2, 4, 6]
+    pairs = [{(body_a[normal_row[c]], body_b[normal_row[c]]) for c in range(start[m], start[m + 1])} for m in range(3)]
+    assert all(len(p) == 1 for p in pairs)  # a manifold's points share their pair
+    assert len(set().union(*pairs)) == 3  # and the three pairs differ
+    static = w.body_static
+    assert static_pair.tolist() == [bool(static[a] or static[b]) for ((a, b),) in pairs]
+    assert static_pair.sum() == 1  # only the bottom box touches the ground
+    for m in range(3):
+        k, k2 = normal_row[start[m]], normal_row[start[m] + 1]
+        a, b = body_a[k], body_b[k]
+        # K12 = J_1 M^-1 J_2^T from the Jacobians and the inverse masses (only a block needs it)
+        K = J[k, :3] @ (M_inv[a] * J[k2, :3]) + J[k, 3:] @ (M_inv[b] * J[k2, 3:])
+        assert K12[m] == (pytest.approx(K, rel=1e-12) if block else 0.0)
+        # two corners a box width apart: far from parallel, so solved as a block when asked
+        assert as_block[m] == block
