@@ -7,12 +7,16 @@ that sets ``colour_order`` (the soft step) visits contact manifolds colour by
 colour instead: a greedy colouring gives each candidate pair the
 smallest colour that neither of its dynamic bodies has used yet, so within one
 colour no two manifolds share a dynamic body (static bodies are shared freely:
-nothing moves them). Consecutive rows then touch different bodies, the
-processor overlaps their work, and a sweep runs about 1.5x faster than in
-plain pair order. This is Box2D v3's graph colouring, used here for order only.
+nothing moves them). Consecutive rows then touch different bodies and the
+processor can overlap their work, though less than one might hope: SoftStep(4)'s
+solve measured 1.1-1.3x faster than in pair order on pyramid_20 and within 2% on
+pyramid_40, and the lecture's PGS sweep gains nothing (benchmarks/SWEEP_ORDER.md:
+most of a row's cost is the loop's own work, not the wait for the row before).
+This is Box2D v3's graph colouring, used here for order only.
 
-The colouring is made when the broadphase sweeps (pairs are kept from tick to
-tick while nothing moves far), so it is as stable as the pair list.
+The colouring is made when a colour-ordered responder first visits the pairs the
+broadphase swept (pairs are kept from tick to tick while nothing moves far), so it
+is as stable as the pair list.
 """
 
 from __future__ import annotations
