@@ -852,11 +852,7 @@ def test_a_background_writer_takes_windows_too_big_for_its_arena(tmp_path, monke
     for slot_bytes in (arena.SLOT_BYTES, 4096):
         monkeypatch.setattr(arena, "SLOT_BYTES", slot_bytes)
         path = tmp_path / f"slot{slot_bytes}.rrd"
-        w = phys2d.scenes.pyramid(4)
-        with Recorder(path, flush_every=8, background=True) as rec:
-            for _ in range(30):
-                w.step(1 / 60)
-                rec.log(w)
+        record(path, phys2d.scenes.pyramid(4), 30, flush_every=8, background=True)
         out[slot_bytes] = playback.load(path)
     a, b = out.values()
     for name in ("tick", "x", "V", "residual"):
