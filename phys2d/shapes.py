@@ -10,6 +10,7 @@ Units: metres, kilograms, kg/m^2 for density (2D), kg*m^2 for inertia.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -54,8 +55,17 @@ def box(half_extents) -> ShapeSpec:
     h = vec2(half_extents, "half_extents")
     if np.any(h <= 0.0):
         raise ValueError(f"half_extents must both be > 0, got {h.tolist()}")
-    hx, hy = float(h[0]), float(h[1])
-    return polygon([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)], name="half_extents")
+    return _box(float(h[0]), float(h[1]))
+
+
+@functools.lru_cache(maxsize=256)
+def _box(hx: float, hy: float) -> ShapeSpec:
+    """The box of half extents hx, hy (m), checked and measured once per size: a scene of many
+    equal boxes shares one spec (its arrays are read-only; a body copies them)."""
+    spec = polygon([(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)], name="half_extents")
+    for array in (spec.vertices, spec.normals, spec.centroid):
+        array.flags.writeable = False
+    return spec
 
 
 def polygon(vertices, name: str = "vertices") -> ShapeSpec:

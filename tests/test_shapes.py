@@ -20,6 +20,22 @@ def test_box_mass_and_inertia_match_the_closed_form():
     assert np.allclose(w.M_inv[0], [1 / m, 1 / m, 12.0 / (m * (width**2 + height**2))])
 
 
+def test_equal_boxes_share_one_read_only_shape_and_keep_their_own_bodies():
+    """A box's shape is checked and measured once per size; the world copies it, so one body's
+    geometry never reaches another's, and the shared arrays cannot be written."""
+    spec = phys2d.shapes.box((0.4, 0.3))
+    assert phys2d.shapes.box([0.4, 0.3]) is spec
+    assert phys2d.shapes.box((0.3, 0.4)) is not spec
+    with pytest.raises(ValueError):
+        spec.vertices[0, 0] = 1.0
+    w = phys2d.World()
+    a = w.add_box((0.0, 0.0), half_extents=(0.4, 0.3), density=2.0)
+    b = w.add_box((5.0, 0.0), half_extents=(0.4, 0.3), density=1.0)
+    assert a.mass == pytest.approx(2.0 * 0.8 * 0.6, rel=1e-12)
+    assert b.mass == pytest.approx(1.0 * 0.8 * 0.6, rel=1e-12)
+    assert np.allclose(np.abs(spec.vertices), [0.4, 0.3])  # centred: the shared spec is untouched
+
+
 def test_circle_mass_and_inertia_match_the_closed_form():
     w = phys2d.World()
     c = w.add_circle(radius=0.5, density=2.0)
