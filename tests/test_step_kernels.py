@@ -167,3 +167,22 @@ def test_soft_step_gathering_for_itself_moves_the_bodies_as_the_world_s_gather()
     assert np.array_equal(worlds[0].x, worlds[1].x)
     assert np.array_equal(worlds[0].theta, worlds[1].theta)
     assert np.array_equal(worlds[0].V, worlds[1].V)
+
+
+def test_cos_sin_is_libm_s_to_an_ulp():
+    """Against np.cos, np.sin: the Taylor series below SMALL_TURN within one ulp (turns from
+    1e-12 rad up, both signs), libm's own at and above it."""
+    from phys2d.responders.soft_step import SMALL_TURN, cos_sin
+
+    rng = np.random.default_rng(2)
+    small = np.concatenate(
+        [rng.uniform(-SMALL_TURN, SMALL_TURN, 3000), rng.choice([-1.0, 1.0], 3000) * 10 ** rng.uniform(-12, -1.6, 3000)]
+    )
+    small = small[np.abs(small) < SMALL_TURN]
+    for d in small:
+        c, s = cos_sin(d)
+        assert abs(c - np.cos(d)) <= np.spacing(np.cos(d))
+        assert abs(s - np.sin(d)) <= np.spacing(abs(np.sin(d)))
+    for d in (SMALL_TURN, -SMALL_TURN, 0.5, -2.0, 7.0):
+        assert cos_sin(d) == (np.cos(d), np.sin(d))
+    assert cos_sin(0.0) == (1.0, 0.0)
