@@ -71,8 +71,9 @@ def solve_order(pair_order, pair_start):
 
 @njit(cache=True)
 def contacts_in_order(order, body_a, body_b, point, normal, separation, restitution, anchor):
-    """What a colour-ordered responder reads of the contacts, in solve order: field[order],
-    one pass for all seven fields (body_a, body_b, point, normal, separation, restitution, anchor)."""
+    """The contacts in solve order for a colour-ordered responder that does not gather what it
+    reads itself (``Responder.contacts_in_row_order``; SoftStep does): field[order], one pass for
+    all seven fields (body_a, body_b, point, normal, separation, restitution, anchor)."""
     k = order.shape[0]
     out_a, out_b = np.empty(k, body_a.dtype), np.empty(k, body_b.dtype)
     out_p, out_n = np.empty((k, 2)), np.empty((k, 2))
