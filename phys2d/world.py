@@ -500,13 +500,15 @@ class World:
         return self._last_step
 
     def _context(self, c: Contacts, order: np.ndarray, rows: Rows, dt: float, V1: np.ndarray) -> StepContext:
-        """What the responder sees: the contacts in row order (contact q of ctx is contact order[q])."""
+        """What the responder sees: the contacts in row order (contact q of ctx is contact order[q]),
+        or as found for a responder that gathers what it reads (``contacts_in_row_order`` False)."""
         b = self._bodies
-        if self._responder.colour_order:  # only the fields a responder reads, in row order
+        r = self._responder
+        if r.colour_order and r.contacts_in_row_order:  # the fields a responder reads, in row order
             body_a, body_b, point, normal, separation, restitution, anchor = contacts_in_order(
                 order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution, c.anchor
             )
-        else:  # pair order: row order is contact order
+        else:  # pair order (row order is contact order), or a responder that gathers for itself
             body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
             separation, restitution, anchor = c.separation, c.restitution, c.anchor
         return StepContext(

@@ -91,3 +91,98 @@ def test_lost_a_load_is_a_pushed_pair_gone():
         keys = np.sort((now[:, None] << FEATURE_BITS) + np.arange(2)).ravel().astype(np.int64)
         gone = {int(k) >> FEATURE_BITS for k, p in zip(cache_keys, pushed) if p} - {int(p) for p in now}
         assert lost_a_load(cache_keys, pushed, keys) == bool(gone)
+
+
+def test_solve_order_is_the_pairs_points_concatenated():
+    """Against numpy: pair p's points pair_start[p]..pair_start[p + 1] in pair_order, for
+    pairs of 0, 1, 2 (and, beyond what 2D makes, 3) points; the last pair empty or full."""
+    from phys2d.constraints.order import solve_order
+
+    rng = np.random.default_rng(7)
+    for counts in ([2, 0, 1, 2, 2, 1, 0], [0], [1, 2, 3, 2], rng.integers(0, 3, 50)):
+        pair_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        pair_order = rng.permutation(len(counts)).astype(np.int32)
+        expected = np.concatenate([np.arange(pair_start[p], pair_start[p + 1]) for p in pair_order])
+        got = solve_order(pair_order, pair_start)
+        assert got.dtype == np.int32
+        assert np.array_equal(got, expected)
+
+
+def test_gather_contacts_is_fancy_indexing():
+    from phys2d.responders.soft_step import gather_contacts
+
+    rng = np.random.default_rng(4)
+    k = 13
+    order = rng.permutation(k).astype(np.int32)
+    separation, restitution, anchor = rng.normal(size=k), rng.random(k), rng.normal(size=(k, 4))
+    C0, e, r = gather_contacts(order, separation, restitution, anchor)
+    assert np.array_equal(C0, separation[order])
+    assert np.array_equal(e, restitution[order])
+    assert np.array_equal(r, anchor[order])
+
+
+def _spying_soft_step(in_row_order, seen):
+    """SoftStep that records its contexts; with ``in_row_order`` the world gathers the contacts
+    into row order (contacts_in_row_order True) and the spy undoes it for SoftStep."""
+    from dataclasses import replace
+
+    class Spy(SoftStep):
+        contacts_in_row_order = in_row_order
+
+        def respond(self, ctx):
+            seen.append(ctx)
+            if in_row_order:  # SoftStep reads contact order: scatter the gathered fields back
+                back = np.argsort(ctx.rows.order)
+                ctx = replace(
+                    ctx, separation=ctx.separation[back], restitution=ctx.restitution[back], anchor=ctx.anchor[back]
+                )
+            return super().respond(ctx)
+
+    return Spy()
+
+
+@pytest.mark.parametrize("in_row_order", [True, False])
+def test_context_hands_contacts_in_row_order_unless_the_responder_gathers(in_row_order):
+    """A colour-ordered responder sees contact q of ctx = contact rows.order[q] of the world;
+    one that gathers for itself (``contacts_in_row_order`` False, SoftStep) the world's own."""
+    seen = []
+    w = scenes.pyramid(4, _spying_soft_step(in_row_order, seen))
+    for _ in range(3):
+        w.step(1 / 60)
+    ctx, c = seen[-1], w.contacts
+    order = ctx.rows.order
+    assert not np.array_equal(order, np.arange(len(order)))  # coloured: not the contacts' order
+    pick = order if in_row_order else np.arange(len(order))
+    for field in ("body_a", "body_b", "point", "normal", "separation", "restitution", "anchor"):
+        assert np.array_equal(getattr(ctx, field), getattr(c, field)[pick])
+
+
+def test_soft_step_gathering_for_itself_moves_the_bodies_as_the_world_s_gather():
+    """The same 40 steps of a pyramid, contacts gathered by the world or by SoftStep's kernel:
+    the same states, bit for bit."""
+    worlds = [scenes.pyramid(5, _spying_soft_step(in_row_order, [])) for in_row_order in (True, False)]
+    for w in worlds:
+        for _ in range(40):
+            w.step(1 / 60)
+    assert np.array_equal(worlds[0].x, worlds[1].x)
+    assert np.array_equal(worlds[0].theta, worlds[1].theta)
+    assert np.array_equal(worlds[0].V, worlds[1].V)
+
+
+def test_cos_sin_is_libm_s_to_an_ulp():
+    """Against np.cos, np.sin: the Taylor series below SMALL_TURN within one ulp (turns from
+    1e-12 rad up, both signs), libm's own at and above it."""
+    from phys2d.responders.soft_step import SMALL_TURN, cos_sin
+
+    rng = np.random.default_rng(2)
+    small = np.concatenate(
+        [rng.uniform(-SMALL_TURN, SMALL_TURN, 3000), rng.choice([-1.0, 1.0], 3000) * 10 ** rng.uniform(-12, -1.6, 3000)]
+    )
+    small = small[np.abs(small) < SMALL_TURN]
+    for d in small:
+        c, s = cos_sin(d)
+        assert abs(c - np.cos(d)) <= np.spacing(np.cos(d))
+        assert abs(s - np.sin(d)) <= np.spacing(abs(np.sin(d)))
+    for d in (SMALL_TURN, -SMALL_TURN, 0.5, -2.0, 7.0):
+        assert cos_sin(d) == (np.cos(d), np.sin(d))
+    assert cos_sin(0.0) == (1.0, 0.0)

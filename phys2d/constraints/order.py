@@ -52,20 +52,28 @@ def colour_pairs(pairs, n_pairs, static, n_bodies):
 @njit(cache=True)
 def solve_order(pair_order, pair_start):
     """Contact indices in solve order: each pair's points (pair_start[p] up to
-    pair_start[p + 1]) together, pairs in ``pair_order``."""
-    order = np.empty(pair_start[-1], np.int32)
+    pair_start[p + 1]) together, pairs in ``pair_order``.
+
+    A 2D manifold has at most two points: both slots are written whatever the count (a
+    pair without points leaves them to the next), so the loop does not branch on a count
+    that a pile of one- and two-point manifolds makes unpredictable."""
+    order = np.empty(pair_start[-1] + 2, np.int32)  # two spare slots for the last pair's writes
     q = 0
     for p in pair_order:
-        for c in range(pair_start[p], pair_start[p + 1]):
-            order[q] = c
-            q += 1
-    return order
+        c, n = pair_start[p], pair_start[p + 1] - pair_start[p]
+        order[q] = c
+        order[q + 1] = c + 1
+        for i in range(2, n):  # more than two points: none in 2D today
+            order[q + i] = c + i
+        q += n
+    return order[:q]
 
 
 @njit(cache=True)
 def contacts_in_order(order, body_a, body_b, point, normal, separation, restitution, anchor):
-    """What a colour-ordered responder reads of the contacts, in solve order: field[order],
-    one pass for all seven fields (body_a, body_b, point, normal, separation, restitution, anchor)."""
+    """The contacts in solve order for a colour-ordered responder that does not gather what it
+    reads itself (``Responder.contacts_in_row_order``; SoftStep does): field[order], one pass for
+    all seven fields (body_a, body_b, point, normal, separation, restitution, anchor)."""
     k = order.shape[0]
     out_a, out_b = np.empty(k, body_a.dtype), np.empty(k, body_b.dtype)
     out_p, out_n = np.empty((k, 2)), np.empty((k, 2))

@@ -29,6 +29,7 @@ class StepContext:
     M_inv: np.ndarray  # (N, 3) diagonal of M^-1
     rows: Rows  # the rows and the row map: rows.normal_row[q], rows.friction_row[q] are contact q's below
     n_contacts: int  # K; the contact arrays below are in row (solve) order, joint rows follow the contacts
+    # (in contact order for a responder whose contacts_in_row_order is False: rows.order[q] is row pair q's)
     body_a: np.ndarray  # (K,) contact bodies (for responders that work pair by pair)
     body_b: np.ndarray
     point: np.ndarray  # (K, 2) contact points p, m
@@ -181,6 +182,9 @@ class Responder:
     counts  the word for the work ``SolveResult.iterations`` counts: 'sweeps', 'passes', 'substeps'
     colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
                     instead of in pair order: faster sweeps, a different Gauss-Seidel order
+    contacts_in_row_order  whether StepContext's contact arrays come gathered into row order;
+                    False: the world's own, in contact order (``rows.order`` maps), for a
+                    responder that gathers the few fields it reads in a kernel of its own
     found_lever_arms  build contact rows with the lever arms each manifold was found with
                     (``Contacts.anchor``: a recycled one keeps them) instead of p - x now;
                     see ``collision.recycle``. False keeps angular momentum exact: an
@@ -195,6 +199,7 @@ class Responder:
     warm_start = False
     handles_joints = False
     colour_order = False
+    contacts_in_row_order = True
     found_lever_arms = False
 
     @property

@@ -73,11 +73,11 @@ def _soft(hertz, zeta, h, push_max):
 
 
 @njit(cache=True)
-def _separation(c, a, b, C0, r, normal, moved):
+def _separation(c, k, a, b, C0, r, J, moved):
     """Current separation of point c (m) from its bodies' motion since the tick began.
 
     moved[body] = (dx, dy, cos dtheta, sin dtheta); each anchor has moved by
-    dx + R(dtheta) r - r.
+    dx + R(dtheta) r - r. The normal n is that of the point's normal row k (J_k = [-n, . | n, .]).
     """
     s = C0[c]
     for side in range(2):
@@ -85,7 +85,7 @@ def _separation(c, a, b, C0, r, normal, moved):
         rx, ry = r[c, 2 * side], r[c, 2 * side + 1]
         dx = moved[body, 0] + moved[body, 2] * rx - moved[body, 3] * ry - rx
         dy = moved[body, 1] + moved[body, 3] * rx + moved[body, 2] * ry - ry
-        d = dx * normal[c, 0] + dy * normal[c, 1]
+        d = dx * J[k, 3] + dy * J[k, 4]
         s += d if side == 1 else -d
     return s
 
@@ -166,11 +166,11 @@ def soft_sweep(
 
 
 @njit(cache=True)
-def _separations(normal_row, body_a, body_b, C0, r, normal, moved, sub_C):
+def _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C):
     """Every point's separation at the positions now (m)."""
     for c in range(normal_row.shape[0]):
         k = normal_row[c]
-        sub_C[c] = _separation(c, body_a[k], body_b[k], C0, r, normal, moved)
+        sub_C[c] = _separation(c, k, body_a[k], body_b[k], C0, r, J, moved)
 
 
 @njit(cache=True)
@@ -407,6 +407,22 @@ def prepare_joints(
 
 # -- the stages of a sub-step ---------------------------------------------------------------------
 @njit(cache=True)
+def gather_contacts(order, separation, restitution, anchor):
+    """What the tick reads of each contact, in row order (row pair q is contact order[q]):
+    its separation C0 (m), restitution e and lever arms (r_a, r_b) (m). One pass, at prepare;
+    the normal is read from the contact's normal row (J_k = [-n, . | n, .])."""
+    n = order.shape[0]
+    C0, e, r = np.empty(n), np.empty(n), np.empty((n, 4))
+    for q in range(n):
+        c = order[q]
+        C0[q] = separation[c]
+        e[q] = restitution[c]
+        for i in range(4):
+            r[q, i] = anchor[c, i]
+    return C0, e, r
+
+
+@njit(cache=True)
 def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
     """What stays the same over the tick, per contact manifold in solve order (a manifold:
     one point, or two consecutive points on the same pair):
@@ -467,6 +483,23 @@ def warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, 
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
 
+SMALL_TURN = 1.0 / 32.0  # rad: a turn below this takes cos and sin from their Taylor series
+
+
+@njit(cache=True)
+def cos_sin(d):
+    """(cos d, sin d) of a turn d (rad). Below SMALL_TURN by Taylor series to d^8 and d^7: the
+    terms left out are below 3e-18 of the result, so it is libm's to an ulp, at a few
+    multiplications where libm's pair costs tens of ns; a body turns far less than that
+    within a tick. Larger turns: np.cos, np.sin."""
+    if abs(d) >= SMALL_TURN:
+        return np.cos(d), np.sin(d)
+    d2 = d * d
+    c = 1.0 - d2 * (1.0 / 2.0 - d2 * (1.0 / 24.0 - d2 * (1.0 / 720.0 - d2 * (1.0 / 40320.0))))
+    s = d - d * d2 * (1.0 / 6.0 - d2 * (1.0 / 120.0 - d2 * (1.0 / 5040.0)))
+    return c, s
+
+
 @njit(cache=True)
 def integrate_positions(x, theta, V, h, x0, theta0, moved):
     """x += h v, theta += h omega; moved[b] = (dx, dy, cos dtheta, sin dtheta) since the tick began."""
@@ -476,8 +509,7 @@ def integrate_positions(x, theta, V, h, x0, theta0, moved):
         theta[b] += h * V[b, 2]
         moved[b, 0] = x[b, 0] - x0[b, 0]
         moved[b, 1] = x[b, 1] - x0[b, 1]
-        moved[b, 2] = np.cos(theta[b] - theta0[b])
-        moved[b, 3] = np.sin(theta[b] - theta0[b])
+        moved[b, 2], moved[b, 3] = cos_sin(theta[b] - theta0[b])
 
 
 @njit(cache=True)
@@ -575,10 +607,10 @@ def soft_step_solve(
     hi,
     bound_row,
     mu,
-    e,
-    C0,
+    order,
+    separation,
+    e_contact,
     anchor,
-    normal,
     x,
     theta,
     M_inv,
@@ -608,6 +640,9 @@ def soft_step_solve(
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
     warm start, solve with bias, integrate positions, relax, store; then restitution.
 
+    The contacts' separation, restitution e_contact and anchor are the world's, in contact order:
+    row pair q is contact order[q] (``gather_contacts``).
+
     ``lam`` holds the cached impulse per tick going in and the impulse over the whole tick
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
     sub-step out). Joint rows (from first_joint_row) are rebuilt at each sub-step's
@@ -635,7 +670,9 @@ def soft_step_solve(
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     moved[:, 2] = 1.0
-    r = anchor  # each point's lever arms (r_a, r_b) as its manifold was found: those of its rows
+    # each point's separation, restitution and lever arms (r_a, r_b) as its manifold was found
+    # (those of its rows), in row order
+    C0, e, r = gather_contacts(order, separation, e_contact, anchor)
     eq = _equality_rows(first_joint_row, n_rows, lo)
     direct = direct_joints and 0 < eq.shape[0] <= DIRECT_JOINT_ROWS_MAX
     L = np.zeros((eq.shape[0], eq.shape[0])) if direct else np.zeros((0, 0))
@@ -684,7 +721,7 @@ def soft_step_solve(
                 direct,
             )
         if i == 0 or not relax:  # after a relax sweep the positions have not moved since its separations
-            _separations(normal_row, body_a, body_b, C0, r, normal, moved, sub_C)
+            _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C)
         _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
         V += dv  # integrate velocities
         warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row)
@@ -722,7 +759,7 @@ def soft_step_solve(
         integrate_positions(x, theta, V, h, x0, theta0, moved)
         residuals[n_sweeps] = 0.0
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
-            _separations(normal_row, body_a, body_b, C0, r, normal, moved, sub_C)
+            _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C)
             _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
             residuals[n_sweeps] = solve(  # relax: without bias
                 first_joint_row,
@@ -807,6 +844,7 @@ class SoftStep(Responder):
     counts = "substeps"
     handles_joints = True
     colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
+    contacts_in_row_order = False  # it gathers the three fields it reads itself (gather_contacts)
     found_lever_arms = True  # measured: a 1 mm leaning 20-stack stands (it buckled with arms p - x)
     beta = 0.0  # the rows' Baumgarte terms are not used: the push is soft
     slop = 0.0
@@ -852,6 +890,7 @@ class SoftStep(Responder):
     def respond(self, ctx: StepContext) -> SolveResult:
         rows = ctx.rows
         ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
+        p = vars(self)  # the settings, already checked: read from the instance, not through Setting.__get__
         n, residuals = soft_step_solve(
             rows.normal_row,
             rows.friction_row,
@@ -865,26 +904,26 @@ class SoftStep(Responder):
             rows.hi,
             rows.bound_row,
             rows.mu,
-            ctx.restitution,
+            rows.order,
             ctx.separation,
+            ctx.restitution,
             ctx.anchor,
-            ctx.normal,
             ctx.x,
             ctx.theta,
             ctx.M_inv,
             ctx.V,
             ctx.V1,
             ctx.dt,
-            self.substeps,
-            self.relax,
-            self.contact_hertz,
-            self.damping_ratio,
-            self.push_max,
-            self.joint_hertz,
-            self.joint_damping_ratio,
-            self.direct_joints,
-            self.restitution_threshold,
-            self.block,
+            p["substeps"],
+            p["relax"],
+            p["contact_hertz"],
+            p["damping_ratio"],
+            p["push_max"],
+            p["joint_hertz"],
+            p["joint_damping_ratio"],
+            p["direct_joints"],
+            p["restitution_threshold"],
+            p["block"],
             ja.kind,
             ja.i,
             ja.j,
