@@ -230,10 +230,10 @@ def speculative_target(C, dt):
 
 
 @njit(cache=True, inline="always")
-def baumgarte_push(C, dt, beta, slop, push_max):
+def baumgarte_push(C, beta_over_dt, slop, push_max):
     """The speed (m/s) at which to push out an overlap deeper than slop: (beta/dt) of the
     excess, never more than push_max (Box2D v3's contactPushMaxVelocity)."""
-    return min((beta / dt) * max(0.0, -(C + slop)), push_max)
+    return min(beta_over_dt * max(0.0, -(C + slop)), push_max)
 
 
 @njit(cache=True, inline="always")
@@ -274,11 +274,12 @@ def jacobian(r_ax, r_ay, r_bx, r_by, dx, dy):
 
 
 @njit(cache=True, inline="always")
-def store_row(k, a, b, j, M_inv, J, JM, A_kk):
-    """Row k's J = j, JM = M^-1 J^T and A_kk = J M^-1 J^T (as ``fill_row``, from entries in hand)."""
+def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk):
+    """Row k's J = j, JM = M^-1 J^T and A_kk = J M^-1 J^T (as ``fill_row``, from entries and
+    the two bodies' rows of M^-1 in hand)."""
     A = 0.0
     for c in range(3):
-        jm_a, jm_b = M_inv[a, c] * j[c], M_inv[b, c] * j[3 + c]
+        jm_a, jm_b = M_inv_a[c] * j[c], M_inv_b[c] * j[3 + c]
         J[k, c], J[k, 3 + c] = j[c], j[3 + c]
         JM[k, c], JM[k, 3 + c] = jm_a, jm_b
         A += j[c] * jm_a + j[3 + c] * jm_b
@@ -374,9 +375,11 @@ def contact_rows(
         hits = 0
     deepest = 0.0
     coulomb = friction_model == FRICTION_COULOMB
+    beta_over_dt = beta / dt
     for q in range(order.shape[0]):
         c = order[q]
         a, b = body_a[c], body_b[c]
+        M_inv_a, M_inv_b = (M_inv[a, 0], M_inv[a, 1], M_inv[a, 2]), (M_inv[b, 0], M_inv[b, 1], M_inv[b, 2])
         C = separation[c]
         deepest = max(deepest, -C)
         nx, ny = normal[c, 0], normal[c, 1]
@@ -390,9 +393,9 @@ def contact_rows(
         j = jacobian(r_ax, r_ay, r_bx, r_by, nx, ny)
         out_a[k] = a
         out_b[k] = b
-        store_row(k, a, b, j, M_inv, J, JM, A_kk)
+        store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk)
         xi_k = speculative_target(C, dt)
-        push[k] = baumgarte_push(C, dt, beta, slop, push_max)
+        push[k] = baumgarte_push(C, beta_over_dt, slop, push_max)
         vn_start, vn_forced = relative_velocity(j, a, b, V1), relative_velocity(j, a, b, V)
         vn = approach_at_impact(C, vn_start, vn_forced, dt)
         bounce_k = 0.0
@@ -413,7 +416,7 @@ def contact_rows(
         k_n, k = k, friction_row[q]
         out_a[k] = a
         out_b[k] = b
-        store_row(k, a, b, jacobian(r_ax, r_ay, r_bx, r_by, -ny, nx), M_inv, J, JM, A_kk)
+        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, -ny, nx), M_inv_a, M_inv_b, J, JM, A_kk)
         xi[k] = 0.0
         push[k] = 0.0
         bounce[k] = 0.0
@@ -426,7 +429,7 @@ def contact_rows(
             hi[k] = np.inf
         else:
             # the reduced mass of the pair: a static partner counts as infinitely heavy
-            inv = M_inv[a, 0] + M_inv[b, 0]
+            inv = M_inv_a[0] + M_inv_b[0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
             # fixed: it does not look at lambda_n, so it acts on speculative points too
             bound = mu[c] * m_c * gravity * dt
