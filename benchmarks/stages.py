@@ -37,7 +37,7 @@ All figures are medians over repeats. Stages:
 | external forces | `apply_external_forces` |
 | broadphase | `update_geometry_in` (and the fat-box check); if a body left its box `sweep_and_prune`, `colour_pairs` |
 | narrowphase | `ManifoldCache.collide` (contact recycling, and the narrowphase for the pairs not recycled) |
-| cache matching | `ContactCache.warm_start` (the merge of sorted keys, into the rows), `ContactCache.store_rows` |
+| cache matching | `ContactCache.store_rows` (and `ContactCache.warm_start` where it exists; else in `contact_rows`) |
 | rows | `RowBuffer.take`, `solve_order`, `World._context` (contacts in row order), `contact_rows`, `joint_rows` |
 | solve | the responder's `respond` (SoftStep's moves the positions too: its sub-steps integrate) |
 | integrate | `integrate_positions` (not called for SoftStep), `first_too_fast` (the speed limit check) |

@@ -14,35 +14,26 @@ contact caching.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 
 from .collision.sort import lower_bound
-from .constraints.rows import Rows, rows_to_contacts
+
+if TYPE_CHECKING:  # constraints.rows imports this module: its contact rows start from the cache
+    from .constraints.rows import Rows
 
 
 @njit(cache=True, inline="always")
-def warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit):
-    """Contact caching: walk both sorted key lists together (a merge), and for every
-    contact c found in last tick's cache set hit[c] and lambda_n[c], lambda_t[c] to the
-    cached impulses (0 for the others). Returns the number of hits.
-    """
-    hits = 0
+def warm_start_from_cache(cache_keys, keys, cached):
+    """Contact caching: walk both sorted key lists together (a merge), and for every contact c
+    set cached[c] to the index of its key in last tick's cache, or -1 when it is not there."""
     m = 0
     for c in range(keys.shape[0]):
         while m < cache_keys.shape[0] and cache_keys[m] < keys[c]:
             m += 1
-        if m < cache_keys.shape[0] and cache_keys[m] == keys[c]:
-            hit[c] = True
-            lambda_n[c] = cache_lambda_n[m]
-            lambda_t[c] = cache_lambda_t[m]
-            hits += 1
-        else:
-            hit[c] = False
-            lambda_n[c] = 0.0
-            lambda_t[c] = 0.0
-    return hits
+        cached[c] = m if m < cache_keys.shape[0] and cache_keys[m] == keys[c] else -1
 
 
 UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pair of uids
@@ -111,42 +102,23 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
         cold[c] = any_unloaded and unloaded[_root(parent, body)]
 
 
-@njit(cache=True)
-def warm_start_rows(
-    cache_keys,
-    cache_lambda_n,
-    cache_lambda_t,
-    cache_pushed,
-    keys,
-    body_a,
-    body_b,
-    uid,
-    static,
-    order,
-    normal_row,
-    friction_row,
-    lam,
-    hit,
-):
-    """Contact caching into the rows: contact c = order[q] starts its normal and friction rows
-    from the impulses cached under its key (``warm_start_from_cache``), or from 0 when it is
-    new or its island lost a load (``unloaded_islands``); hit[c] says which. Returns the hits."""
+@njit(cache=True, inline="always")
+def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cached, hit):
+    """Contact caching: cached[c] = the cache entry contact c starts its rows from
+    (``warm_start_from_cache``; ``constraints.rows.contact_rows`` reads it), or -1 when it
+    is new or its island lost a load (``unloaded_islands``); hit[c] = cached[c] >= 0.
+    Returns the hits."""
     k = keys.shape[0]
-    lambda_n, lambda_t = np.zeros(k), np.zeros(k)
-    warm_start_from_cache(cache_keys, cache_lambda_n, cache_lambda_t, keys, lambda_n, lambda_t, hit)
-    cold = np.zeros(k, np.bool_)
+    warm_start_from_cache(cache_keys, keys, cached)
+    cold = np.empty(k, np.bool_)
     unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold)
     hits = 0
-    for q in range(order.shape[0]):
-        c = order[q]
-        hit[c] = hit[c] and not cold[c]
+    for c in range(k):
+        if cold[c]:
+            cached[c] = -1
+        hit[c] = cached[c] >= 0
         if hit[c]:
-            lam[normal_row[q]] = lambda_n[c]
-            lam[friction_row[q]] = lambda_t[c]
             hits += 1
-        else:
-            lam[normal_row[q]] = 0.0
-            lam[friction_row[q]] = 0.0
     return hits
 
 
@@ -154,10 +126,14 @@ def warm_start_rows(
 def impulses_to_contacts_and_cache(
     order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, cache_lambda_n, cache_lambda_t, cache_pushed
 ):
-    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows, and what the cache
-    keeps of them (``impulses_to_cache``)."""
+    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows (as
+    ``constraints.rows.rows_to_contacts``), and what the cache keeps of them (``impulses_to_cache``)."""
     impact = np.empty(order.shape[0], np.bool_)
-    rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact)
+    for q in range(order.shape[0]):
+        c = order[q]
+        lambda_n[c] = lam[normal_row[q]]
+        lambda_t[c] = lam[friction_row[q]]
+        impact[c] = row_impact[normal_row[q]]
     impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed)
 
 
@@ -253,30 +229,6 @@ class ContactCache:
 
     def __len__(self) -> int:
         return int(self.keys.shape[0])
-
-    def warm_start(self, c: Contacts, uid: np.ndarray, static: np.ndarray, rows: Rows) -> tuple[np.ndarray, int]:
-        """Start the contact rows of ``rows`` from the cache (``warm_start_rows``): contacts
-        ``c`` (keys sorted) found in it get last tick's impulses (N s), the others and every
-        contact of an island that lost a load 0. Returns the (K,) mask of contacts found,
-        and how many."""
-        hit = np.empty(len(c), np.bool_)
-        hits = warm_start_rows(
-            self.keys,
-            self.lambda_n,
-            self.lambda_t,
-            self.pushed,
-            c.key,
-            c.body_a,
-            c.body_b,
-            uid,
-            static,
-            rows.order,
-            rows.normal_row,
-            rows.friction_row,
-            rows.lam,
-            hit,
-        )
-        return hit, hits
 
     def store_rows(self, keys: np.ndarray, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
         """Remember this tick's impulses (N s), read off ``rows``, for warm starting; ``keys``

@@ -645,7 +645,9 @@ class World:
             points_in_manifold = counts[inverse].astype(np.float64)
         else:
             points_in_manifold = NOT_COUNTED  # Coulomb friction does not look at it
-        deepest = contact_rows(
+        cache = self._cache
+        hit = np.empty(k, np.bool_)
+        deepest, hits = contact_rows(
             rows.order,
             rows.normal_row,
             rows.friction_row,
@@ -670,6 +672,14 @@ class World:
             friction_model,
             self._gravity_norm,
             points_in_manifold,
+            r.warm_start,
+            cache.keys,
+            cache.lambda_n,
+            cache.lambda_t,
+            cache.pushed,
+            c.key,
+            b.uid,
+            b.static,
             rows.body_a,
             rows.body_b,
             rows.J,
@@ -683,11 +693,9 @@ class World:
             rows.hi,
             rows.bound_row,
             rows.mu,
+            rows.lam,
+            hit,
         )
-        if r.warm_start:
-            hit, hits = self._cache.warm_start(c, b.uid, b.static, rows)
-        else:
-            hit, hits = np.zeros(k, np.bool_), 0
         if ja.n_rows:
             joint_rows(
                 ja.kind,
@@ -721,6 +729,8 @@ class World:
                 for q, joint in enumerate(self._joints):
                     start = rows.first_joint_row + ja.row_offset[q]
                     rows.lam[start : start + joint.row_count] = joint._impulse
+            else:
+                rows.lam[rows.first_joint_row :] = 0.0
         return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, rows: Rows) -> None:

@@ -186,3 +186,51 @@ def test_cos_sin_is_libm_s_to_an_ulp():
     for d in (SMALL_TURN, -SMALL_TURN, 0.5, -2.0, 7.0):
         assert cos_sin(d) == (np.cos(d), np.sin(d))
     assert cos_sin(0.0) == (1.0, 0.0)
+
+
+@pytest.mark.parametrize("responder", ["pgs", "soft"])
+def test_contact_rows_start_from_the_cache_by_key(responder, monkeypatch):
+    """contact_rows' warm start against a dict: every contact row's lambda is the impulse cached
+    under its key (0 for a key not cached), whatever the row buffer held; without warm starting 0."""
+    import phys2d
+    import phys2d.world as world_module
+
+    make = {"pgs": lambda: phys2d.PGS(iterations=10, warm_start=True), "soft": lambda: SoftStep(substeps=4)}
+    w = scenes.pyramid(4, responder=make[responder]())
+    for _ in range(20):
+        w.step(1 / 60)
+    seen = {}
+    original = world_module.contact_rows
+
+    def spy(*args):
+        seen["args"] = args
+        return original(*args)
+
+    monkeypatch.setattr(world_module, "contact_rows", spy)
+    w.step(1 / 60)
+    monkeypatch.undo()
+    args = list(seen["args"])
+    code = getattr(original, "py_func", original).__code__  # (plain Python under NUMBA_DISABLE_JIT=1)
+    names = code.co_varnames[: code.co_argcount]
+    at = {name: i for i, name in enumerate(names)}
+    keys, order = args[at["key"]], args[at["order"]]
+    rng = np.random.default_rng(2)
+    kept = keys[rng.random(keys.shape[0]) < 0.6]
+    stale = np.array([keys.max() + 1, keys.max() + 7], np.int64)  # keys gone since last tick
+    cache_keys = np.sort(np.concatenate([kept, stale]))
+    cache_lambda_n, cache_lambda_t = rng.random(cache_keys.shape[0]), rng.normal(size=cache_keys.shape[0])
+    by_key = {int(k): (n, t) for k, n, t in zip(cache_keys, cache_lambda_n, cache_lambda_t)}
+    args[at["cache_keys"]], args[at["cache_pushed"]] = cache_keys, np.zeros(cache_keys.shape[0], np.bool_)
+    args[at["cache_lambda_n"]], args[at["cache_lambda_t"]] = cache_lambda_n, cache_lambda_t
+    lam, hit = args[at["lam"]], args[at["hit"]]
+    normal_row, friction_row = args[at["normal_row"]], args[at["friction_row"]]
+    for warm in (True, False):
+        args[at["warm_start"]] = warm
+        lam[:] = np.nan  # what the buffer held must not leak into the start
+        _, hits = original(*args)
+        expected = [by_key.get(int(keys[c]), (0.0, 0.0)) if warm else (0.0, 0.0) for c in order]
+        assert np.array_equal(lam[normal_row], [n for n, _ in expected])
+        assert np.array_equal(lam[friction_row], [t for _, t in expected])
+        found = np.array([warm and int(k) in by_key for k in keys])
+        assert np.array_equal(hit, found)
+        assert hits == found.sum() == (len(kept) if warm else 0)

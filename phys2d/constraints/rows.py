@@ -43,6 +43,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..contacts import find_in_cache
+
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
 
@@ -117,13 +119,13 @@ class Rows:
     def __len__(self) -> int:
         return int(self.lam.shape[0])
 
-    def map_contacts(self, order: np.ndarray, row_map: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    def map_contacts(self, order: np.ndarray, row_map: tuple[np.ndarray, np.ndarray, int] | None = None) -> None:
         """Give the contacts, visited in ``order``, their rows (``contact_row_map``; ``row_map``:
         that map made for at least as many contacts, to be cut to length)."""
         self.order = order
         self.n_contacts = k = int(order.shape[0])
         if row_map is None:
-            row_map = contact_row_map(k)[:2]
+            row_map = contact_row_map(k)
         self.normal_row, self.friction_row = row_map[0][:k], row_map[1][:k]
         self.first_joint_row = contact_row_count(k)
 
@@ -169,19 +171,18 @@ class RowBuffer:
         self._map = contact_row_map(0)
 
     def take(self, order: np.ndarray, n_joint_rows: int) -> Rows:
-        """Rows for the contacts visited in ``order`` and then the joints, lambda at 0
-        (the same views as last step when the row count holds)."""
+        """Rows for the contacts visited in ``order`` and then the joints (the same views as
+        last step when the row count holds). Every entry is left as it was: ``contact_rows``
+        writes all of a contact's, lambda included, and the world the joints'."""
         k = len(order)
         if k > len(self._map[0]):  # the row map, made once for as many contacts as seen
             self._map = contact_row_map(max(k, 2 * len(self._map[0])))
         n_rows = contact_row_count(k) + n_joint_rows
         if n_rows > len(self._rows):
             self._rows = Rows(max(n_rows, 2 * len(self._rows)))
-        if n_rows == len(self._head):
-            self._head.lam[:] = 0.0
-        else:
+        if n_rows != len(self._head):
             self._head = self._rows.head(n_rows)
-        self._head.map_contacts(order, self._map[:2])
+        self._head.map_contacts(order, self._map)
         return self._head
 
 
@@ -229,10 +230,10 @@ def speculative_target(C, dt):
 
 
 @njit(cache=True, inline="always")
-def baumgarte_push(C, dt, beta, slop, push_max):
+def baumgarte_push(C, beta_over_dt, slop, push_max):
     """The speed (m/s) at which to push out an overlap deeper than slop: (beta/dt) of the
     excess, never more than push_max (Box2D v3's contactPushMaxVelocity)."""
-    return min((beta / dt) * max(0.0, -(C + slop)), push_max)
+    return min(beta_over_dt * max(0.0, -(C + slop)), push_max)
 
 
 @njit(cache=True, inline="always")
@@ -266,6 +267,31 @@ def bounce_target(e, vn_impact, dvn):
     return -e * vn_impact - 0.5 * dvn
 
 
+@njit(cache=True, inline="always")
+def jacobian(r_ax, r_ay, r_bx, r_by, dx, dy):
+    """The six entries of a row for direction d at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]."""
+    return (-dx, -dy, -(r_ax * dy - r_ay * dx), dx, dy, r_bx * dy - r_by * dx)
+
+
+@njit(cache=True, inline="always")
+def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk):
+    """Row k's J = j, JM = M^-1 J^T and A_kk = J M^-1 J^T (as ``fill_row``, from entries and
+    the two bodies' rows of M^-1 in hand)."""
+    A = 0.0
+    for c in range(3):
+        jm_a, jm_b = M_inv_a[c] * j[c], M_inv_b[c] * j[3 + c]
+        J[k, c], J[k, 3 + c] = j[c], j[3 + c]
+        JM[k, c], JM[k, 3 + c] = jm_a, jm_b
+        A += j[c] * jm_a + j[3 + c] * jm_b
+    A_kk[k] = A
+
+
+@njit(cache=True, inline="always")
+def relative_velocity(j, a, b, V):
+    """J_k V for row entries j in hand, summed as ``row_velocity`` sums it (m/s)."""
+    return (j[0] * V[a, 0] + j[1] * V[a, 1]) + (j[2] * V[a, 2] + j[5] * V[b, 2]) + (j[3] * V[b, 0] + j[4] * V[b, 1])
+
+
 @njit(cache=True)
 def contact_rows(
     order,
@@ -292,6 +318,14 @@ def contact_rows(
     friction_model,
     gravity,
     points_in_manifold,
+    warm_start,
+    cache_keys,
+    cache_lambda_n,
+    cache_lambda_t,
+    cache_pushed,
+    key,
+    uid,
+    static,
     out_a,
     out_b,
     J,
@@ -305,8 +339,11 @@ def contact_rows(
     hi,
     bound_row,
     out_mu,
+    lam,
+    hit,
 ):
-    """The normal and friction rows of contact point c = order[q] (docs/formulation.md).
+    """The normal and friction rows of contact point c = order[q] (docs/formulation.md), and
+    their starting impulses.
 
     Normal:   xi = -C/dt for a speculative point still C > 0 apart (it may close the gap
               within the step, no more), 0 when touching; push = min(-(beta/dt) min(0, C + slop),
@@ -322,59 +359,81 @@ def contact_rows(
     found (a recycled one keeps them: Box2D v3's soft step); else p - x_a and p - x_b at the
     positions x now, so every impulse acts at one point of both bodies (angular momentum exact).
 
-    Returns the deepest overlap, max(0, -min C) (m).
+    Warm start (contact caching, with ``warm_start``): lam of both rows starts from the
+    impulses (N s) cached under the contact's key last tick, cache_lambda_n[m] and
+    cache_lambda_t[m] of cache entry m = cached[c] (``phys2d.contacts.find_in_cache``), or
+    from 0 when it is new or its island lost a load; hit[c] says which. Without, from 0.
+
+    Returns the deepest overlap, max(0, -min C) (m), and the number of contacts warm started.
     """
+    cached = np.empty(order.shape[0], np.int64)
+    if warm_start:
+        hits = find_in_cache(cache_keys, cache_pushed, key, body_a, body_b, uid, static, cached, hit)
+    else:
+        cached[:] = -1
+        hit[:] = False
+        hits = 0
     deepest = 0.0
+    coulomb = friction_model == FRICTION_COULOMB
+    beta_over_dt = beta / dt
     for q in range(order.shape[0]):
         c = order[q]
         a, b = body_a[c], body_b[c]
-        deepest = max(deepest, -separation[c])
+        M_inv_a, M_inv_b = (M_inv[a, 0], M_inv[a, 1], M_inv[a, 2]), (M_inv[b, 0], M_inv[b, 1], M_inv[b, 2])
+        C = separation[c]
+        deepest = max(deepest, -C)
         nx, ny = normal[c, 0], normal[c, 1]
         if found_arms:
             r_ax, r_ay, r_bx, r_by = anchor[c, 0], anchor[c, 1], anchor[c, 2], anchor[c, 3]
         else:
             r_ax, r_ay = point[c, 0] - x[a, 0], point[c, 1] - x[a, 1]
             r_bx, r_by = point[c, 0] - x[b, 0], point[c, 1] - x[b, 1]
+        m = cached[c]
         k = normal_row[q]
+        j = jacobian(r_ax, r_ay, r_bx, r_by, nx, ny)
         out_a[k] = a
         out_b[k] = b
-        fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, nx, ny, M_inv, J, JM, A_kk)
-        xi[k] = speculative_target(separation[c], dt)
-        push[k] = baumgarte_push(separation[c], dt, beta, slop, push_max)
-        vn_start, vn_forced = row_velocity(k, a, b, J, V1), row_velocity(k, a, b, J, V)
-        vn = approach_at_impact(separation[c], vn_start, vn_forced, dt)
-        bounce[k] = 0.0
-        impact[k] = separation[c] > MET and vn < -restitution_threshold
+        store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk)
+        xi_k = speculative_target(C, dt)
+        push[k] = baumgarte_push(C, beta_over_dt, slop, push_max)
+        vn_start, vn_forced = relative_velocity(j, a, b, V1), relative_velocity(j, a, b, V)
+        vn = approach_at_impact(C, vn_start, vn_forced, dt)
+        bounce_k = 0.0
+        impact[k] = C > MET and vn < -restitution_threshold
         if vn < -restitution_threshold:
             target = bounce_target(e[c], vn, vn_forced - vn_start)
-            if separation[c] > MET:
-                bounce[k] = target  # it meets its partner within the step: bounce once it has moved there
+            if C > MET:
+                bounce_k = target  # it meets its partner within the step: bounce once it has moved there
             else:
-                xi[k] = max(xi[k], target)  # touching already: bounce now, as the lecture does
+                xi_k = max(xi_k, target)  # touching already: bounce now, as the lecture does
+        xi[k] = xi_k
+        bounce[k] = bounce_k
         lo[k] = 0.0
         hi[k] = np.inf
         bound_row[k] = -1
         out_mu[k] = 0.0
-        k = friction_row[q]
+        lam[k] = cache_lambda_n[m] if m >= 0 else 0.0
+        k_n, k = k, friction_row[q]
         out_a[k] = a
         out_b[k] = b
-        fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, -ny, nx, M_inv, J, JM, A_kk)
+        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, -ny, nx), M_inv_a, M_inv_b, J, JM, A_kk)
         xi[k] = 0.0
         push[k] = 0.0
         bounce[k] = 0.0
         impact[k] = False
         out_mu[k] = mu[c]
-        if friction_model == FRICTION_COULOMB:
-            bound_row[k] = normal_row[q]
+        lam[k] = cache_lambda_t[m] if m >= 0 else 0.0
+        if coulomb:
+            bound_row[k] = k_n
             lo[k] = -np.inf
             hi[k] = np.inf
         else:
             # the reduced mass of the pair: a static partner counts as infinitely heavy
-            inv = M_inv[a, 0] + M_inv[b, 0]
+            inv = M_inv_a[0] + M_inv_b[0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
             # fixed: it does not look at lambda_n, so it acts on speculative points too
             bound = mu[c] * m_c * gravity * dt
             bound_row[k] = -1
             lo[k] = -bound
             hi[k] = bound
-    return deepest
+    return deepest, hits
