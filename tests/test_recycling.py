@@ -36,6 +36,7 @@ def narrowphase_now(w: phys2d.World):
         world_n,
         aabb,
         travel,
+        np.empty((b.n, 2)),
     )
     cap = 2 * w._n_pairs
     out = (

@@ -1,8 +1,8 @@
 """Contact recycling: keep a manifold's points while its two bodies barely move.
 
 After Box2D v3 (its world's collide stage, 2026). When the narrowphase finds a
-manifold, the pair's relative pose is remembered: B's position and angle in A's
-frame, and each body's angle. In a later step, while
+manifold, the pair's relative pose is remembered: B's position in A's frame, and
+each body's rotation (cos, sin of its angle). In a later step, while
 
     |p_rel - p_rel,cached| + extent |sin(dtheta_rel)| < contact_recycle_distance
 
@@ -17,7 +17,10 @@ anchors turned with their bodies,
 as within the soft step's sub-steps (the point reported rides with the incident
 polygon, whose corner made it). A stack whose boxes lean by a hair then keeps the
 points it had instead of the ones clipping would find at each new tilt, and a pair
-that stays put costs no narrowphase.
+that stays put costs no narrowphase. Nor any trigonometry: the turns since caching
+(dtheta_rel is B's turn less A's) come from the bodies' rotations now, computed once
+a step with the world vertices, and then, by cos(t - t0) = cos t cos t0 + sin t sin t0
+and sin(t - t0) = sin t cos t0 - cos t sin t0.
 
 A responder with ``found_lever_arms`` (SoftStep) builds its rows with those arms as
 found, unturned, as Box2D v3 does. A soft contact lets a box tilt on its partner by
@@ -73,33 +76,42 @@ def body_extents(kind, radius, vstart, vcount, local_v, static):
 
 
 @njit(cache=True, inline="always")
-def relative_pose(a, b, x, theta):
-    """B's pose in A's frame: (px, py, theta_b - theta_a) in m and rad."""
-    c, s = np.cos(theta[a]), np.sin(theta[a])
-    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
-    return c * dx + s * dy, -s * dx + c * dy, theta[b] - theta[a]
+def angle_difference(c, s, c0, s0):
+    """(cos, sin) of t - t0 from (cos t, sin t) and (cos t0, sin t0), no trigonometry:
+    cos(t - t0) = cos t cos t0 + sin t sin t0, sin(t - t0) = sin t cos t0 - cos t sin t0."""
+    return c * c0 + s * s0, s * c0 - c * s0
 
 
 @njit(cache=True, inline="always")
-def turn_since_cached(slot, a, b, theta, cached_theta):
-    """How far bodies a and b have turned since the slot was cached: (cos, sin) of each, once per pair."""
-    turn_a = theta[a] - cached_theta[slot, 0]
-    turn_b = theta[b] - cached_theta[slot, 1]
-    return np.cos(turn_a), np.sin(turn_a), np.cos(turn_b), np.sin(turn_b)
+def relative_position(a, b, x, rotation):
+    """B's centre in A's frame, R_a^T (x_b - x_a), in m (``rotation``: each body's (cos, sin))."""
+    c, s = rotation[a, 0], rotation[a, 1]
+    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+@njit(cache=True, inline="always")
+def turn_since_cached(slot, a, b, rotation, cached_rotation):
+    """How far bodies a and b have turned since the slot was cached: (cos, sin) of each, once per pair,
+    from their rotations now and then (``angle_difference``)."""
+    ca, sa = angle_difference(rotation[a, 0], rotation[a, 1], cached_rotation[slot, 0], cached_rotation[slot, 1])
+    cb, sb = angle_difference(rotation[b, 0], rotation[b, 1], cached_rotation[slot, 2], cached_rotation[slot, 3])
+    return ca, sa, cb, sb
 
 
 @njit(cache=True)
-def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distance):
+def may_recycle(slot, a, b, x, rotation, extent, cached_pose, turn, recycle_distance):
     """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose
     (``turn``: ``turn_since_cached``; ``extent``: ``body_extents``)."""
-    if turn[0] <= RECYCLE_MAX_TURN:
+    ca, sa, cb, sb = turn
+    if ca <= RECYCLE_MAX_TURN or cb <= RECYCLE_MAX_TURN:
         return False
-    if turn[2] <= RECYCLE_MAX_TURN:
-        return False
-    px, py, rel_turn = relative_pose(a, b, x, theta)
-    distance = np.hypot(px - cached_pose[slot, 0], py - cached_pose[slot, 1])
+    px, py = relative_position(a, b, x, rotation)
+    dx, dy = px - cached_pose[slot, 0], py - cached_pose[slot, 1]
+    # B's turn relative to A since caching is turn_b - turn_a: the change of theta_b - theta_a
+    sin_relative_turn = angle_difference(cb, sb, ca, sa)[1]
     reach = max(extent[a], extent[b])
-    return distance + reach * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
+    return np.sqrt(dx * dx + dy * dy) + reach * abs(sin_relative_turn) < recycle_distance
 
 
 @njit(cache=True)
@@ -123,16 +135,6 @@ def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, featur
     return x[b, 0] + r_bx - shift * normal[point, 0], x[b, 1] + r_by - shift * normal[point, 1], separation
 
 
-@njit(cache=True)
-def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separation, feature, margin):
-    """True if every cached point of the slot is still within ``margin`` (m) of its partner:
-    the narrowphase would drop one that is not, so the pair is collided anew."""
-    for point in range(cached_start[slot], cached_start[slot + 1]):
-        if recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature)[2] > margin:
-            return False
-    return True
-
-
 @njit(cache=True, inline="always")
 def next_slot(cached_key, key, m):
     """The first slot whose cached key is >= key. The pairs' keys ascend, so the look-up walks on
@@ -145,11 +147,87 @@ def next_slot(cached_key, key, m):
 
 
 @njit(cache=True)
+def recycle_manifold(
+    k,
+    slot,
+    a,
+    b,
+    x,
+    turn,
+    margin,
+    key,
+    mu,
+    e,
+    cached_start,
+    cached_anchor,
+    cached_normal,
+    cached_separation,
+    cached_feature,
+    out_a,
+    out_b,
+    out_p,
+    out_n,
+    out_s,
+    out_f,
+    out_key,
+    out_mu,
+    out_e,
+    out_r,
+    new_anchor,
+    new_normal,
+    new_separation,
+    new_feature,
+):
+    """Write the slot's cached points, moved with their bodies (``recycled_point``), from point k on;
+    returns the next k, or -1 if one of them lies beyond ``margin`` (m) of its partner: the
+    narrowphase would drop it, so the pair is collided anew (over what was written)."""
+    for point in range(cached_start[slot], cached_start[slot + 1]):
+        px, py, sep = recycled_point(
+            point, a, b, x, turn, cached_anchor, cached_normal, cached_separation, cached_feature
+        )
+        if sep > margin:
+            return -1
+        write_point(
+            k,
+            a,
+            b,
+            px,
+            py,
+            cached_normal[point, 0],
+            cached_normal[point, 1],
+            sep,
+            np.int64(cached_feature[point]),  # as the narrowphase's: one write_point
+            key,
+            mu,
+            e,
+            out_a,
+            out_b,
+            out_p,
+            out_n,
+            out_s,
+            out_f,
+            out_key,
+            out_mu,
+            out_e,
+        )
+        # the cache keeps the manifold as it was found: anchors and separation
+        for i in range(4):
+            new_anchor[k, i] = cached_anchor[point, i]
+            out_r[k, i] = cached_anchor[point, i]  # the lever arms it was found with, unturned
+        new_normal[k, 0] = cached_normal[point, 0]
+        new_normal[k, 1] = cached_normal[point, 1]
+        new_separation[k] = cached_separation[point]
+        new_feature[k] = cached_feature[point]
+        k += 1
+    return k
+
+
+@njit(cache=True)
 def collide_recycling(
     pairs,
     n_pairs,
     x,
-    theta,
+    rotation,
     kind,
     radius,
     vstart,
@@ -167,7 +245,7 @@ def collide_recycling(
     cached_key,
     cached_start,
     cached_pose,
-    cached_theta,
+    cached_rotation,
     cached_anchor,
     cached_normal,
     cached_separation,
@@ -186,7 +264,7 @@ def collide_recycling(
     new_key,
     new_start,
     new_pose,
-    new_theta,
+    new_rotation,
     new_anchor,
     new_normal,
     new_separation,
@@ -194,10 +272,12 @@ def collide_recycling(
 ):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
-    cached_*: last step's manifolds, sorted by pair key (slot s's points are
-    cached_start[s] up to cached_start[s + 1]). new_*: this step's, to cache (room for
-    n_pairs manifolds and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b)
-    for the rows, as its manifold was found. Returns (points K, manifolds cached, recycled).
+    rotation: each body's (cos theta, sin theta) now (``update_geometry``). cached_*: last
+    step's manifolds, sorted by pair key (slot s's points are cached_start[s] up to
+    cached_start[s + 1]; its pose is B's centre in A's frame, its rotation both bodies'
+    (cos, sin) when it was found). new_*: this step's, to cache (room for n_pairs manifolds
+    and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b) for the rows, as its
+    manifold was found. Returns (points K, manifolds cached, recycled).
     """
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
@@ -218,61 +298,26 @@ def collide_recycling(
                 slot = look
         new_start[n_new] = k
         margin = contact_margin + travel[a] + travel[b]
-        turned = turn_since_cached(slot, a, b, theta, cached_theta) if slot >= 0 else (1.0, 0.0, 1.0, 0.0)
-        if slot >= 0 and not (
-            may_recycle(
-                slot,
-                a,
-                b,
-                x,
-                theta,
-                extent,
-                cached_pose,
-                turned,
-                recycle_distance,
-            )
-            and all_within(
-                slot,
-                a,
-                b,
-                x,
-                turned,
-                cached_start,
-                cached_anchor,
-                cached_normal,
-                cached_separation,
-                cached_feature,
-                margin,
-            )
-        ):
-            slot = -1
+        recycled = -1
         if slot >= 0:
-            n_recycled += 1
-            for point in range(cached_start[slot], cached_start[slot + 1]):
-                px, py, sep = recycled_point(
-                    point,
+            turned = turn_since_cached(slot, a, b, rotation, cached_rotation)
+            if may_recycle(slot, a, b, x, rotation, extent, cached_pose, turned, recycle_distance):
+                recycled = recycle_manifold(
+                    k,
+                    slot,
                     a,
                     b,
                     x,
                     turned,
+                    margin,
+                    key,
+                    mu,
+                    e,
+                    cached_start,
                     cached_anchor,
                     cached_normal,
                     cached_separation,
                     cached_feature,
-                )
-                write_point(
-                    k,
-                    a,
-                    b,
-                    px,
-                    py,
-                    cached_normal[point, 0],
-                    cached_normal[point, 1],
-                    sep,
-                    np.int64(cached_feature[point]),  # as the narrowphase's: one write_point
-                    key,
-                    mu,
-                    e,
                     out_a,
                     out_b,
                     out_p,
@@ -282,20 +327,20 @@ def collide_recycling(
                     out_key,
                     out_mu,
                     out_e,
+                    out_r,
+                    new_anchor,
+                    new_normal,
+                    new_separation,
+                    new_feature,
                 )
-                # the cache keeps the manifold as it was found: pose, anchors and separation
-                for i in range(4):
-                    new_anchor[k, i] = cached_anchor[point, i]
-                    out_r[k, i] = cached_anchor[point, i]  # the lever arms it was found with, unturned
-                new_normal[k, 0] = cached_normal[point, 0]
-                new_normal[k, 1] = cached_normal[point, 1]
-                new_separation[k] = cached_separation[point]
-                new_feature[k] = cached_feature[point]
-                k += 1
-            for i in range(3):
-                new_pose[n_new, i] = cached_pose[slot, i]
-            new_theta[n_new, 0] = cached_theta[slot, 0]
-            new_theta[n_new, 1] = cached_theta[slot, 1]
+        if recycled >= 0:
+            n_recycled += 1
+            k = recycled
+            # the cache keeps the manifold as it was found: pose and rotations
+            new_pose[n_new, 0] = cached_pose[slot, 0]
+            new_pose[n_new, 1] = cached_pose[slot, 1]
+            for i in range(4):
+                new_rotation[n_new, i] = cached_rotation[slot, i]
         else:
             m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin)
             for point in range(m[0]):
@@ -335,12 +380,13 @@ def collide_recycling(
                 new_separation[k] = sep
                 new_feature[k] = feature
                 k += 1
-            px, py, turn = relative_pose(a, b, x, theta)
+            px, py = relative_position(a, b, x, rotation)
             new_pose[n_new, 0] = px
             new_pose[n_new, 1] = py
-            new_pose[n_new, 2] = turn
-            new_theta[n_new, 0] = theta[a]
-            new_theta[n_new, 1] = theta[b]
+            new_rotation[n_new, 0] = rotation[a, 0]
+            new_rotation[n_new, 1] = rotation[a, 1]
+            new_rotation[n_new, 2] = rotation[b, 0]
+            new_rotation[n_new, 3] = rotation[b, 1]
         if k > new_start[n_new]:  # a pair with points: cache its manifold
             new_key[n_new] = key
             n_new += 1
@@ -383,15 +429,15 @@ class ManifoldCache:
         """Forget every manifold: the next step collides every pair anew."""
         self.key = np.zeros(0, np.int64)
         self.start = np.zeros(1, np.int64)
-        self.pose = np.zeros((0, 3))
-        self.theta = np.zeros((0, 2))
+        self.pose = np.zeros((0, 2))  # B's centre in A's frame (m)
+        self.rotation = np.zeros((0, 4))  # (cos, sin) of A's and of B's angle
         self.anchor = np.zeros((0, 4))
         self.normal = np.zeros((0, 2))
         self.separation = np.zeros(0)
         self.feature = np.zeros(0, np.int32)
         self.recycled = 0  # manifolds recycled in the last step
 
-    _STATE = ("key", "start", "pose", "theta", "anchor", "normal", "separation", "feature", "recycled")
+    _STATE = ("key", "start", "pose", "rotation", "anchor", "normal", "separation", "feature", "recycled")
 
     def state(self) -> tuple:
         """What ``restore`` needs to undo a step (``collide`` replaces the arrays, never edits them):
@@ -400,7 +446,7 @@ class ManifoldCache:
 
     def _cached(self) -> tuple:
         """The cached manifolds' arrays, in ``collide_recycling``'s argument order."""
-        return (self.key, self.start, self.pose, self.theta, self.anchor, self.normal, self.separation, self.feature)
+        return (self.key, self.start, self.pose, self.rotation, self.anchor, self.normal, self.separation, self.feature)
 
     def restore(self, state: tuple) -> None:
         for name, value in zip(self._STATE, state):
@@ -418,8 +464,8 @@ class ManifoldCache:
             current = (
                 np.zeros(size, np.int64),
                 np.zeros(size + 1, np.int64),
-                np.zeros((size, 3)),
                 np.zeros((size, 2)),
+                np.zeros((size, 4)),
                 np.zeros((cap, 4)),
                 np.zeros((cap, 2)),
                 np.zeros(cap),
@@ -429,16 +475,28 @@ class ManifoldCache:
         return current
 
     def collide(
-        self, pairs, n_pairs, bodies, world_v, world_n, contact_margin, travel, recycle_distance, out, pair_start
+        self,
+        pairs,
+        n_pairs,
+        bodies,
+        rotation,
+        world_v,
+        world_n,
+        contact_margin,
+        travel,
+        recycle_distance,
+        out,
+        pair_start,
     ) -> int:
-        """The step's contact points into ``out`` (as ``collide_pairs``); returns K."""
+        """The step's contact points into ``out`` (as ``collide_pairs``); returns K.
+        rotation: each body's (cos theta, sin theta), as ``update_geometry_in`` returns it."""
         b = bodies
         new = self._buffers(n_pairs)
         k, n_new, self.recycled = collide_recycling(  # type: ignore[call-arg]
             pairs,
             n_pairs,
             b.x,
-            b.theta,
+            rotation,
             b.kind,
             b.radius,
             b.vstart,
@@ -458,9 +516,10 @@ class ManifoldCache:
             pair_start,
             *new,
         )
-        key, start, pose, theta, anchor, normal, separation, feature = new
+        key, start, pose, cached_rotation, anchor, normal, separation, feature = new
         if ascending(key, n_new):  # pairs come sorted by (a, b), so their keys ascend: keep them as they are
-            self.key, self.start, self.pose, self.theta = key[:n_new], start[: n_new + 1], pose[:n_new], theta[:n_new]
+            self.key, self.start, self.pose = key[:n_new], start[: n_new + 1], pose[:n_new]
+            self.rotation = cached_rotation[:n_new]
             self.anchor, self.normal, self.separation, self.feature = (
                 anchor[:k],
                 normal[:k],
@@ -474,7 +533,7 @@ class ManifoldCache:
         points = points_in_order(start, by_key, self.start)
         self.key = key[:n_new][by_key]
         self.pose = pose[:n_new][by_key]
-        self.theta = theta[:n_new][by_key]
+        self.rotation = cached_rotation[:n_new][by_key]
         self.anchor = anchor[points]
         self.normal = normal[points]
         self.separation = separation[points]
