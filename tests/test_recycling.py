@@ -264,3 +264,35 @@ def test_may_recycle_is_the_docstring_s_criterion():
         assert may_recycle(0, 0, 1, x, rotation, extent, pose, turn, distance) == expected
         agreed[bool(expected)] += 1
     assert min(agreed.values()) > 200  # both answers were put to the test
+
+
+def test_a_new_store_of_the_live_manifolds_changes_nothing():
+    # one twin's manifold store is rebuilt (``compact``) before every step: the same states, bit for bit
+    twins = [scenes.pyramid(6, phys2d.SoftStep()) for _ in range(2)]
+    for i in range(80):
+        for t, w in enumerate(twins):
+            if t == 1 and i > 0:
+                m = w._manifolds
+                before = m.live()
+                m._rebuild(len(m.key) + 1)  # a new store, with hardly any room: the next step makes its own
+                assert m.rows_used == len(m.key) and np.array_equal(m.row, np.arange(len(m.key)))
+                for a, b in zip(before, m.live()):
+                    assert np.array_equal(a, b)
+            w.step(1 / 60)
+    for a, b in zip(*(tw._manifolds.live() for tw in twins)):
+        assert np.array_equal(a, b)
+    assert np.array_equal(twins[0].x, twins[1].x) and np.array_equal(twins[0].V, twins[1].V)
+    assert twins[0]._manifolds.recycled > 0
+
+
+def test_the_store_stays_bounded_while_pairs_are_collided_anew():
+    # recycling off: every step appends every manifold; the store is rebuilt from the live ones when full
+    w = scenes.pyramid(5, phys2d.PGS())
+    w.contact_recycle_distance = 0.0
+    sizes = set()
+    for _ in range(200):
+        w.step(1 / 60)
+        m = w._manifolds
+        assert m.rows_used <= len(m.pose) and m.points_used <= len(m.anchor)
+        sizes.add(len(m.pose))
+    assert max(sizes) <= max(64, 4 * w._n_pairs)
