@@ -496,7 +496,7 @@ class ManifoldCache:
     def _rebuild(self, rows: int) -> None:
         """A new store of ``rows`` rows (2 rows points) holding the live manifolds only, in slot order."""
         n = self.key.shape[0]
-        *store, points_used = compact(  # type: ignore[call-arg]
+        *store, points_used = compact(
             self.row, self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature, rows
         )
         self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature = store
