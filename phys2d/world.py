@@ -547,7 +547,7 @@ class World:
         """
         b = self._bodies
         world_v, world_n, aabb, travel = self._geometry_buffers()
-        fits = update_geometry_in(
+        fits, rotation = update_geometry_in(
             b.x,
             b.theta,
             b.kind,
@@ -591,6 +591,7 @@ class World:
             self._pairs,
             self._n_pairs,
             b,
+            rotation,
             world_v,
             world_n,
             self.contact_margin,

@@ -326,7 +326,7 @@ def fingerprint(w: phys2d.World) -> tuple:
         ),
         getattr(w, "_excluded", np.zeros(0)).tobytes(),
         w.contact_recycle_distance,
-        tuple(np.asarray(a).tobytes() for a in w._manifolds.state()),
+        tuple(np.asarray(a).tobytes() for a in w._manifolds.live()),
     )
 
 

@@ -145,7 +145,22 @@ def test_broadphase_finds_the_same_pairs_as_all_pairs():
 
     travel = np.zeros(n)
     update_geometry(
-        b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n, b.V, 0.0, 0.0, wv, wn, aabb, travel
+        b.x,
+        b.theta,
+        b.kind,
+        b.radius,
+        b.vstart,
+        b.vcount,
+        b.local_v,
+        b.local_n,
+        b.V,
+        0.0,
+        0.0,
+        wv,
+        wn,
+        aabb,
+        travel,
+        np.empty((n, 2)),
     )
     m = 2 * len(pairs)
     out = [

@@ -7,8 +7,9 @@ import pytest
 
 import phys2d
 from phys2d import scenes
-from phys2d.collision.broadphase import update_geometry
+from phys2d.collision.broadphase import update_geometry, update_geometry_in
 from phys2d.collision.narrowphase import collide_pairs
+from phys2d.collision.recycle import RECYCLE_MAX_TURN, angle_difference, may_recycle, turn_since_cached
 
 
 def narrowphase_now(w: phys2d.World):
@@ -36,6 +37,7 @@ def narrowphase_now(w: phys2d.World):
         world_n,
         aabb,
         travel,
+        np.empty((b.n, 2)),
     )
     cap = 2 * w._n_pairs
     out = (
@@ -190,3 +192,107 @@ def test_a_failed_step_leaves_the_recycled_manifolds_as_they_were():
         for _ in range(10):
             t.step(1 / 60)
     assert np.array_equal(twins[0].x, twins[1].x) and np.array_equal(twins[0].V, twins[1].V)
+
+
+def test_angle_difference_is_cos_and_sin_of_the_difference():
+    rng = np.random.default_rng(11)
+    t, t0 = rng.uniform(-20.0, 20.0, 200), rng.uniform(-20.0, 20.0, 200)
+    for ti, t0i in zip(t, t0):
+        c, s = angle_difference(np.cos(ti), np.sin(ti), np.cos(t0i), np.sin(t0i))
+        assert c == pytest.approx(np.cos(ti - t0i), abs=1e-14)
+        assert s == pytest.approx(np.sin(ti - t0i), abs=1e-14)
+
+
+def test_update_geometry_in_returns_each_body_s_rotation():
+    w = scenes.mixed_shapes(8)  # polygons and circles
+    b = w._bodies
+    w.bodies[3].angle = 0.7
+    n = b.n
+    fits, rotation = update_geometry_in(
+        b.x,
+        b.theta,
+        b.kind,
+        b.radius,
+        b.vstart,
+        b.vcount,
+        b.local_v,
+        b.local_n,
+        b.V,
+        0.0,
+        0.0,
+        np.empty((b.n_verts, 2)),
+        np.empty((b.n_verts, 2)),
+        np.empty((n, 4)),
+        np.empty(n),
+        np.empty((0, 4)),
+    )
+    assert not fits  # no fat boxes yet
+    assert rotation.shape == (n, 2)
+    np.testing.assert_allclose(rotation, np.column_stack([np.cos(b.theta), np.sin(b.theta)]), rtol=0, atol=1e-15)
+
+
+def criterion_by_angles(x, theta, a, b, pose, angles, extent, distance):
+    """The module docstring's criterion from the angles themselves (a second method): B's centre in
+    A's frame against its cached one, plus extent |sin| of the change of theta_b - theta_a, and
+    neither body turned by more than RECYCLE_MAX_TURN (a cosine) since caching."""
+    if np.cos(theta[a] - angles[0]) <= RECYCLE_MAX_TURN or np.cos(theta[b] - angles[1]) <= RECYCLE_MAX_TURN:
+        return False
+    c, s = np.cos(theta[a]), np.sin(theta[a])
+    d = x[b] - x[a]
+    p = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+    rel_turn = (theta[b] - theta[a]) - (angles[1] - angles[0])
+    return np.hypot(*(p - pose)) + max(extent[a], extent[b]) * abs(np.sin(rel_turn)) < distance
+
+
+def test_may_recycle_is_the_docstring_s_criterion():
+    rng = np.random.default_rng(7)
+    extent = np.array([0.7, 1.3])
+    distance = 0.05
+    agreed = {True: 0, False: 0}
+    for _ in range(2000):
+        theta0 = rng.uniform(-4.0, 4.0, 2)  # when cached
+        x0 = rng.uniform(-3.0, 3.0, (2, 2))
+        c, s = np.cos(theta0[0]), np.sin(theta0[0])
+        d = x0[1] - x0[0]
+        pose = np.array([[c * d[0] + s * d[1], -s * d[0] + c * d[1]]])
+        cached_rotation = np.array([[np.cos(theta0[0]), np.sin(theta0[0]), np.cos(theta0[1]), np.sin(theta0[1])]])
+        theta = theta0 + rng.normal(0.0, 0.03, 2)  # now: moved by about the recycle distance
+        x = x0 + rng.normal(0.0, 0.02, (2, 2))
+        rotation = np.column_stack([np.cos(theta), np.sin(theta)])
+        turn = turn_since_cached(0, 0, 1, rotation, cached_rotation)
+        expected = criterion_by_angles(x, theta, 0, 1, pose[0], theta0, extent, distance)
+        assert may_recycle(0, 0, 1, x, rotation, extent, pose, turn, distance) == expected
+        agreed[bool(expected)] += 1
+    assert min(agreed.values()) > 200  # both answers were put to the test
+
+
+def test_a_new_store_of_the_live_manifolds_changes_nothing():
+    # one twin's manifold store is rebuilt (``compact``) before every step: the same states, bit for bit
+    twins = [scenes.pyramid(6, phys2d.SoftStep()) for _ in range(2)]
+    for i in range(80):
+        for t, w in enumerate(twins):
+            if t == 1 and i > 0:
+                m = w._manifolds
+                before = m.live()
+                m._rebuild(len(m.key) + 1)  # a new store, with hardly any room: the next step makes its own
+                assert m.rows_used == len(m.key) and np.array_equal(m.row, np.arange(len(m.key)))
+                for a, b in zip(before, m.live()):
+                    assert np.array_equal(a, b)
+            w.step(1 / 60)
+    for a, b in zip(*(tw._manifolds.live() for tw in twins)):
+        assert np.array_equal(a, b)
+    assert np.array_equal(twins[0].x, twins[1].x) and np.array_equal(twins[0].V, twins[1].V)
+    assert twins[0]._manifolds.recycled > 0
+
+
+def test_the_store_stays_bounded_while_pairs_are_collided_anew():
+    # recycling off: every step appends every manifold; the store is rebuilt from the live ones when full
+    w = scenes.pyramid(5, phys2d.PGS())
+    w.contact_recycle_distance = 0.0
+    sizes = set()
+    for _ in range(200):
+        w.step(1 / 60)
+        m = w._manifolds
+        assert m.rows_used <= len(m.pose) and m.points_used <= len(m.anchor)
+        sizes.add(len(m.pose))
+    assert max(sizes) <= max(64, 4 * w._n_pairs)

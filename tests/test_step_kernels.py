@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from phys2d import SoftStep, scenes
-from phys2d.collision.recycle import ascending, body_extent, body_extents, next_slot
+from phys2d.collision.recycle import body_extent, body_extents, next_slot
 from phys2d.constraints.order import contacts_in_order
 
 
@@ -36,13 +36,6 @@ def test_next_slot_is_a_binary_search(ascending_queries):
         assert look == np.searchsorted(cached, key)
 
 
-def test_ascending():
-    assert ascending(np.array([1, 4, 9, 100], np.int64), 4)
-    assert ascending(np.array([1, 4, 3], np.int64), 2)  # only the first n count
-    assert not ascending(np.array([1, 4, 4], np.int64), 3)
-    assert ascending(np.zeros(0, np.int64), 0)
-
-
 def test_body_extents_are_the_farthest_surface_points():
     """mixed_shapes' bodies in turn: box 0.4 x 0.3 (half extents), circle r 0.35, the triangle
     (-0.5, -0.3), (0.5, -0.3), (0, 0.5) about its centroid (0, -1/30), hexagon r 0.4; static: 0."""
@@ -56,16 +49,17 @@ def test_body_extents_are_the_farthest_surface_points():
         assert got[i] == body_extent(i, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static)
 
 
-def test_manifold_buffers_are_taken_in_turn_and_never_the_ones_read():
+def test_a_recycled_manifold_keeps_its_row_of_the_store():
     w = scenes.vertical_stack(3, SoftStep())
     m = w._manifolds
-    bases = []
-    for _ in range(4):
-        before = m.key.base
+    for _ in range(3):
         w.step(1 / 60)
-        assert m.key.base is not before  # this step's manifolds were written beside last step's
-        bases.append(m.key.base)
-    assert bases[0] is bases[2] and bases[1] is bases[3] and bases[0] is not bases[1]
+    for _ in range(4):
+        rows, used, store = m.row.copy(), m.points_used, m.anchor
+        w.step(1 / 60)
+        assert m.recycled == 3
+        assert np.array_equal(m.row, rows) and m.points_used == used  # nothing copied, nothing appended
+        assert m.anchor is store
 
 
 def test_soft_step_reports_the_tick_s_impulse_in_rows_and_contacts():

@@ -21,17 +21,21 @@ from .sort import lower_bound, stable_argsort
 
 @njit(cache=True, inline="always")
 def update_geometry(
-    x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel
+    x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel, rotation
 ):
-    """World-frame vertices and edge normals of every polygon, and every body's AABB.
+    """World-frame vertices and edge normals of every polygon, every body's AABB and rotation.
 
     travel[b] = dt (|v| + |omega| r_max) is how far (m) any point of body b can move
     within the step (r_max: the farthest point from its centre). aabb[b] = (min x,
     min y, max x, max y) in m, grown by margin + travel[b], so a fast body meets what
-    it could reach this step (speculative contacts).
+    it could reach this step (speculative contacts). rotation[b] = (cos theta_b, sin theta_b):
+    computed once here, and the contact recycling uses them too.
     """
     for b in range(x.shape[0]):
         px, py = x[b, 0], x[b, 1]
+        c, s = np.cos(theta[b]), np.sin(theta[b])
+        rotation[b, 0] = c
+        rotation[b, 1] = s
         speed = np.sqrt(V[b, 0] * V[b, 0] + V[b, 1] * V[b, 1])
         if kind[b] == CIRCLE:
             r = radius[b]
@@ -42,7 +46,6 @@ def update_geometry(
             aabb[b, 2] = px + grow
             aabb[b, 3] = py + grow
             continue
-        c, s = np.cos(theta[b]), np.sin(theta[b])
         lo_x, lo_y, hi_x, hi_y = np.inf, np.inf, -np.inf, -np.inf
         r2 = 0.0
         for k in range(vstart[b], vstart[b] + vcount[b]):
@@ -80,12 +83,29 @@ def fits_inside(aabb, fat):
 def update_geometry_in(
     x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel, fat
 ):
-    """``update_geometry``, then whether every tight box still lies inside its fat box
-    (``fits_inside``): True when last step's pairs still hold."""
+    """``update_geometry``; returns whether every tight box still lies inside its fat box
+    (``fits_inside``: True when last step's pairs still hold) and every body's rotation
+    (cos theta, sin theta), shape (n, 2), for the contact recycling."""
+    rotation = np.empty((x.shape[0], 2))
     update_geometry(
-        x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel
+        x,
+        theta,
+        kind,
+        radius,
+        vstart,
+        vcount,
+        local_v,
+        local_n,
+        V,
+        dt,
+        margin,
+        world_v,
+        world_n,
+        aabb,
+        travel,
+        rotation,
     )
-    return fits_inside(aabb, fat)
+    return fits_inside(aabb, fat), rotation
 
 
 @njit(cache=True, inline="always")

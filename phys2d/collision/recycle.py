@@ -1,8 +1,8 @@
 """Contact recycling: keep a manifold's points while its two bodies barely move.
 
 After Box2D v3 (its world's collide stage, 2026). When the narrowphase finds a
-manifold, the pair's relative pose is remembered: B's position and angle in A's
-frame, and each body's angle. In a later step, while
+manifold, the pair's relative pose is remembered: B's position in A's frame, and
+each body's rotation (cos, sin of its angle). In a later step, while
 
     |p_rel - p_rel,cached| + extent |sin(dtheta_rel)| < contact_recycle_distance
 
@@ -17,7 +17,12 @@ anchors turned with their bodies,
 as within the soft step's sub-steps (the point reported rides with the incident
 polygon, whose corner made it). A stack whose boxes lean by a hair then keeps the
 points it had instead of the ones clipping would find at each new tilt, and a pair
-that stays put costs no narrowphase.
+that stays put costs no narrowphase. Nor any trigonometry: the turns since caching
+(dtheta_rel is B's turn less A's) come from the bodies' rotations now, computed once
+a step with the world vertices, and then, by cos(t - t0) = cos t cos t0 + sin t sin t0
+and sin(t - t0) = sin t cos t0 - cos t sin t0.
+Nor any copying: a manifold is kept in a row of the cache's store (``ManifoldCache``),
+and a recycled one stays in its row from step to step; new ones are appended.
 
 A responder with ``found_lever_arms`` (SoftStep) builds its rows with those arms as
 found, unturned, as Box2D v3 does. A soft contact lets a box tilt on its partner by
@@ -73,33 +78,42 @@ def body_extents(kind, radius, vstart, vcount, local_v, static):
 
 
 @njit(cache=True, inline="always")
-def relative_pose(a, b, x, theta):
-    """B's pose in A's frame: (px, py, theta_b - theta_a) in m and rad."""
-    c, s = np.cos(theta[a]), np.sin(theta[a])
-    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
-    return c * dx + s * dy, -s * dx + c * dy, theta[b] - theta[a]
+def angle_difference(c, s, c0, s0):
+    """(cos, sin) of t - t0 from (cos t, sin t) and (cos t0, sin t0), no trigonometry:
+    cos(t - t0) = cos t cos t0 + sin t sin t0, sin(t - t0) = sin t cos t0 - cos t sin t0."""
+    return c * c0 + s * s0, s * c0 - c * s0
 
 
 @njit(cache=True, inline="always")
-def turn_since_cached(slot, a, b, theta, cached_theta):
-    """How far bodies a and b have turned since the slot was cached: (cos, sin) of each, once per pair."""
-    turn_a = theta[a] - cached_theta[slot, 0]
-    turn_b = theta[b] - cached_theta[slot, 1]
-    return np.cos(turn_a), np.sin(turn_a), np.cos(turn_b), np.sin(turn_b)
+def relative_position(a, b, x, rotation):
+    """B's centre in A's frame, R_a^T (x_b - x_a), in m (``rotation``: each body's (cos, sin))."""
+    c, s = rotation[a, 0], rotation[a, 1]
+    dx, dy = x[b, 0] - x[a, 0], x[b, 1] - x[a, 1]
+    return c * dx + s * dy, -s * dx + c * dy
+
+
+@njit(cache=True, inline="always")
+def turn_since_cached(row, a, b, rotation, found_rotation):
+    """How far bodies a and b have turned since manifold ``row`` was found: (cos, sin) of each, once
+    per pair, from their rotations now and then (``angle_difference``)."""
+    ca, sa = angle_difference(rotation[a, 0], rotation[a, 1], found_rotation[row, 0], found_rotation[row, 1])
+    cb, sb = angle_difference(rotation[b, 0], rotation[b, 1], found_rotation[row, 2], found_rotation[row, 3])
+    return ca, sa, cb, sb
 
 
 @njit(cache=True)
-def may_recycle(slot, a, b, x, theta, extent, cached_pose, turn, recycle_distance):
-    """True while pair (a, b) has moved less than recycle_distance (m) relative to its cached pose
-    (``turn``: ``turn_since_cached``; ``extent``: ``body_extents``)."""
-    if turn[0] <= RECYCLE_MAX_TURN:
+def may_recycle(row, a, b, x, rotation, extent, found_pose, turn, recycle_distance):
+    """True while pair (a, b) has moved less than recycle_distance (m) relative to its pose when
+    manifold ``row`` was found (``turn``: ``turn_since_cached``; ``extent``: ``body_extents``)."""
+    ca, sa, cb, sb = turn
+    if ca <= RECYCLE_MAX_TURN or cb <= RECYCLE_MAX_TURN:
         return False
-    if turn[2] <= RECYCLE_MAX_TURN:
-        return False
-    px, py, rel_turn = relative_pose(a, b, x, theta)
-    distance = np.hypot(px - cached_pose[slot, 0], py - cached_pose[slot, 1])
+    px, py = relative_position(a, b, x, rotation)
+    dx, dy = px - found_pose[row, 0], py - found_pose[row, 1]
+    # B's turn relative to A since caching is turn_b - turn_a: the change of theta_b - theta_a
+    sin_relative_turn = angle_difference(cb, sb, ca, sa)[1]
     reach = max(extent[a], extent[b])
-    return distance + reach * abs(np.sin(rel_turn - cached_pose[slot, 2])) < recycle_distance
+    return np.sqrt(dx * dx + dy * dy) + reach * abs(sin_relative_turn) < recycle_distance
 
 
 @njit(cache=True)
@@ -123,16 +137,6 @@ def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, featur
     return x[b, 0] + r_bx - shift * normal[point, 0], x[b, 1] + r_by - shift * normal[point, 1], separation
 
 
-@njit(cache=True)
-def all_within(slot, a, b, x, turn, cached_start, anchor, normal, base_separation, feature, margin):
-    """True if every cached point of the slot is still within ``margin`` (m) of its partner:
-    the narrowphase would drop one that is not, so the pair is collided anew."""
-    for point in range(cached_start[slot], cached_start[slot + 1]):
-        if recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature)[2] > margin:
-            return False
-    return True
-
-
 @njit(cache=True, inline="always")
 def next_slot(cached_key, key, m):
     """The first slot whose cached key is >= key. The pairs' keys ascend, so the look-up walks on
@@ -145,11 +149,75 @@ def next_slot(cached_key, key, m):
 
 
 @njit(cache=True)
+def recycle_manifold(
+    k,
+    row,
+    a,
+    b,
+    x,
+    turn,
+    margin,
+    key,
+    mu,
+    e,
+    span,
+    anchor,
+    normal,
+    separation,
+    feature,
+    out_a,
+    out_b,
+    out_p,
+    out_n,
+    out_s,
+    out_f,
+    out_key,
+    out_mu,
+    out_e,
+    out_r,
+):
+    """Write the points of cached manifold ``row``, moved with their bodies (``recycled_point``), from
+    point k on; returns the next k, or -1 if one of them lies beyond ``margin`` (m) of its partner:
+    the narrowphase would drop it, so the pair is collided anew (over what was written)."""
+    for point in range(span[row, 0], span[row, 1]):
+        px, py, sep = recycled_point(point, a, b, x, turn, anchor, normal, separation, feature)
+        if sep > margin:
+            return -1
+        write_point(
+            k,
+            a,
+            b,
+            px,
+            py,
+            normal[point, 0],
+            normal[point, 1],
+            sep,
+            np.int64(feature[point]),  # as the narrowphase's: one write_point
+            key,
+            mu,
+            e,
+            out_a,
+            out_b,
+            out_p,
+            out_n,
+            out_s,
+            out_f,
+            out_key,
+            out_mu,
+            out_e,
+        )
+        for i in range(4):
+            out_r[k, i] = anchor[point, i]  # the lever arms it was found with, unturned
+        k += 1
+    return k
+
+
+@njit(cache=True)
 def collide_recycling(
     pairs,
     n_pairs,
     x,
-    theta,
+    rotation,
     kind,
     radius,
     vstart,
@@ -165,13 +233,16 @@ def collide_recycling(
     restitution,
     recycle_distance,
     cached_key,
-    cached_start,
-    cached_pose,
-    cached_theta,
-    cached_anchor,
-    cached_normal,
-    cached_separation,
-    cached_feature,
+    cached_row,
+    found_pose,
+    found_rotation,
+    span,
+    anchor,
+    normal,
+    separation,
+    feature,
+    rows_used,
+    points_used,
     out_a,
     out_b,
     out_p,
@@ -184,24 +255,25 @@ def collide_recycling(
     out_r,
     pair_start,
     new_key,
-    new_start,
-    new_pose,
-    new_theta,
-    new_anchor,
-    new_normal,
-    new_separation,
-    new_feature,
+    new_row,
 ):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
-    cached_*: last step's manifolds, sorted by pair key (slot s's points are
-    cached_start[s] up to cached_start[s + 1]). new_*: this step's, to cache (room for
-    n_pairs manifolds and 2 n_pairs points). out_r: each point's lever arms (r_a, r_b)
-    for the rows, as its manifold was found. Returns (points K, manifolds cached, recycled).
+    rotation: each body's (cos theta, sin theta) now (``update_geometry``). cached_key: last
+    step's manifolds' pair keys, ascending; cached_row: each one's row of the manifold store,
+    whose rows hold found_pose (B's centre in A's frame, m), found_rotation (both bodies'
+    (cos, sin)) and span (its points: span[r, 0] up to span[r, 1] of anchor, normal,
+    separation, feature), as the manifold was found. A recycled manifold keeps its row, not
+    copied; a new one is appended after rows_used and points_used (room for n_pairs rows and
+    2 n_pairs points). new_key, new_row: this step's manifolds, to cache. out_r: each point's
+    lever arms (r_a, r_b) for the rows, as its manifold was found.
+
+    Returns (points K, manifolds cached, recycled, rows_used, points_used, whether new_key ascends).
     """
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
     n_recycled = 0
+    ascends = True
     n_cached = cached_key.shape[0]
     look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
     extent = body_extents(kind, radius, vstart, vcount, local_v, static) if recycle_distance > 0.0 else np.zeros(0)
@@ -216,63 +288,28 @@ def collide_recycling(
             look = next_slot(cached_key, key, look)
             if look < n_cached and cached_key[look] == key:
                 slot = look
-        new_start[n_new] = k
         margin = contact_margin + travel[a] + travel[b]
-        turned = turn_since_cached(slot, a, b, theta, cached_theta) if slot >= 0 else (1.0, 0.0, 1.0, 0.0)
-        if slot >= 0 and not (
-            may_recycle(
-                slot,
-                a,
-                b,
-                x,
-                theta,
-                extent,
-                cached_pose,
-                turned,
-                recycle_distance,
-            )
-            and all_within(
-                slot,
-                a,
-                b,
-                x,
-                turned,
-                cached_start,
-                cached_anchor,
-                cached_normal,
-                cached_separation,
-                cached_feature,
-                margin,
-            )
-        ):
-            slot = -1
+        recycled = -1
+        row = cached_row[slot] if slot >= 0 else -1
         if slot >= 0:
-            n_recycled += 1
-            for point in range(cached_start[slot], cached_start[slot + 1]):
-                px, py, sep = recycled_point(
-                    point,
+            turned = turn_since_cached(row, a, b, rotation, found_rotation)
+            if may_recycle(row, a, b, x, rotation, extent, found_pose, turned, recycle_distance):
+                recycled = recycle_manifold(
+                    k,
+                    row,
                     a,
                     b,
                     x,
                     turned,
-                    cached_anchor,
-                    cached_normal,
-                    cached_separation,
-                    cached_feature,
-                )
-                write_point(
-                    k,
-                    a,
-                    b,
-                    px,
-                    py,
-                    cached_normal[point, 0],
-                    cached_normal[point, 1],
-                    sep,
-                    np.int64(cached_feature[point]),  # as the narrowphase's: one write_point
+                    margin,
                     key,
                     mu,
                     e,
+                    span,
+                    anchor,
+                    normal,
+                    separation,
+                    feature,
                     out_a,
                     out_b,
                     out_p,
@@ -282,27 +319,22 @@ def collide_recycling(
                     out_key,
                     out_mu,
                     out_e,
+                    out_r,
                 )
-                # the cache keeps the manifold as it was found: pose, anchors and separation
-                for i in range(4):
-                    new_anchor[k, i] = cached_anchor[point, i]
-                    out_r[k, i] = cached_anchor[point, i]  # the lever arms it was found with, unturned
-                new_normal[k, 0] = cached_normal[point, 0]
-                new_normal[k, 1] = cached_normal[point, 1]
-                new_separation[k] = cached_separation[point]
-                new_feature[k] = cached_feature[point]
-                k += 1
-            for i in range(3):
-                new_pose[n_new, i] = cached_pose[slot, i]
-            new_theta[n_new, 0] = cached_theta[slot, 0]
-            new_theta[n_new, 1] = cached_theta[slot, 1]
+        if recycled >= 0:
+            n_recycled += 1
+            k = recycled
         else:
+            row = rows_used  # a new row of the store, its points after points_used
             m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin)
+            if m[0] == 0:
+                continue
+            p = points_used
             for point in range(m[0]):
                 if point == 0:
-                    px, py, sep, feature = m[3], m[4], m[5], m[6]
+                    px, py, sep, f = m[3], m[4], m[5], m[6]
                 else:
-                    px, py, sep, feature = m[7], m[8], m[9], m[10]
+                    px, py, sep, f = m[7], m[8], m[9], m[10]
                 write_point(
                     k,
                     a,
@@ -312,7 +344,7 @@ def collide_recycling(
                     m[1],
                     m[2],
                     sep,
-                    feature,
+                    f,
                     key,
                     mu,
                     e,
@@ -326,119 +358,176 @@ def collide_recycling(
                     out_mu,
                     out_e,
                 )
-                new_anchor[k, 0] = out_r[k, 0] = px - x[a, 0]
-                new_anchor[k, 1] = out_r[k, 1] = py - x[a, 1]
-                new_anchor[k, 2] = out_r[k, 2] = px - x[b, 0]
-                new_anchor[k, 3] = out_r[k, 3] = py - x[b, 1]
-                new_normal[k, 0] = m[1]
-                new_normal[k, 1] = m[2]
-                new_separation[k] = sep
-                new_feature[k] = feature
+                anchor[p, 0] = out_r[k, 0] = px - x[a, 0]
+                anchor[p, 1] = out_r[k, 1] = py - x[a, 1]
+                anchor[p, 2] = out_r[k, 2] = px - x[b, 0]
+                anchor[p, 3] = out_r[k, 3] = py - x[b, 1]
+                normal[p, 0] = m[1]
+                normal[p, 1] = m[2]
+                separation[p] = sep
+                feature[p] = f
                 k += 1
-            px, py, turn = relative_pose(a, b, x, theta)
-            new_pose[n_new, 0] = px
-            new_pose[n_new, 1] = py
-            new_pose[n_new, 2] = turn
-            new_theta[n_new, 0] = theta[a]
-            new_theta[n_new, 1] = theta[b]
-        if k > new_start[n_new]:  # a pair with points: cache its manifold
-            new_key[n_new] = key
-            n_new += 1
+                p += 1
+            found_pose[row, 0], found_pose[row, 1] = relative_position(a, b, x, rotation)
+            found_rotation[row, 0] = rotation[a, 0]
+            found_rotation[row, 1] = rotation[a, 1]
+            found_rotation[row, 2] = rotation[b, 0]
+            found_rotation[row, 3] = rotation[b, 1]
+            span[row, 0] = points_used
+            span[row, 1] = p
+            rows_used += 1
+            points_used = p
+        # a pair with points: cache its manifold
+        if n_new > 0 and key <= new_key[n_new - 1]:
+            ascends = False
+        new_key[n_new] = key
+        new_row[n_new] = row
+        n_new += 1
     pair_start[n_pairs] = k
-    new_start[n_new] = k
-    return k, n_new, n_recycled
+    return k, n_new, n_recycled, rows_used, points_used, ascends
 
 
 @njit(cache=True)
-def ascending(key, n):
-    """True if key[0] < key[1] < ... < key[n - 1]: the manifolds are already in look-up order."""
-    for m in range(1, n):
-        if key[m] <= key[m - 1]:
-            return False
-    return True
-
-
-@njit(cache=True)
-def points_in_order(start, order, new_start):
-    """The points of manifolds order[0], order[1], ... (indices), and each one's first in new_start."""
-    points = np.empty(start[order.shape[0]] if order.shape[0] else 0, np.int64)
-    n = 0
-    for m in range(order.shape[0]):
-        new_start[m] = n
-        for point in range(start[order[m]], start[order[m] + 1]):
-            points[n] = point
-            n += 1
-    new_start[order.shape[0]] = n
-    return points[:n]
+def compact(cached_row, found_pose, found_rotation, span, anchor, normal, separation, feature, rows):
+    """The store's live rows (cached_row's, in its order) and their points copied into a new store of
+    ``rows`` rows and 2 rows points: (found_pose, found_rotation, span, anchor, normal, separation,
+    feature, points used). Slot s's row becomes s."""
+    n = cached_row.shape[0]
+    new_pose = np.zeros((rows, 2))
+    new_rotation = np.zeros((rows, 4))
+    new_span = np.zeros((rows, 2), np.int64)
+    new_anchor = np.zeros((2 * rows, 4))
+    new_normal = np.zeros((2 * rows, 2))
+    new_separation = np.zeros(2 * rows)
+    new_feature = np.zeros(2 * rows, np.int32)
+    p = 0
+    for s in range(n):
+        r = cached_row[s]
+        new_pose[s] = found_pose[r]
+        new_rotation[s] = found_rotation[r]
+        new_span[s, 0] = p
+        for point in range(span[r, 0], span[r, 1]):
+            new_anchor[p] = anchor[point]
+            new_normal[p] = normal[point]
+            new_separation[p] = separation[point]
+            new_feature[p] = feature[point]
+            p += 1
+        new_span[s, 1] = p
+    return new_pose, new_rotation, new_span, new_anchor, new_normal, new_separation, new_feature, p
 
 
 class ManifoldCache:
-    """Last step's manifolds, kept for recycling (the world owns one)."""
+    """Last step's manifolds, kept for recycling (the world owns one).
+
+    key: the manifolds' pair keys, ascending; row: each one's row of the store. The store
+    (pose, rotation, span: rows; anchor, normal, separation, feature: points) is written
+    only after rows_used and points_used: a manifold recycled from step to step stays in
+    its row, and a step that is undone leaves the rows it had.
+    """
 
     def __init__(self) -> None:
-        self._sets: list[tuple | None] = [None, None]  # the buffers ``collide`` writes into (``_buffers``)
         self.clear()
 
     def clear(self) -> None:
         """Forget every manifold: the next step collides every pair anew."""
         self.key = np.zeros(0, np.int64)
-        self.start = np.zeros(1, np.int64)
-        self.pose = np.zeros((0, 3))
-        self.theta = np.zeros((0, 2))
+        self.row = np.zeros(0, np.int64)
+        self.pose = np.zeros((0, 2))  # B's centre in A's frame when found (m)
+        self.rotation = np.zeros((0, 4))  # (cos, sin) of A's and of B's angle when found
+        self.span = np.zeros((0, 2), np.int64)  # a row's points: span[r, 0] up to span[r, 1]
         self.anchor = np.zeros((0, 4))
         self.normal = np.zeros((0, 2))
         self.separation = np.zeros(0)
         self.feature = np.zeros(0, np.int32)
+        self.rows_used = 0
+        self.points_used = 0
         self.recycled = 0  # manifolds recycled in the last step
 
-    _STATE = ("key", "start", "pose", "theta", "anchor", "normal", "separation", "feature", "recycled")
+    _STATE = (
+        "key",
+        "row",
+        "pose",
+        "rotation",
+        "span",
+        "anchor",
+        "normal",
+        "separation",
+        "feature",
+        "rows_used",
+        "points_used",
+        "recycled",
+    )
 
     def state(self) -> tuple:
-        """What ``restore`` needs to undo a step (``collide`` replaces the arrays, never edits them):
-        the attributes of ``_STATE``, in its order."""
-        return (*self._cached(), self.recycled)
-
-    def _cached(self) -> tuple:
-        """The cached manifolds' arrays, in ``collide_recycling``'s argument order."""
-        return (self.key, self.start, self.pose, self.theta, self.anchor, self.normal, self.separation, self.feature)
+        """What ``restore`` needs to undo a step: the attributes of ``_STATE``, in its order
+        (``collide`` replaces key and row, and writes the store only after rows_used and points_used)."""
+        return tuple(getattr(self, name) for name in self._STATE)
 
     def restore(self, state: tuple) -> None:
         for name, value in zip(self._STATE, state):
             setattr(self, name, value)
 
-    def _buffers(self, n_pairs: int) -> tuple:
-        """Room for n_pairs manifolds (2 n_pairs points) to collide into: kept from step to step,
-        two sets taken in turn, never the set the cache's arrays (read during ``collide``) live in."""
-        sets = self._sets
-        s = 1 if sets[0] is not None and self.key.base is sets[0][0] else 0
-        current = sets[s]
-        if current is None or current[0].shape[0] < n_pairs:
-            size = max(n_pairs, 64)
-            cap = 2 * size
-            current = (
-                np.zeros(size, np.int64),
-                np.zeros(size + 1, np.int64),
-                np.zeros((size, 3)),
-                np.zeros((size, 2)),
-                np.zeros((cap, 4)),
-                np.zeros((cap, 2)),
-                np.zeros(cap),
-                np.zeros(cap, np.int32),
-            )
-            sets[s] = current
-        return current
+    def live(self) -> tuple:
+        """The cached manifolds as arrays, slot by slot (what two equal caches share bit for bit):
+        keys, then the rows' pose, rotation and point counts, then the points' anchor, normal,
+        separation and feature."""
+        rows = self.row
+        points = np.concatenate([np.arange(*self.span[r]) for r in rows]) if rows.size else np.zeros(0, np.int64)
+        counts = self.span[rows, 1] - self.span[rows, 0]
+        return (
+            self.key,
+            self.pose[rows],
+            self.rotation[rows],
+            counts,
+            self.anchor[points],
+            self.normal[points],
+            self.separation[points],
+            self.feature[points],
+            self.recycled,
+        )
+
+    def _make_room(self, n_pairs: int) -> None:
+        """Room in the store for n_pairs new manifolds (2 n_pairs points): if there is not, a new
+        store of the live rows only, with room for them twice over and for the new ones."""
+        if self.pose.shape[0] - self.rows_used >= n_pairs and self.anchor.shape[0] - self.points_used >= 2 * n_pairs:
+            return
+        self._rebuild(max(64, 2 * (self.key.shape[0] + n_pairs)))
+
+    def _rebuild(self, rows: int) -> None:
+        """A new store of ``rows`` rows (2 rows points) holding the live manifolds only, in slot order."""
+        n = self.key.shape[0]
+        *store, points_used = compact(
+            self.row, self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature, rows
+        )
+        self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature = store
+        self.row = np.arange(n, dtype=np.int64)
+        self.rows_used, self.points_used = n, points_used
 
     def collide(
-        self, pairs, n_pairs, bodies, world_v, world_n, contact_margin, travel, recycle_distance, out, pair_start
+        self,
+        pairs,
+        n_pairs,
+        bodies,
+        rotation,
+        world_v,
+        world_n,
+        contact_margin,
+        travel,
+        recycle_distance,
+        out,
+        pair_start,
     ) -> int:
-        """The step's contact points into ``out`` (as ``collide_pairs``); returns K."""
+        """The step's contact points into ``out`` (as ``collide_pairs``); returns K.
+        rotation: each body's (cos theta, sin theta), as ``update_geometry_in`` returns it."""
         b = bodies
-        new = self._buffers(n_pairs)
-        k, n_new, self.recycled = collide_recycling(  # type: ignore[call-arg]
+        self._make_room(n_pairs)
+        new_key = np.empty(n_pairs, np.int64)
+        new_row = np.empty(n_pairs, np.int64)
+        k, n_new, self.recycled, self.rows_used, self.points_used, ascends = collide_recycling(  # type: ignore[call-arg]
             pairs,
             n_pairs,
             b.x,
-            b.theta,
+            rotation,
             b.kind,
             b.radius,
             b.vstart,
@@ -453,30 +542,24 @@ class ManifoldCache:
             b.friction,
             b.restitution,
             recycle_distance,
-            *self._cached(),
+            self.key,
+            self.row,
+            self.pose,
+            self.rotation,
+            self.span,
+            self.anchor,
+            self.normal,
+            self.separation,
+            self.feature,
+            self.rows_used,
+            self.points_used,
             *out,
             pair_start,
-            *new,
+            new_key,
+            new_row,
         )
-        key, start, pose, theta, anchor, normal, separation, feature = new
-        if ascending(key, n_new):  # pairs come sorted by (a, b), so their keys ascend: keep them as they are
-            self.key, self.start, self.pose, self.theta = key[:n_new], start[: n_new + 1], pose[:n_new], theta[:n_new]
-            self.anchor, self.normal, self.separation, self.feature = (
-                anchor[:k],
-                normal[:k],
-                separation[:k],
-                feature[:k],
-            )
-            return k
-        # sorted by pair key for the next step's look-up; points follow their manifolds
-        by_key = np.argsort(key[:n_new], kind="stable")
-        self.start = np.zeros(n_new + 1, np.int64)
-        points = points_in_order(start, by_key, self.start)
-        self.key = key[:n_new][by_key]
-        self.pose = pose[:n_new][by_key]
-        self.theta = theta[:n_new][by_key]
-        self.anchor = anchor[points]
-        self.normal = normal[points]
-        self.separation = separation[points]
-        self.feature = feature[points]
+        self.key, self.row = new_key[:n_new], new_row[:n_new]
+        if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
+            by_key = np.argsort(self.key, kind="stable")
+            self.key, self.row = self.key[by_key], self.row[by_key]
         return k
