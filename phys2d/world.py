@@ -96,7 +96,7 @@ class World:
         self._n_pairs = 0
         self._pair_order: np.ndarray | None = None  # pair indices in solve order (graph colouring), made when needed
         self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with
-        self._geometry: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._geometry: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._sweep_again = True  # bodies or exclusions changed since: the pairs must be found anew
         self._rows = RowBuffer()
         self._contacts = Contacts().read_only()
@@ -531,11 +531,17 @@ class World:
             anchor=anchor,
         )
 
-    def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """World vertices, edge normals, AABBs and travel: kept while the bodies are the same."""
+    def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """World vertices, edge normals, AABBs, travel and rotations: kept while the bodies are the same."""
         b = self._bodies
         if self._geometry is None or self._geometry[0].shape[0] != b.n_verts or self._geometry[2].shape[0] != b.n:
-            self._geometry = (np.empty((b.n_verts, 2)), np.empty((b.n_verts, 2)), np.empty((b.n, 4)), np.empty(b.n))
+            self._geometry = (
+                np.empty((b.n_verts, 2)),
+                np.empty((b.n_verts, 2)),
+                np.empty((b.n, 4)),
+                np.empty(b.n),
+                np.empty((b.n, 2)),
+            )
         return self._geometry
 
     def _collide(self, dt: float = 0.0) -> tuple[Contacts, np.ndarray]:
@@ -546,8 +552,8 @@ class World:
         velocities could close within dt (speculative contacts).
         """
         b = self._bodies
-        world_v, world_n, aabb, travel = self._geometry_buffers()
-        fits, rotation = update_geometry_in(
+        world_v, world_n, aabb, travel, rotation = self._geometry_buffers()
+        fits = update_geometry_in(
             b.x,
             b.theta,
             b.kind,
@@ -563,6 +569,7 @@ class World:
             world_n,
             aabb,
             travel,
+            rotation,
             self._fat,
         )
         if self._sweep_again or not fits:  # something left its fat box: sweep again

@@ -203,12 +203,13 @@ def test_angle_difference_is_cos_and_sin_of_the_difference():
         assert s == pytest.approx(np.sin(ti - t0i), abs=1e-14)
 
 
-def test_update_geometry_in_returns_each_body_s_rotation():
+def test_update_geometry_in_writes_each_body_s_rotation():
     w = scenes.mixed_shapes(8)  # polygons and circles
     b = w._bodies
     w.bodies[3].angle = 0.7
     n = b.n
-    fits, rotation = update_geometry_in(
+    rotation = np.full((n, 2), np.nan)  # every entry must be written
+    fits = update_geometry_in(
         b.x,
         b.theta,
         b.kind,
@@ -224,10 +225,10 @@ def test_update_geometry_in_returns_each_body_s_rotation():
         np.empty((b.n_verts, 2)),
         np.empty((n, 4)),
         np.empty(n),
+        rotation,
         np.empty((0, 4)),
     )
     assert not fits  # no fat boxes yet
-    assert rotation.shape == (n, 2)
     np.testing.assert_allclose(rotation, np.column_stack([np.cos(b.theta), np.sin(b.theta)]), rtol=0, atol=1e-15)
 
 
