@@ -636,6 +636,7 @@ def soft_step_solve(
     joint_row_offset,
     first_joint_row,
     lam,
+    residuals,
 ):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
     warm start, solve with bias, integrate positions, relax, store; then restitution.
@@ -646,7 +647,8 @@ def soft_step_solve(
     ``lam`` holds the cached impulse per tick going in and the impulse over the whole tick
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
     sub-step out). Joint rows (from first_joint_row) are rebuilt at each sub-step's
-    positions. Returns the number of sweeps and each one's residual (m/s).
+    positions. Returns the number of sweeps; residuals[s] (length ``substeps``) is sweep s's
+    residual (m/s): the caller's buffer, since a kernel that returns an array costs ~1 us a call.
     """
     n_rows = lam.shape[0]
     n_contacts = normal_row.shape[0]
@@ -664,7 +666,6 @@ def soft_step_solve(
     for k in range(n_rows):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
-    residuals = np.zeros(substeps)
     manifolds = prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block)
     x0 = x.copy()
     theta0 = theta.copy()
@@ -812,7 +813,7 @@ def soft_step_solve(
         V,
     )
     lam[:] = total
-    return n_sweeps, residuals
+    return n_sweeps
 
 
 class SoftStep(Responder):
@@ -891,7 +892,8 @@ class SoftStep(Responder):
         rows = ctx.rows
         ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
         p = vars(self)  # the settings, already checked: read from the instance, not through Setting.__get__
-        n, residuals = soft_step_solve(
+        residuals = np.zeros(p["substeps"])
+        n = soft_step_solve(
             rows.normal_row,
             rows.friction_row,
             rows.body_a,
@@ -933,6 +935,7 @@ class SoftStep(Responder):
             ja.row_offset,
             rows.first_joint_row,
             rows.lam,
+            residuals,
         )
         return SolveResult(n, residuals[:n], integrated=True)
 
