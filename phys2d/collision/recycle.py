@@ -45,6 +45,8 @@ rolling circle's point moves over its surface as it turns).
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 from numba import njit
 
@@ -461,7 +463,7 @@ class ManifoldCache:
     def state(self) -> tuple:
         """What ``restore`` needs to undo a step: the attributes of ``_STATE``, in its order
         (``collide`` replaces key and row, and writes the store only after rows_used and points_used)."""
-        return tuple(getattr(self, name) for name in self._STATE)
+        return _read_state(self)
 
     def restore(self, state: tuple) -> None:
         for name, value in zip(self._STATE, state):
@@ -563,3 +565,6 @@ class ManifoldCache:
             by_key = np.argsort(self.key, kind="stable")
             self.key, self.row = self.key[by_key], self.row[by_key]
         return k
+
+
+_read_state = operator.attrgetter(*ManifoldCache._STATE)  # one C call for the whole tuple, once a step
