@@ -123,17 +123,23 @@ def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, c
 
 
 @njit(cache=True)
-def impulses_to_contacts_and_cache(
-    order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, cache_lambda_n, cache_lambda_t, cache_pushed
-):
-    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows (as
-    ``constraints.rows.rows_to_contacts``), and what the cache keeps of them (``impulses_to_cache``)."""
-    impact = np.empty(order.shape[0], np.bool_)
+def rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact):
+    """Contact c = order[q]'s lambda_n, lambda_t (N s) and impact flag, read off its rows."""
     for q in range(order.shape[0]):
         c = order[q]
         lambda_n[c] = lam[normal_row[q]]
         lambda_t[c] = lam[friction_row[q]]
         impact[c] = row_impact[normal_row[q]]
+
+
+@njit(cache=True)
+def impulses_to_contacts_and_cache(
+    order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, cache_lambda_n, cache_lambda_t, cache_pushed
+):
+    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows (``rows_to_contacts``),
+    and what the cache keeps of them (``impulses_to_cache``)."""
+    impact = np.empty(order.shape[0], np.bool_)
+    rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact)
     impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed)
 
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..contacts import find_in_cache
+from ..contacts import find_in_cache, rows_to_contacts
 
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
@@ -152,16 +152,6 @@ class Rows:
         return rows
 
 
-@njit(cache=True)
-def rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact):
-    """Contact c = order[q]'s lambda_n, lambda_t (N s) and impact flag, read off its rows."""
-    for q in range(order.shape[0]):
-        c = order[q]
-        lambda_n[c] = lam[normal_row[q]]
-        lambda_t[c] = lam[friction_row[q]]
-        impact[c] = row_impact[normal_row[q]]
-
-
 class RowBuffer:
     """Row storage reused from step to step, so a step allocates no row arrays."""
 
@@ -187,20 +177,30 @@ class RowBuffer:
 
 
 @njit(cache=True, inline="always")
-def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
-    """Row k of J for direction d acting at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]."""
-    J[k, 0] = -dx
-    J[k, 1] = -dy
-    J[k, 2] = -(r_ax * dy - r_ay * dx)
-    J[k, 3] = dx
-    J[k, 4] = dy
-    J[k, 5] = r_bx * dy - r_by * dx
+def jacobian(r_ax, r_ay, r_bx, r_by, dx, dy):
+    """The six entries of a row for direction d at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]."""
+    return (-dx, -dy, -(r_ax * dy - r_ay * dx), dx, dy, r_bx * dy - r_by * dx)
+
+
+@njit(cache=True, inline="always")
+def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk):
+    """Row k's J = j, JM = M^-1 J^T and A_kk = J M^-1 J^T, from its entries and the two bodies'
+    rows of M^-1 in hand."""
     A = 0.0
     for c in range(3):
-        JM[k, c] = M_inv[a, c] * J[k, c]
-        JM[k, 3 + c] = M_inv[b, c] * J[k, 3 + c]
-        A += J[k, c] * JM[k, c] + J[k, 3 + c] * JM[k, 3 + c]
+        jm_a, jm_b = M_inv_a[c] * j[c], M_inv_b[c] * j[3 + c]
+        J[k, c], J[k, 3 + c] = j[c], j[3 + c]
+        JM[k, c], JM[k, 3 + c] = jm_a, jm_b
+        A += j[c] * jm_a + j[3 + c] * jm_b
     A_kk[k] = A
+
+
+@njit(cache=True, inline="always")
+def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
+    """Row k of J for direction d acting at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]
+    (``jacobian``), with its JM and A_kk (``store_row``)."""
+    M_inv_a, M_inv_b = (M_inv[a, 0], M_inv[a, 1], M_inv[a, 2]), (M_inv[b, 0], M_inv[b, 1], M_inv[b, 2])
+    store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, dx, dy), M_inv_a, M_inv_b, J, JM, A_kk)
 
 
 @njit(cache=True, inline="always")
@@ -265,31 +265,6 @@ def bounce_target(e, vn_impact, dvn):
     if e == 0.0:
         return 0.0
     return -e * vn_impact - 0.5 * dvn
-
-
-@njit(cache=True, inline="always")
-def jacobian(r_ax, r_ay, r_bx, r_by, dx, dy):
-    """The six entries of a row for direction d at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]."""
-    return (-dx, -dy, -(r_ax * dy - r_ay * dx), dx, dy, r_bx * dy - r_by * dx)
-
-
-@njit(cache=True, inline="always")
-def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk):
-    """Row k's J = j, JM = M^-1 J^T and A_kk = J M^-1 J^T (as ``fill_row``, from entries and
-    the two bodies' rows of M^-1 in hand)."""
-    A = 0.0
-    for c in range(3):
-        jm_a, jm_b = M_inv_a[c] * j[c], M_inv_b[c] * j[3 + c]
-        J[k, c], J[k, 3 + c] = j[c], j[3 + c]
-        JM[k, c], JM[k, 3 + c] = jm_a, jm_b
-        A += j[c] * jm_a + j[3 + c] * jm_b
-    A_kk[k] = A
-
-
-@njit(cache=True, inline="always")
-def relative_velocity(j, a, b, V):
-    """J_k V for row entries j in hand, summed as ``row_velocity`` sums it (m/s)."""
-    return (j[0] * V[a, 0] + j[1] * V[a, 1]) + (j[2] * V[a, 2] + j[5] * V[b, 2]) + (j[3] * V[b, 0] + j[4] * V[b, 1])
 
 
 @njit(cache=True)
@@ -390,13 +365,12 @@ def contact_rows(
             r_bx, r_by = point[c, 0] - x[b, 0], point[c, 1] - x[b, 1]
         m = cached[c]
         k = normal_row[q]
-        j = jacobian(r_ax, r_ay, r_bx, r_by, nx, ny)
         out_a[k] = a
         out_b[k] = b
-        store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk)
+        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, nx, ny), M_inv_a, M_inv_b, J, JM, A_kk)
         xi_k = speculative_target(C, dt)
         push[k] = baumgarte_push(C, beta_over_dt, slop, push_max)
-        vn_start, vn_forced = relative_velocity(j, a, b, V1), relative_velocity(j, a, b, V)
+        vn_start, vn_forced = row_velocity(k, a, b, J, V1), row_velocity(k, a, b, J, V)
         vn = approach_at_impact(C, vn_start, vn_forced, dt)
         bounce_k = 0.0
         impact[k] = C > MET and vn < -restitution_threshold

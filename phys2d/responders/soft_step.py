@@ -891,8 +891,7 @@ class SoftStep(Responder):
     def respond(self, ctx: StepContext) -> SolveResult:
         rows = ctx.rows
         ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
-        p = vars(self)  # the settings, already checked: read from the instance, not through Setting.__get__
-        residuals = np.zeros(p["substeps"])
+        residuals = np.zeros(self.substeps)
         n = soft_step_solve(
             rows.normal_row,
             rows.friction_row,
@@ -916,16 +915,16 @@ class SoftStep(Responder):
             ctx.V,
             ctx.V1,
             ctx.dt,
-            p["substeps"],
-            p["relax"],
-            p["contact_hertz"],
-            p["damping_ratio"],
-            p["push_max"],
-            p["joint_hertz"],
-            p["joint_damping_ratio"],
-            p["direct_joints"],
-            p["restitution_threshold"],
-            p["block"],
+            self.substeps,
+            self.relax,
+            self.contact_hertz,
+            self.damping_ratio,
+            self.push_max,
+            self.joint_hertz,
+            self.joint_damping_ratio,
+            self.direct_joints,
+            self.restitution_threshold,
+            self.block,
             ja.kind,
             ja.i,
             ja.j,
