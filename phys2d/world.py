@@ -3,9 +3,11 @@
     external forces -> collision -> cache matching -> constraint rows
                     -> responder -> integration
 
-Each stage lives in its own module; ``World.step`` is the pipeline in one screen.
-Responders that move positions themselves (the split push, sub-steps, a bounce
-after the move) say so, and the world does not integrate again.
+Each stage lives in its own module; ``World._step_in_stages`` is the pipeline in one
+screen. Responders that move positions themselves (the split push, sub-steps, a bounce
+after the move) say so, and the world does not integrate again. For PGS and SoftStep,
+``World.step`` runs the same stages in one numba call (``phys2d.tick``): on a small
+scene the calls from Python and the Python between them cost more than the physics.
 """
 
 from __future__ import annotations
@@ -37,11 +39,24 @@ from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
 from .responders.base import EMPTY, Responder, StepContext, StepReport
 from .responders.pgs import PGS
+from .tick import (
+    CACHE_FIELDS,
+    CONTACT_FIELDS,
+    NEED_SWEEP,
+    ROW_FIELDS,
+    TOO_FAST,
+    TickBuffers,
+    TickSpec,
+    TickState,
+    make_tick_state,
+    tick_for,
+)
 from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
 
 _J = TypeVar("_J", bound=Joint)
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
+FAT_GROWTH = np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
 NOT_COUNTED = np.ones(0)  # points per manifold, when the friction model does not need them
 NONE_WARM = np.zeros(0, np.bool_)  # placeholder until the step has warm started its contacts
 
@@ -69,6 +84,10 @@ class World:
     gravity, contact_margin, max_speed, contact_recycle_distance and responder can be
     set between steps; a bad value is refused with the constructor's message and
     changes nothing.
+
+    one_call_tick  run a step in one kernel call when the responder has one (PGS in
+                impulse form, SoftStep; default True); False calls each stage's kernel
+                from Python, with bit-identical results (to time or watch the stages)
     """
 
     def __init__(
@@ -101,6 +120,14 @@ class World:
         self._rows = RowBuffer()
         self._contacts = Contacts().read_only()
         self._contacts_sealed = True
+        self._pending_contacts: tuple | None = None  # (buffers, K) of a one-call tick's contacts, read lazily
+        self._tick_buffers = TickBuffers(0, 0)
+        self._undo = (np.empty((0, 2)), np.empty(0), np.empty((0, 3)))  # x0, theta0, V1 of the one-call tick
+        self._joint_lam = np.zeros(0)  # the joints' reactions warm starting the one-call tick
+        self._residuals = np.zeros(16)
+        self._tick_state_over: tuple = ()  # the arrays the kept TickState was made over
+        self._tick_state_kept: TickState | None = None
+        self.one_call_tick = True
         self._last_step = StepReport().read_only()
         self.tick = 0
         self.time = 0.0
@@ -333,6 +360,7 @@ class World:
             h._index -= 1
         item._index = -1
         self._contacts = Contacts().read_only()  # its indices no longer match w.bodies
+        self._contacts_sealed, self._pending_contacts = True, None
         self._last_step = StepReport().read_only()  # nor does the last step's report
         self._joints_changed()
 
@@ -433,6 +461,7 @@ class World:
     def _joints_changed(self) -> None:
         """Repack the joints and rebuild the sorted keys of pairs that must not collide."""
         self._joint_arrays = JointArrays(self._joints)
+        self._joint_lam = np.zeros(self._joint_arrays.n_rows)
         keys = [
             (min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
             for q in self._joints
@@ -443,12 +472,28 @@ class World:
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:
-        """Advance the world by dt seconds; returns (and keeps as ``last_step``) the report."""
-        dt = positive_float(dt, "dt")
+        """Advance the world by dt seconds; returns (and keeps as ``last_step``) the report.
+
+        The tick runs in one kernel call (``phys2d.tick``) when the responder has one and
+        ``one_call_tick`` is set, else stage by stage (``_step_in_stages``): the same stages
+        in the same order, with bit-identical results."""
+        if type(dt) is not float or not 0.0 < dt < math.inf:  # (a plain positive float passes at once)
+            dt = positive_float(dt, "dt")
+        responder = self._responder
+        if self._joints:
+            self._check_joints_supported(responder)
+        spec = tick_for(responder) if self.one_call_tick else None
+        report = self._step_in_stages(dt, responder) if spec is None else self._step_in_one_call(dt, spec)
+        self._last_step = report
+        self.tick += 1
+        self.time += dt
+        return report
+
+    def _step_in_stages(self, dt: float, responder: Responder) -> StepReport:
+        """The tick one stage at a time: external forces, collision, rows, the responder's
+        ``respond``, integration (unless it moved the bodies itself), the limits, the caches."""
         b = self._bodies
         x, theta, V, M_inv = b.x, b.theta, b.V, b.M_inv
-        responder = self._responder
-        self._check_joints_supported(responder)
         x0, theta0, V1 = x.copy(), theta.copy(), V.copy()  # the undo; V1 is also the velocity the tick began with
         manifolds_before = self._manifolds.state()
         try:
@@ -467,9 +512,9 @@ class World:
         k = len(c)
         c.lambda_n, c.lambda_t = self._cache.store_rows(c.key, rows)
         c.warm_started = hit
-        self._store_joint_impulses(rows)
-        self._contacts, self._contacts_sealed = c, False  # sealed read-only when first looked at
-        self._last_step = StepReport(
+        self._store_joint_impulses(rows.first_joint_row, rows.lam)
+        self._contacts, self._contacts_sealed, self._pending_contacts = c, False, None  # sealed when first looked at
+        return StepReport(
             responder=responder.name,
             dt=dt,
             iterations=result.iterations,
@@ -482,14 +527,122 @@ class World:
             system=result.system,
             solve_order=order,
         )  # its arrays turn read-only when first looked at
-        self.tick += 1
-        self.time += dt
-        return self._last_step
+
+    def _step_in_one_call(self, dt: float, spec: TickSpec) -> StepReport:
+        """The tick as one kernel call (``phys2d.tick``; two when the broadphase must sweep
+        first). The kernel writes the side of the double buffers the last good step did not;
+        only a step that succeeds makes it the caches' and the contacts'."""
+        b, m, cache = self._bodies, self._manifolds, self._cache
+        if self._joints:  # joints keep their identity: last step's reactions start this one's
+            np.concatenate([q._impulse for q in self._joints], out=self._joint_lam)
+        world = (self._gravity, self._gravity_norm, dt, self._contact_margin, self._contact_recycle_distance)
+        stage, began = 0, False
+        try:
+            while True:
+                t = self._room_for_tick(spec)
+                side = t.side
+                state = self._tick_state(t)
+                began = True  # from here the undo buffers hold the state before the step
+                result = spec.kernel(
+                    state, stage, side, (self._n_pairs, spec.colour_order, self._sweep_again),
+                    (m.key.shape[0], cache.keys.shape[0], m.rows_used, m.points_used), world, spec.row_settings,
+                    self._max_speed, *spec.settings,
+                )  # fmt: skip
+                if result[0] != NEED_SWEEP:
+                    break
+                self._sweep(self._geometry_buffers()[2])
+                stage = 1  # forces and geometry are done: go on from the contacts
+            if result[0] == TOO_FAST:
+                self._check_limits()  # raises, naming the bodies
+        except BaseException:
+            if began:
+                b.restore(self._undo)
+            raise
+        _, k, n_new, m.recycled, m.rows_used, m.points_used, hits, deepest, count = result
+        w = t.side = 1 - side
+        m.key, m.row = t.m_key[w][:n_new], t.m_row[w][:n_new]
+        cache.keys, cache.lambda_n = t.cache_keys[w][:k], t.cache_lambda_n[w][:k]
+        cache.lambda_t, cache.pushed = t.cache_lambda_t[w][:k], t.cache_pushed[w][:k]
+        t.views = (m.key, m.row, cache.keys)
+        self._pending_contacts, self._contacts_sealed = (t, w, k), False
+        joint_impulses = EMPTY
+        if self._joints:
+            self._store_joint_impulses(2 * k, t.lam)
+            joint_impulses = t.lam[2 * k : 2 * k + self._joint_lam.shape[0]].copy()
+        return StepReport(
+            spec.name, dt, count, self._residuals[:count].copy(), deepest, k, hits, joint_impulses, None,
+            t.order[w][:k].copy(), spec.counts,
+        )  # fmt: skip
+
+    def _room_for_tick(self, spec: TickSpec) -> TickBuffers:
+        """The one-call tick's buffers, with room for this step's pairs, joint rows and sweeps, and
+        for the caches; caches a staged step left (arrays of their own) are copied in."""
+        t, m, cache = self._tick_buffers, self._manifolds, self._cache
+        n_joint_rows = self._joint_lam.shape[0]
+        pairs = max(self._n_pairs, m.key.shape[0], (cache.keys.shape[0] + 1) // 2)
+        if not t.holds(pairs, n_joint_rows):
+            t = self._tick_buffers = TickBuffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
+        m.make_room(self._n_pairs)  # (a store made anew numbers its rows anew: m.row is then new)
+        if t.views[0] is not m.key or t.views[1] is not m.row or t.views[2] is not cache.keys:
+            n, k, side = m.key.shape[0], cache.keys.shape[0], t.side  # not this side's views: copy them in
+            t.m_key[side][:n], t.m_row[side][:n] = m.key, m.row
+            t.cache_keys[side][:k], t.cache_lambda_n[side][:k] = cache.keys, cache.lambda_n
+            t.cache_lambda_t[side][:k], t.cache_pushed[side][:k] = cache.lambda_t, cache.pushed
+            t.views = (m.key, m.row, cache.keys)
+        if self._residuals.shape[0] < spec.n_residuals:
+            self._residuals = np.zeros(spec.n_residuals)
+        if spec.colour_order and not self._sweep_again:  # the pairs in colour order, in the buffers
+            if self._pair_order is None:
+                self._pair_order = colour_pairs(self._pairs, self._n_pairs, self._bodies.static, self._bodies.n)
+            if t.coloured is not self._pair_order:
+                t.pair_order[: self._n_pairs] = self._pair_order
+                t.coloured = self._pair_order
+        return t
+
+    def _tick_state(self, t: TickBuffers) -> TickState:
+        """The ``TickState`` over the world's arrays: made anew when one of them was replaced."""
+        b, m = self._bodies, self._manifolds
+        if self._undo[1].shape[0] != b.n:
+            self._undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
+        geometry = self._geometry_buffers()
+        over = self._tick_state_over
+        if (
+            not over
+            or over[0] is not b.kernel_arrays
+            or over[1] is not geometry
+            or over[2] is not self._fat
+            or over[3] is not self._pairs
+            or over[4] is not t
+            or over[5] is not m.store
+            or over[6] is not self._joint_arrays
+            or over[7] is not self._joint_lam
+            or over[8] is not self._residuals
+            or over[9] is not self._undo
+        ):
+            ja = self._joint_arrays
+            self._tick_state_kept = make_tick_state(
+                b.kernel_arrays,
+                (*geometry, self._fat, self._pairs, t.pair_order),
+                (*m.store, t.m_key, t.m_row),
+                t.group(CACHE_FIELDS),
+                t.group(CONTACT_FIELDS),
+                t.group(ROW_FIELDS),
+                (ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, self._joint_lam),
+                (*self._undo, self._residuals),
+            )
+            self._tick_state_over = (
+                b.kernel_arrays, geometry, self._fat, self._pairs, t, m.store, ja, self._joint_lam, self._residuals,
+                self._undo,
+            )  # fmt: skip
+        return self._tick_state_kept  # type: ignore[return-value]
 
     @property
     def contacts(self) -> Contacts:
         """The contact points of the last step (read-only arrays)."""
         if not self._contacts_sealed:
+            if self._pending_contacts is not None:  # a one-call tick's: copied out of its buffers now
+                self._contacts = _contacts_from(*self._pending_contacts)
+                self._pending_contacts = None
             self._contacts.read_only()
             self._contacts_sealed = True
         return self._contacts
@@ -573,13 +726,7 @@ class World:
             self._fat,
         )
         if self._sweep_again or not fits:  # something left its fat box: sweep again
-            fat = aabb + np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
-            n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
-            if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
-                self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
-                n_pairs = sweep_and_prune(fat, b.static, self._excluded, self._pairs)
-            self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
-            self._pair_order = None  # coloured when a responder first visits these pairs by colour
+            self._sweep(aabb)
         cap = 2 * self._n_pairs
         out = (
             np.empty(cap, np.int32),
@@ -629,6 +776,17 @@ class World:
             friction=mu,
             restitution=e,
         ), order
+
+    def _sweep(self, aabb: np.ndarray) -> None:
+        """The broadphase's pairs anew, from the bodies' boxes grown by FAT_MARGIN (the fat boxes)."""
+        fat = self._fat if self._fat.shape == aabb.shape else np.empty_like(aabb)  # kept: the tick's state holds it
+        np.add(aabb, FAT_GROWTH, out=fat)
+        n_pairs = sweep_and_prune(fat, self._bodies.static, self._excluded, self._pairs)
+        if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
+            self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
+            n_pairs = sweep_and_prune(fat, self._bodies.static, self._excluded, self._pairs)
+        self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
+        self._pair_order = None  # coloured when a responder first visits these pairs by colour
 
     def _build_rows(
         self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
@@ -741,14 +899,14 @@ class World:
                 rows.lam[rows.first_joint_row :] = 0.0
         return rows, hit, hits, deepest
 
-    def _store_joint_impulses(self, rows: Rows) -> None:
-        """Hand each joint its rows and reactions of the step just taken."""
+    def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray) -> None:
+        """Hand each joint its rows and reactions (``lam`` of the step's rows) of the step just taken."""
         ja = self._joint_arrays
         for q, joint in enumerate(self._joints):
-            start = rows.first_joint_row + int(ja.row_offset[q])
+            start = first_joint_row + int(ja.row_offset[q])
             joint._row_start = start
             joint._has_rows = True
-            joint._impulse = rows.lam[start : start + joint.row_count].copy()
+            joint._impulse = lam[start : start + joint.row_count].copy()
 
     def _check_limits(self) -> None:
         b = self._bodies
@@ -861,3 +1019,22 @@ class World:
             f"<World: {n} bodies ({n_static} static), gravity=({self._gravity[0]:g}, "
             f"{self._gravity[1]:g}) m/s^2, responder={self._responder!r}, t={self.time:.4g} s>"
         )
+
+
+def _contacts_from(t: TickBuffers, side: int, k: int) -> Contacts:
+    """A one-call tick's K contacts, copied out of side ``side`` of its buffers."""
+    return Contacts(
+        body_a=t.body_a[side][:k].copy(),
+        body_b=t.body_b[side][:k].copy(),
+        point=t.point[side][:k].copy(),
+        anchor=t.anchor[side][:k].copy(),
+        normal=t.normal[side][:k].copy(),
+        separation=t.separation[side][:k].copy(),
+        lambda_n=t.lambda_n[side][:k].copy(),
+        lambda_t=t.lambda_t[side][:k].copy(),
+        feature=t.feature[side][:k].copy(),
+        key=t.key[side][:k].copy(),
+        warm_started=t.hit[side][:k].copy(),
+        friction=t.mu[side][:k].copy(),
+        restitution=t.e[side][:k].copy(),
+    )

@@ -444,6 +444,7 @@ class ManifoldCache:
         self.rows_used = 0
         self.points_used = 0
         self.recycled = 0  # manifolds recycled in the last step
+        self._store_changed()
 
     _STATE = (
         "key",
@@ -468,6 +469,11 @@ class ManifoldCache:
     def restore(self, state: tuple) -> None:
         for name, value in zip(self._STATE, state):
             setattr(self, name, value)
+        self._store_changed()
+
+    def _store_changed(self) -> None:
+        """The store's arrays as the one-call tick takes them (``phys2d.tick``)."""
+        self.store = (self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature)
 
     def live(self) -> tuple:
         """The cached manifolds as arrays, slot by slot (what two equal caches share bit for bit):
@@ -488,7 +494,7 @@ class ManifoldCache:
             self.recycled,
         )
 
-    def _make_room(self, n_pairs: int) -> None:
+    def make_room(self, n_pairs: int) -> None:
         """Room in the store for n_pairs new manifolds (2 n_pairs points): if there is not, a new
         store of the live rows only, with room for them twice over and for the new ones."""
         if self.pose.shape[0] - self.rows_used >= n_pairs and self.anchor.shape[0] - self.points_used >= 2 * n_pairs:
@@ -502,6 +508,7 @@ class ManifoldCache:
             self.row, self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature, rows
         )
         self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature = store
+        self._store_changed()
         self.row = np.arange(n, dtype=np.int64)
         self.rows_used, self.points_used = n, points_used
 
@@ -522,7 +529,7 @@ class ManifoldCache:
         """The step's contact points into ``out`` (as ``collide_pairs``); returns K.
         rotation: each body's (cos theta, sin theta), as ``update_geometry_in`` returns it."""
         b = bodies
-        self._make_room(n_pairs)
+        self.make_room(n_pairs)
         new_key = np.empty(n_pairs, np.int64)
         new_row = np.empty(n_pairs, np.int64)
         k, n_new, self.recycled, self.rows_used, self.points_used, ascends = collide_recycling(  # type: ignore[call-arg]

@@ -202,6 +202,10 @@ class Responder:
     contacts_in_row_order = True
     found_lever_arms = False
 
+    def __setattr__(self, name: str, value: object) -> None:
+        super().__setattr__(name, value)  # a Setting checks the value here
+        self.__dict__.pop("_tick_spec", None)  # the world reads the settings of its one-call tick again
+
     @property
     def name(self) -> str:
         """The responder's name in reports (a subclass may set a plain class attribute)."""

@@ -1,0 +1,371 @@
+"""One tick in one call: ``World.step``'s stages inside one numba kernel.
+
+The staged step (``World._step_in_stages``) calls one kernel per stage, with Python in
+between: on a small scene those calls and that Python are most of the step
+(benchmarks/STAGES.md). A responder whose whole solve is one kernel (``PGS`` in impulse
+form, ``SoftStep``) gets a tick here instead: the same stage functions, called in the same
+order on the same arrays, so every state after any number of steps is bit-identical to the
+staged path's (tests/test_tick.py).
+
+    begin_tick         undo copy, external forces, geometry (do last step's pairs still hold?)
+    find_contacts      manifolds recycled or found; the order the responder visits them in
+    build_rows         contact rows (warm started from the cache), joint rows
+    pgs_tick / soft_tick   the responder's kernel, then ``end_tick``: the speed limits, the cache
+
+The kernels read the world's arrays from one ``TickState`` (a numba structref: a call costs
+~0.18 us per array argument, and the tick reads 85 arrays; the state is one argument). What
+stays in Python (``World._step_in_one_call``): the broadphase sweep when a body left its fat
+box (the kernel stops after the geometry and says so), growing buffers, the report.
+
+Double buffers: the contacts, the contact cache and the manifold keys come in two sides
+(a leading axis of 2). A tick reads the side the last good step wrote and writes the
+other; only a step that succeeds makes its side current, so a step that fails leaves the
+last good step's contacts (read lazily) and caches as they were.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+from numba import config, njit, types
+from numba.experimental import structref
+
+from .collision.broadphase import update_geometry_in
+from .collision.recycle import collide_recycling
+from .collision.sort import stable_argsort
+from .constraints.joints import joint_rows
+from .constraints.order import solve_order
+from .constraints.rows import FRICTION_LECTURE, contact_row_map, contact_rows
+from .contacts import impulses_to_contacts_and_cache
+from .integrate import apply_external_forces, first_too_fast
+from .responders.base import Responder
+from .responders.pgs import PGS, pgs_step
+from .responders.soft_step import SoftStep, soft_step_solve
+
+OK = 0
+NEED_SWEEP = 1  # a body left its fat box (or the bodies changed): sweep, then call again at stage 1
+TOO_FAST = 2  # a body ended the step past max_speed or not finite: undo and raise
+
+BODY_FIELDS = (
+    "x", "theta", "V", "M_inv", "kind", "radius", "vstart", "vcount", "local_v", "local_n", "static", "uid",
+    "friction", "restitution",
+)  # fmt: skip
+GEOMETRY_FIELDS = ("world_v", "world_n", "aabb", "travel", "rotation", "fat", "pairs", "pair_order")
+STORE_FIELDS = (  # the manifold store (``ManifoldCache``), then the manifolds' keys and rows, two sides
+    "found_pose", "found_rotation", "span", "m_anchor", "m_normal", "m_separation", "m_feature", "m_key", "m_row",
+)  # fmt: skip
+CACHE_FIELDS = ("cache_keys", "cache_lambda_n", "cache_lambda_t", "cache_pushed")  # two sides
+CONTACT_FIELDS = (  # two sides
+    "body_a", "body_b", "point", "normal", "separation", "feature", "key", "mu", "e", "anchor", "lambda_n",
+    "lambda_t", "hit", "order",
+)  # fmt: skip
+ROW_FIELDS = (
+    "pair_start", "points_in_manifold", "normal_row", "friction_row", "row_a", "row_b", "J", "JM", "A_kk", "xi",
+    "push", "bounce", "impact", "lo", "hi", "bound_row", "row_mu", "lam",
+)  # fmt: skip
+JOINT_FIELDS = ("joint_kind", "joint_i", "joint_j", "joint_local_i", "joint_local_j", "joint_params",
+                "joint_row_offset", "joint_lam")  # fmt: skip
+TICK_FIELDS = (
+    BODY_FIELDS + GEOMETRY_FIELDS + STORE_FIELDS + CACHE_FIELDS + CONTACT_FIELDS + ROW_FIELDS + JOINT_FIELDS
+    + ("x0", "theta0", "V1", "residuals")
+)  # fmt: skip
+
+if config.DISABLE_JIT:  # type: ignore[attr-defined]  # plain Python: a plain object, so a debugger steps through the kernels below
+
+    class TickState:
+        """The world's arrays as the one-call tick reads them (fields: ``TICK_FIELDS``)."""
+
+        def __init__(self, *arrays: np.ndarray) -> None:
+            for name, a in zip(TICK_FIELDS, arrays, strict=True):
+                setattr(self, name, a)
+
+else:
+
+    @structref.register
+    class TickStateType(types.StructRef):
+        def preprocess_fields(self, fields):
+            return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+    class TickState(structref.StructRefProxy):  # type: ignore[no-redef]
+        """The world's arrays as the one-call tick reads them (fields: ``TICK_FIELDS``): one
+        kernel argument. Made by ``make_tick_state`` (compiled once and cached)."""
+
+    structref.define_proxy(TickState, TickStateType, TICK_FIELDS)
+
+
+@njit(cache=True)
+def make_tick_state(bodies, geometry, store, cache, contacts, rows, joints, rest):
+    """A ``TickState`` of the groups of arrays (each a tuple, in the order of its ``*_FIELDS``)."""
+    x, theta, V, M_inv, kind, radius, vstart, vcount, local_v, local_n, static, uid, friction, restitution = bodies
+    world_v, world_n, aabb, travel, rotation, fat, pairs, pair_order = geometry
+    found_pose, found_rotation, span, m_anchor, m_normal, m_separation, m_feature, m_key, m_row = store
+    cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed = cache
+    body_a, body_b, point, normal, separation, feature, key, mu, e, anchor, lambda_n, lambda_t, hit, order = contacts
+    pair_start, points_in_manifold, normal_row, friction_row, row_a, row_b, J, JM, A_kk, xi = rows[:10]
+    push, bounce, impact, lo, hi, bound_row, row_mu, lam = rows[10:]
+    joint_kind, joint_i, joint_j, joint_local_i, joint_local_j, joint_params, joint_row_offset, joint_lam = joints
+    x0, theta0, V1, residuals = rest
+    return TickState(
+        x, theta, V, M_inv, kind, radius, vstart, vcount, local_v, local_n, static, uid, friction, restitution,
+        world_v, world_n, aabb, travel, rotation, fat, pairs, pair_order,
+        found_pose, found_rotation, span, m_anchor, m_normal, m_separation, m_feature, m_key, m_row,
+        cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed,
+        body_a, body_b, point, normal, separation, feature, key, mu, e, anchor, lambda_n, lambda_t, hit, order,
+        pair_start, points_in_manifold, normal_row, friction_row, row_a, row_b, J, JM, A_kk, xi,
+        push, bounce, impact, lo, hi, bound_row, row_mu, lam,
+        joint_kind, joint_i, joint_j, joint_local_i, joint_local_j, joint_params, joint_row_offset, joint_lam,
+        x0, theta0, V1, residuals,
+    )  # fmt: skip
+
+
+class TickBuffers:
+    """What the one-call tick writes, sized for ``pairs`` broadphase pairs (2 points each) and
+    ``joint_rows`` joint rows; kept by the world from step to step, grown when short.
+    Attributes are named as in ``TICK_FIELDS``; the two-sided ones have a leading axis of 2."""
+
+    def __init__(self, pairs: int, joint_rows: int) -> None:
+        self.pairs, self.joint_rows = pairs, joint_rows
+        cap = 2 * pairs  # contact points
+        self.pair_order = np.zeros(pairs, np.int32)
+        self.m_key, self.m_row = np.zeros((2, pairs), np.int64), np.zeros((2, pairs), np.int64)
+        self.cache_keys, self.cache_pushed = np.zeros((2, cap), np.int64), np.zeros((2, cap), np.bool_)
+        self.cache_lambda_n, self.cache_lambda_t = np.zeros((2, cap)), np.zeros((2, cap))
+        self.body_a, self.body_b = np.zeros((2, cap), np.int32), np.zeros((2, cap), np.int32)
+        self.point, self.normal, self.anchor = np.zeros((2, cap, 2)), np.zeros((2, cap, 2)), np.zeros((2, cap, 4))
+        self.separation, self.mu, self.e = np.zeros((2, cap)), np.zeros((2, cap)), np.zeros((2, cap))
+        self.feature, self.key = np.zeros((2, cap), np.int32), np.zeros((2, cap), np.int64)
+        self.lambda_n, self.lambda_t, self.hit = np.zeros((2, cap)), np.zeros((2, cap)), np.zeros((2, cap), np.bool_)
+        self.order = np.zeros((2, cap + 2), np.int32)  # two spare slots: ``solve_order``
+        n_rows = 2 * cap + joint_rows
+        self.pair_start, self.points_in_manifold = np.zeros(pairs + 1, np.int64), np.zeros(cap)
+        self.normal_row, self.friction_row, _ = contact_row_map(cap)
+        self.row_a, self.row_b = np.zeros(n_rows, np.int32), np.zeros(n_rows, np.int32)
+        self.J, self.JM = np.zeros((n_rows, 6)), np.zeros((n_rows, 6))
+        self.A_kk, self.xi, self.push, self.bounce = (np.zeros(n_rows) for _ in range(4))
+        self.lo, self.hi, self.row_mu, self.lam = (np.zeros(n_rows) for _ in range(4))
+        self.impact, self.bound_row = np.zeros(n_rows, np.bool_), np.full(n_rows, -1, np.int32)
+        self.joint_lam = np.zeros(joint_rows)
+        self.side = 0  # the side the last good step wrote
+        self.views: tuple = ((), (), ())  # that side's manifold keys, rows and contact keys as the world holds them
+        self.coloured: np.ndarray | None = None  # the pair order copied into pair_order
+
+    def holds(self, pairs: int, joint_rows: int) -> bool:
+        """Whether these buffers have room for a step of ``pairs`` pairs and ``joint_rows`` joint rows."""
+        return pairs <= self.pairs and joint_rows <= self.joint_rows
+
+    def group(self, fields: tuple[str, ...]) -> tuple[np.ndarray, ...]:
+        return tuple(getattr(self, name) for name in fields)
+
+
+@njit(cache=True)
+def begin_tick(s, gravity, dt, margin):
+    """Keep the state to undo (x0, theta0; V1 is also the velocity the tick began with), add
+    the external forces to V, and update the geometry; returns whether last step's pairs
+    still hold (every tight box inside its fat box)."""
+    s.x0[:, :] = s.x
+    s.theta0[:] = s.theta
+    s.V1[:, :] = s.V
+    apply_external_forces(s.V, s.M_inv, gravity, dt)
+    return update_geometry_in(
+        s.x, s.theta, s.kind, s.radius, s.vstart, s.vcount, s.local_v, s.local_n, s.V, dt, margin,
+        s.world_v, s.world_n, s.aabb, s.travel, s.rotation, s.fat,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def find_contacts(s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance):
+    """The step's contact points into side 1 - side (``collide_recycling``: recycled manifolds or
+    new ones), this step's manifolds sorted by key for the next step's look-up, and the solve
+    order: by colour (``pair_order``) or pair order. Returns (K, manifolds, recycled,
+    rows_used, points_used)."""
+    w = 1 - side
+    new_key, new_row = s.m_key[w], s.m_row[w]
+    k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(
+        s.pairs, n_pairs, s.x, s.rotation, s.kind, s.radius, s.vstart, s.vcount, s.local_v, s.static,
+        s.world_v, s.world_n, margin, s.travel, s.uid, s.friction, s.restitution, recycle_distance,
+        s.m_key[side][:n_cached], s.m_row[side][:n_cached], s.found_pose, s.found_rotation, s.span, s.m_anchor,
+        s.m_normal, s.m_separation, s.m_feature, rows_used, points_used,
+        s.body_a[w], s.body_b[w], s.point[w], s.normal[w], s.separation[w], s.feature[w], s.key[w], s.mu[w],
+        s.e[w], s.anchor[w], s.pair_start, new_key, new_row,
+    )  # fmt: skip
+    if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
+        by_key = stable_argsort(new_key[:n_new])
+        new_key[:n_new] = new_key[:n_new][by_key]
+        new_row[:n_new] = new_row[:n_new][by_key]
+    order = s.order[w]
+    if colour_order:
+        order[:k] = solve_order(s.pair_order[:n_pairs], s.pair_start[: n_pairs + 1])
+    else:
+        for q in range(k):
+            order[q] = q
+    return k, n_new, recycled, rows_used, points_used
+
+
+@njit(cache=True)
+def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings):
+    """The contacts' rows (``contact_rows``: row pair q is contact order[q]) and then the joints'
+    (``joint_rows``), warm started from the caches when ``warm_start``. Returns (deepest
+    overlap in m, contacts warm started)."""
+    beta, slop, push_max, restitution_threshold, friction_model, found_arms, warm_start = row_settings
+    w = 1 - side
+    if friction_model == FRICTION_LECTURE:  # the lecture's bound shares m_c among a manifold's points
+        for p in range(n_pairs):
+            for c in range(s.pair_start[p], s.pair_start[p + 1]):
+                s.points_in_manifold[c] = s.pair_start[p + 1] - s.pair_start[p]
+    first = 2 * k  # the first joint row
+    n = first + s.joint_lam.shape[0]  # the step's rows
+    deepest, hits = contact_rows(
+        s.order[w][:k], s.normal_row[:k], s.friction_row[:k], s.body_a[w][:k], s.body_b[w][:k], s.point[w][:k],
+        s.anchor[w][:k], found_arms, s.normal[w][:k], s.separation[w][:k], s.mu[w][:k], s.e[w][:k],
+        s.x, s.V1, s.V, s.M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity_norm,
+        s.points_in_manifold[:k], warm_start, s.cache_keys[side][:k_cached], s.cache_lambda_n[side][:k_cached],
+        s.cache_lambda_t[side][:k_cached], s.cache_pushed[side][:k_cached], s.key[w][:k], s.uid, s.static,
+        s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n], s.push[:n], s.bounce[:n],
+        s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n], s.hit[w][:k],
+    )  # fmt: skip
+    if s.joint_kind.shape[0] > 0:
+        joint_rows(
+            s.joint_kind, s.joint_i, s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset,
+            first, s.x, s.theta, s.M_inv, dt, beta, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
+            s.xi[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n],
+        )  # fmt: skip
+        for r in range(first, n):
+            s.push[r] = 0.0  # joints keep their Baumgarte term in xi
+            s.bounce[r] = 0.0
+            s.impact[r] = False
+            s.lam[r] = s.joint_lam[r - first] if warm_start else 0.0  # joints keep their identity
+    return deepest, hits
+
+
+@njit(cache=True)
+def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
+    """The tick up to the responder. Stage 0: ``begin_tick``, stopping with NEED_SWEEP when the
+    pairs no longer hold; then (stage 1 joins here after the sweep) ``find_contacts`` and
+    ``build_rows``.
+
+    found: (n_pairs, colour_order, sweep_again); cached: (manifolds, contacts, rows_used,
+    points_used) of the side last written; world: (gravity, |g|, dt, contact_margin,
+    recycle_distance). Returns (status, K, manifolds, recycled, rows_used, points_used,
+    warm-started contacts, deepest overlap m).
+    """
+    n_pairs, colour_order, sweep_again = found
+    n_cached, k_cached, rows_used, points_used = cached
+    gravity, gravity_norm, dt, margin, recycle_distance = world
+    if stage == 0:
+        fits = begin_tick(s, gravity, dt, margin)
+        if sweep_again or not fits:
+            return NEED_SWEEP, 0, 0, 0, rows_used, points_used, 0, 0.0
+    k, n_new, recycled, rows_used, points_used = find_contacts(
+        s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance
+    )
+    deepest, hits = build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings)
+    return OK, k, n_new, recycled, rows_used, points_used, hits, deepest
+
+
+@njit(cache=True)
+def end_tick(s, side, k, max_speed):
+    """After the responder: TOO_FAST if a body ended past max_speed or not finite (nothing
+    cached: the world undoes the step), else the impulses per contact (N s, contact order)
+    and the contact cache the next step warm starts from (``ContactCache.store_rows``)."""
+    if first_too_fast(s.V, s.x, s.theta, max_speed) >= 0:
+        return TOO_FAST
+    w = 1 - side
+    n = 2 * k + s.joint_lam.shape[0]
+    s.cache_keys[w][:k] = s.key[w][:k]
+    impulses_to_contacts_and_cache(
+        s.order[w][:k], s.normal_row[:k], s.friction_row[:k], s.lam[:n], s.impact[:n], s.lambda_n[w][:k],
+        s.lambda_t[w][:k], s.cache_lambda_n[w][:k], s.cache_lambda_t[w][:k], s.cache_pushed[w][:k],
+    )  # fmt: skip
+    return OK
+
+
+@njit(cache=True)
+def pgs_tick(s, stage, side, found, cached, world, row_settings, max_speed, iterations, tolerance, block, split):
+    """One tick under ``PGS`` (impulse form): ``contacts_and_rows``, ``pgs_step``, ``end_tick``.
+    Returns (status, K, manifolds, recycled, rows_used, points_used, warm-started contacts,
+    deepest overlap m, sweeps)."""
+    status, k, n_new, recycled, rows_used, points_used, hits, deepest = contacts_and_rows(
+        s, stage, side, found, cached, world, row_settings
+    )
+    if status != OK:
+        return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0
+    w, n = 1 - side, 2 * k + s.joint_lam.shape[0]
+    sweeps = pgs_step(
+        s.normal_row[:k], s.friction_row[:k], 2 * k, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
+        s.xi[:n], s.push[:n], s.bounce[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n],
+        s.x, s.theta, s.V, s.separation[w][:k], world[2], iterations, tolerance, block, split, s.residuals,
+    )  # fmt: skip
+    status = end_tick(s, side, k, max_speed)
+    return status, k, n_new, recycled, rows_used, points_used, hits, deepest, sweeps
+
+
+@njit(cache=True)
+def soft_tick(s, stage, side, found, cached, world, row_settings, max_speed, settings, block):
+    """One tick under ``SoftStep``: ``contacts_and_rows``, ``soft_step_solve``, ``end_tick``.
+    settings: (substeps, relax, contact_hertz, damping_ratio, push_max, joint_hertz,
+    joint_damping_ratio, direct_joints, restitution_threshold). Returns as ``pgs_tick``
+    (the count is sub-steps)."""
+    status, k, n_new, recycled, rows_used, points_used, hits, deepest = contacts_and_rows(
+        s, stage, side, found, cached, world, row_settings
+    )
+    if status != OK:
+        return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0
+    substeps, relax, contact_hertz, damping_ratio, push_max, joint_hertz, joint_zeta, direct, threshold = settings
+    w, n = 1 - side, 2 * k + s.joint_lam.shape[0]
+    count = soft_step_solve(
+        s.normal_row[:k], s.friction_row[:k], s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n],
+        s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.order[w][:k], s.separation[w][:k], s.e[w][:k],
+        s.anchor[w][:k], s.x, s.theta, s.M_inv, s.V, s.V1, world[2], substeps, relax, contact_hertz,
+        damping_ratio, push_max, joint_hertz, joint_zeta, direct, threshold, block, s.joint_kind, s.joint_i,
+        s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset, 2 * k, s.lam[:n],
+        s.residuals,
+    )  # fmt: skip
+    status = end_tick(s, side, k, max_speed)
+    return status, k, n_new, recycled, rows_used, points_used, hits, deepest, count
+
+
+class TickSpec(NamedTuple):
+    """How the world runs a responder's one-call tick: read once, kept until a setting changes."""
+
+    kernel: Callable
+    settings: tuple  # the kernel's arguments after max_speed
+    n_residuals: int  # sweeps (or sub-steps) it may make
+    row_settings: tuple  # beta, slop, push_max, restitution_threshold, friction_model, found_lever_arms, warm_start
+    name: str
+    counts: str
+    colour_order: bool
+
+
+def tick_for(responder: Responder) -> TickSpec | None:
+    """The one-call tick of a responder, or None when it has none: a responder of another kind,
+    PGS in matrix form, or one whose ``respond`` is its own (the world then runs the stages
+    one call each). Kept on the responder, which drops it when a setting changes
+    (``Responder.__setattr__``), so the settings are read once, not every step."""
+    spec = responder.__dict__.get("_tick_spec", False)
+    if spec is False:
+        spec = responder.__dict__["_tick_spec"] = _tick_spec(responder)
+    return spec
+
+
+def _tick_spec(r: Responder) -> TickSpec | None:
+    if "respond" in r.__dict__:  # replaced on the instance (a test's spy, say): call it, stage by stage
+        return None
+    kernel: Callable
+    settings: tuple
+    if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
+        tol = -1.0 if r.tolerance is None else r.tolerance
+        kernel, settings, n = pgs_tick, (r.iterations, tol, True if r.block else None, r.split), r.iterations
+    elif isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
+        soft = (
+            r.substeps, r.relax, r.contact_hertz, r.damping_ratio, r.push_max, r.joint_hertz, r.joint_damping_ratio,
+            r.direct_joints, r.restitution_threshold,
+        )  # fmt: skip
+        kernel, settings, n = soft_tick, (soft, r.block), r.substeps
+    else:
+        return None
+    row_settings = (
+        r.beta, r.slop, r.push_max, r.restitution_threshold, r.friction_model, r.found_lever_arms, r.warm_start
+    )  # fmt: skip
+    return TickSpec(kernel, settings, n, row_settings, r.name, r.counts, r.colour_order)

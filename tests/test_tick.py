@@ -1,0 +1,161 @@
+"""The one-call tick (phys2d.tick) against the staged step: a second method of the same pipeline.
+
+``World.step`` runs PGS (impulse form) and SoftStep in one kernel call; with
+``one_call_tick = False`` it calls each stage's kernel from Python instead. Both paths
+call the same stage functions in the same order, so every state, contact, cache and
+report must agree bit for bit, and a failed step must leave either world as it was.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import phys2d
+from phys2d import scenes
+from phys2d.tick import tick_for
+from tests.strategies import build, dts, fingerprint, responders, violent_scenes
+
+RESPONDERS = {
+    "pgs": lambda: phys2d.PGS(),
+    "pgs-block": lambda: phys2d.PGS(block=True),
+    "pgs-lecture-friction": lambda: phys2d.PGS(friction="lecture"),
+    "pgs-cold-unsplit": lambda: phys2d.PGS(warm_start=False, split=False),
+    "pgs-tolerance": lambda: phys2d.PGS(tolerance=1e-3, iterations=30),
+    "soft-step": lambda: phys2d.SoftStep(),
+    "soft-step-plain": lambda: phys2d.SoftStep(substeps=2, relax=False, block=False, direct_joints=False),
+}
+
+SCENES = {
+    "pyramid": lambda r: scenes.pyramid(6, responder=r),
+    "leaning-stack": lambda r: scenes.vertical_stack(8, responder=r, lean=0.01),
+    "mass-ratio": lambda r: scenes.mass_ratio(100.0, responder=r),
+    "mixed-shapes": lambda r: scenes.mixed_shapes(8, responder=r),
+    "dominoes": lambda r: scenes.dominoes(6, responder=r),
+    "pendulum-chain": lambda r: scenes.pendulum_chain(5, responder=r),
+}
+
+
+def twins(make_world, make_responder):
+    """The same world twice: stepped in one call, and stage by stage."""
+    one, staged = make_world(make_responder()), make_world(make_responder())
+    staged.one_call_tick = False
+    return one, staged
+
+
+@pytest.mark.parametrize("responder", RESPONDERS)
+@pytest.mark.parametrize("scene", SCENES)
+def test_one_call_tick_is_the_staged_step(scene, responder):
+    one, staged = twins(SCENES[scene], RESPONDERS[responder])
+    assert tick_for(one.responder) is not None  # the path under test is taken
+    touched = 0
+    for _ in range(90):
+        a, b = one.step(1 / 60), staged.step(1 / 60)
+        touched = max(touched, a.contact_count)
+        assert a.count == b.count and a.cache_hits == b.cache_hits and a.max_penetration == b.max_penetration
+        assert np.array_equal(a.solve_order, b.solve_order) and np.array_equal(a.joint_impulses, b.joint_impulses)
+    assert fingerprint(one) == fingerprint(staged)
+    assert touched > 0 or scene == "pendulum-chain"  # the contact stages ran
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=violent_scenes(), responder=responders(), dt=dts, steps=st.integers(1, 25))
+def test_one_call_tick_is_the_staged_step_on_violent_scenes(scene, responder, dt, steps):
+    """Fast, spinning, overlapping bodies: sweeps, new and lost manifolds, undone steps."""
+    one, staged = build(scene, copy.deepcopy(responder)), build(scene, copy.deepcopy(responder))
+    staged.one_call_tick = False
+    for _ in range(steps):
+        failed = []
+        for w in (one, staged):
+            before = fingerprint(w)
+            try:
+                w.step(dt)
+                failed.append(False)
+            except phys2d.SimulationError:
+                assert fingerprint(w) == before  # undone, bit for bit
+                failed.append(True)
+        assert failed[0] == failed[1]
+        assert fingerprint(one) == fingerprint(staged)
+
+
+def test_a_failed_one_call_step_keeps_the_last_steps_contacts_and_caches():
+    """The kernel writes the buffer set the last good step did not: a step that raises leaves
+    that step's contacts (read lazily, after the failure) and caches as they were."""
+    w = scenes.vertical_stack(4)
+    for _ in range(30):
+        w.step(1 / 60)
+    staged = scenes.vertical_stack(4)
+    staged.one_call_tick = False
+    for _ in range(30):
+        staged.step(1 / 60)
+    w.bodies[-1].velocity = (0.0, 50.0)
+    staged.bodies[-1].velocity = (0.0, 50.0)
+    w.max_speed = staged.max_speed = 20.0
+    for x in (w, staged):
+        with pytest.raises(phys2d.SimulationError, match="max_speed"):
+            x.step(1 / 60)
+    assert fingerprint(w) == fingerprint(staged)
+    assert len(w.contacts) == 8  # the last good step's: four resting pairs (ground and 4 boxes), two points each
+    w.max_speed = staged.max_speed = 1e4
+    w.step(1 / 60)
+    staged.step(1 / 60)
+    assert fingerprint(w) == fingerprint(staged)
+
+
+def test_contacts_handed_out_are_not_the_tick_buffers():
+    """A Contacts kept by the user does not change when the world steps on."""
+    w = scenes.vertical_stack(3)
+    w.step(1 / 60)
+    kept = w.contacts
+    copied = {name: getattr(kept, name).copy() for name in kept.__dataclass_fields__}
+    report = w.last_step
+    order = report.solve_order.copy()
+    for _ in range(5):
+        w.bodies[-1].velocity = (1.0, 0.0)
+        w.step(1 / 60)
+    for name, values in copied.items():
+        assert np.array_equal(getattr(kept, name), values)
+    assert np.array_equal(report.solve_order, order)
+    with pytest.raises(ValueError):
+        kept.lambda_n[0] = 1.0  # read-only, as the staged step's
+
+
+def test_a_setting_changed_between_steps_is_read_by_the_next_tick():
+    """The world keeps the responder's tick settings until one of them is set."""
+    one, staged = twins(lambda r: scenes.pyramid(4, responder=r), lambda: phys2d.PGS())
+    for w in (one, staged):
+        w.step(1 / 60)
+        w.responder.iterations = 3
+        w.responder.block = True
+        w.step(1 / 60)
+    assert one.last_step.count == 3 and one.last_step.responder == "pgs-block"
+    assert fingerprint(one) == fingerprint(staged)
+
+
+def test_switching_between_one_call_and_staged_steps_keeps_the_caches():
+    """Steps of either kind continue each other: recycling and warm starts carry over."""
+    one, staged = twins(lambda r: scenes.pyramid(5, responder=r), lambda: phys2d.SoftStep())
+    for i in range(40):
+        one.one_call_tick = i % 3 != 0
+        one.step(1 / 60)
+        staged.step(1 / 60)
+        assert one.last_step.cache_hits == staged.last_step.cache_hits
+    assert fingerprint(one) == fingerprint(staged)
+
+
+def test_responders_without_a_one_call_tick_run_in_stages():
+    assert tick_for(phys2d.PGS(form="matrix")) is None
+    assert tick_for(phys2d.NaiveImpulse()) is None
+
+    class Logged(phys2d.PGS):
+        def respond(self, ctx):
+            self.seen = ctx.n_contacts
+            return super().respond(ctx)
+
+    w = scenes.vertical_stack(3, responder=Logged())
+    w.step(1 / 60)
+    assert w.responder.seen == len(w.contacts) > 0  # its own respond ran
