@@ -164,9 +164,9 @@ def begin_tick(s, gravity, dt, margin):
     """Keep the state to undo (x0, theta0; V1 is also the velocity the tick began with), add
     the external forces to V, and update the geometry; returns whether last step's pairs
     still hold (every tight box inside its fat box)."""
-    s.x0[:, :] = s.x
-    s.theta0[:] = s.theta
-    s.V1[:, :] = s.V
+    for b in range(s.x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
+        s.x0[b, 0], s.x0[b, 1], s.theta0[b] = s.x[b, 0], s.x[b, 1], s.theta[b]
+        s.V1[b, 0], s.V1[b, 1], s.V1[b, 2] = s.V[b, 0], s.V[b, 1], s.V[b, 2]
     apply_external_forces(s.V, s.M_inv, gravity, dt)
     return update_geometry_in(
         s.x, s.theta, s.kind, s.radius, s.vstart, s.vcount, s.local_v, s.local_n, s.V, dt, margin,
@@ -192,11 +192,14 @@ def find_contacts(s, side, n_pairs, colour_order, n_cached, rows_used, points_us
     )  # fmt: skip
     if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
         by_key = stable_argsort(new_key[:n_new])
-        new_key[:n_new] = new_key[:n_new][by_key]
-        new_row[:n_new] = new_row[:n_new][by_key]
+        keys, rows = new_key[:n_new].copy(), new_row[:n_new].copy()
+        for i in range(n_new):
+            new_key[i], new_row[i] = keys[by_key[i]], rows[by_key[i]]
     order = s.order[w]
     if colour_order:
-        order[:k] = solve_order(s.pair_order[:n_pairs], s.pair_start[: n_pairs + 1])
+        visit = solve_order(s.pair_order[:n_pairs], s.pair_start[: n_pairs + 1])
+        for q in range(k):
+            order[q] = visit[q]
     else:
         for q in range(k):
             order[q] = q
@@ -204,10 +207,11 @@ def find_contacts(s, side, n_pairs, colour_order, n_cached, rows_used, points_us
 
 
 @njit(cache=True)
-def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings):
+def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings, joints):
     """The contacts' rows (``contact_rows``: row pair q is contact order[q]) and then the joints'
-    (``joint_rows``), warm started from the caches when ``warm_start``. Returns (deepest
-    overlap in m, contacts warm started)."""
+    (``joint_rows``; ``joints`` is True, or None in a world without joints: numba then leaves
+    joint_rows out when it compiles), warm started from the caches when ``warm_start``.
+    Returns (deepest overlap in m, contacts warm started)."""
     beta, slop, push_max, restitution_threshold, friction_model, found_arms, warm_start = row_settings
     w = 1 - side
     if friction_model == FRICTION_LECTURE:  # the lecture's bound shares m_c among a manifold's points
@@ -225,7 +229,7 @@ def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings):
         s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n], s.push[:n], s.bounce[:n],
         s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n], s.hit[w][:k],
     )  # fmt: skip
-    if s.joint_kind.shape[0] > 0:
+    if joints is not None:
         joint_rows(
             s.joint_kind, s.joint_i, s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset,
             first, s.x, s.theta, s.M_inv, dt, beta, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
@@ -245,12 +249,12 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
     pairs no longer hold; then (stage 1 joins here after the sweep) ``find_contacts`` and
     ``build_rows``.
 
-    found: (n_pairs, colour_order, sweep_again); cached: (manifolds, contacts, rows_used,
+    found: (n_pairs, colour_order, sweep_again, joints: True or None); cached: (manifolds, contacts, rows_used,
     points_used) of the side last written; world: (gravity, |g|, dt, contact_margin,
     recycle_distance). Returns (status, K, manifolds, recycled, rows_used, points_used,
     warm-started contacts, deepest overlap m).
     """
-    n_pairs, colour_order, sweep_again = found
+    n_pairs, colour_order, sweep_again, joints = found
     n_cached, k_cached, rows_used, points_used = cached
     gravity, gravity_norm, dt, margin, recycle_distance = world
     if stage == 0:
@@ -260,7 +264,7 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
     k, n_new, recycled, rows_used, points_used = find_contacts(
         s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance
     )
-    deepest, hits = build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings)
+    deepest, hits = build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings, joints)
     return OK, k, n_new, recycled, rows_used, points_used, hits, deepest
 
 
@@ -273,7 +277,8 @@ def end_tick(s, side, k, max_speed):
         return TOO_FAST
     w = 1 - side
     n = 2 * k + s.joint_lam.shape[0]
-    s.cache_keys[w][:k] = s.key[w][:k]
+    for c in range(k):
+        s.cache_keys[w, c] = s.key[w, c]
     impulses_to_contacts_and_cache(
         s.order[w][:k], s.normal_row[:k], s.friction_row[:k], s.lam[:n], s.impact[:n], s.lambda_n[w][:k],
         s.lambda_t[w][:k], s.cache_lambda_n[w][:k], s.cache_lambda_t[w][:k], s.cache_pushed[w][:k],

@@ -403,14 +403,16 @@ def compact(cached_row, found_pose, found_rotation, span, anchor, normal, separa
     new_separation = np.zeros(2 * rows)
     new_feature = np.zeros(2 * rows, np.int32)
     p = 0
-    for s in range(n):
+    for s in range(n):  # element by element: a row assigned whole compiles a shape check and its message (~3 s)
         r = cached_row[s]
-        new_pose[s] = found_pose[r]
-        new_rotation[s] = found_rotation[r]
+        new_pose[s, 0], new_pose[s, 1] = found_pose[r, 0], found_pose[r, 1]
+        for i in range(4):
+            new_rotation[s, i] = found_rotation[r, i]
         new_span[s, 0] = p
         for point in range(span[r, 0], span[r, 1]):
-            new_anchor[p] = anchor[point]
-            new_normal[p] = normal[point]
+            for i in range(4):
+                new_anchor[p, i] = anchor[point, i]
+            new_normal[p, 0], new_normal[p, 1] = normal[point, 0], normal[point, 1]
             new_separation[p] = separation[point]
             new_feature[p] = feature[point]
             p += 1
