@@ -207,11 +207,10 @@ def find_contacts(s, side, n_pairs, colour_order, n_cached, rows_used, points_us
 
 
 @njit(cache=True)
-def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings, joints):
+def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings):
     """The contacts' rows (``contact_rows``: row pair q is contact order[q]) and then the joints'
-    (``joint_rows``; ``joints`` is True, or None in a world without joints: numba then leaves
-    joint_rows out when it compiles), warm started from the caches when ``warm_start``.
-    Returns (deepest overlap in m, contacts warm started)."""
+    (``joint_rows``), warm started from the caches when ``warm_start``. Returns (deepest
+    overlap in m, contacts warm started)."""
     beta, slop, push_max, restitution_threshold, friction_model, found_arms, warm_start = row_settings
     w = 1 - side
     if friction_model == FRICTION_LECTURE:  # the lecture's bound shares m_c among a manifold's points
@@ -229,7 +228,7 @@ def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings, jo
         s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n], s.push[:n], s.bounce[:n],
         s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n], s.hit[w][:k],
     )  # fmt: skip
-    if joints is not None:
+    if s.joint_kind.shape[0] > 0:  # (a switch by argument type would compile the tick twice)
         joint_rows(
             s.joint_kind, s.joint_i, s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset,
             first, s.x, s.theta, s.M_inv, dt, beta, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
@@ -249,12 +248,12 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
     pairs no longer hold; then (stage 1 joins here after the sweep) ``find_contacts`` and
     ``build_rows``.
 
-    found: (n_pairs, colour_order, sweep_again, joints: True or None); cached: (manifolds, contacts, rows_used,
+    found: (n_pairs, colour_order, sweep_again); cached: (manifolds, contacts, rows_used,
     points_used) of the side last written; world: (gravity, |g|, dt, contact_margin,
     recycle_distance). Returns (status, K, manifolds, recycled, rows_used, points_used,
     warm-started contacts, deepest overlap m).
     """
-    n_pairs, colour_order, sweep_again, joints = found
+    n_pairs, colour_order, sweep_again = found
     n_cached, k_cached, rows_used, points_used = cached
     gravity, gravity_norm, dt, margin, recycle_distance = world
     if stage == 0:
@@ -264,7 +263,7 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
     k, n_new, recycled, rows_used, points_used = find_contacts(
         s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance
     )
-    deepest, hits = build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings, joints)
+    deepest, hits = build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings)
     return OK, k, n_new, recycled, rows_used, points_used, hits, deepest
 
 

@@ -543,7 +543,7 @@ class World:
                 side = t.side
                 state = self._tick_state(t)
                 began = True  # from here the undo buffers hold the state before the step
-                found = (self._n_pairs, spec.colour_order, self._sweep_again, True if self._joints else None)
+                found = (self._n_pairs, spec.colour_order, self._sweep_again)
                 result = spec.kernel(
                     state, stage, side, found,
                     (m.key.shape[0], cache.keys.shape[0], m.rows_used, m.points_used), world, spec.row_settings,
