@@ -561,10 +561,8 @@ class World:
             raise
         _, k, n_new, m.recycled, m.rows_used, m.points_used, hits, deepest, count = result
         w = t.side = 1 - side
-        m.key, m.row = t.m_key[w][:n_new], t.m_row[w][:n_new]
-        cache.keys, cache.lambda_n = t.cache_keys[w][:k], t.cache_lambda_n[w][:k]
-        cache.lambda_t, cache.pushed = t.cache_lambda_t[w][:k], t.cache_pushed[w][:k]
-        t.views = (m.key, m.row, cache.keys)
+        t.held = t.caches_of(w, n_new, k)
+        _, _, m.key, m.row, cache.keys, cache.lambda_n, cache.lambda_t, cache.pushed, order = t.held
         self._pending_contacts, self._contacts_sealed = (t, w, k), False
         joint_impulses = EMPTY
         if self._joints:
@@ -572,7 +570,7 @@ class World:
             joint_impulses = t.lam[2 * k : 2 * k + self._joint_lam.shape[0]].copy()
         return StepReport(
             spec.name, dt, count, self._residuals[:count].copy(), deepest, k, hits, joint_impulses, None,
-            t.order[w][:k].copy(), spec.counts,
+            order.copy(), spec.counts,
         )  # fmt: skip
 
     def _room_for_tick(self, spec: TickSpec) -> TickBuffers:
@@ -584,12 +582,14 @@ class World:
         if not t.holds(pairs, n_joint_rows):
             t = self._tick_buffers = TickBuffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
         m.make_room(self._n_pairs)  # (a store made anew numbers its rows anew: m.row is then new)
-        if t.views[0] is not m.key or t.views[1] is not m.row or t.views[2] is not cache.keys:
+        held = t.held
+        if held[2] is not m.key or held[3] is not m.row or held[4] is not cache.keys:
             n, k, side = m.key.shape[0], cache.keys.shape[0], t.side  # not this side's views: copy them in
             t.m_key[side][:n], t.m_row[side][:n] = m.key, m.row
             t.cache_keys[side][:k], t.cache_lambda_n[side][:k] = cache.keys, cache.lambda_n
             t.cache_lambda_t[side][:k], t.cache_pushed[side][:k] = cache.lambda_t, cache.pushed
-            t.views = (m.key, m.row, cache.keys)
+            t.held = t.caches_of(side, n, k)
+            _, _, m.key, m.row, cache.keys, cache.lambda_n, cache.lambda_t, cache.pushed, _ = t.held
         if self._residuals.shape[0] < spec.n_residuals:
             self._residuals = np.zeros(spec.n_residuals)
         if spec.colour_order and not self._sweep_again:  # the pairs in colour order, in the buffers
