@@ -148,9 +148,20 @@ class TickBuffers:
         self.impact, self.bound_row = np.zeros(n_rows, np.bool_), np.full(n_rows, -1, np.int32)
         self.joint_lam = np.zeros(joint_rows)
         self.side = 0  # the side the last good step wrote
+        self._forget_views()
+
+    def _forget_views(self) -> None:
         self.held: tuple = (-1, -1, (), (), ())  # ``caches_of(side, ...)`` as the world's caches hold it
         self._kept: list[tuple] = [self.held, self.held]
         self.coloured: np.ndarray | None = None  # the pair order copied into pair_order
+
+    def __getstate__(self) -> dict:
+        """A copy (pickle, deepcopy) without the kept views: copied, they would be arrays of their own."""
+        state = self.__dict__.copy()
+        copy = object.__new__(TickBuffers)
+        copy._forget_views()
+        state.update(held=copy.held, _kept=copy._kept, coloured=None)
+        return state
 
     def holds(self, pairs: int, joint_rows: int) -> bool:
         """Whether these buffers have room for a step of ``pairs`` pairs and ``joint_rows`` joint rows."""

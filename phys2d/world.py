@@ -132,6 +132,12 @@ class World:
         self.tick = 0
         self.time = 0.0
 
+    def __getstate__(self) -> dict:
+        """A copy (pickle, deepcopy) leaves out the TickState, a numba structref: made anew when needed."""
+        state = self.__dict__.copy()
+        state.update(_tick_state_kept=None, _tick_state_over=())
+        return state
+
     # -- configuration ------------------------------------------------------
     @staticmethod
     def _check_responder(responder: object) -> Responder:

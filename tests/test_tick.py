@@ -159,3 +159,20 @@ def test_responders_without_a_one_call_tick_run_in_stages():
     w = scenes.vertical_stack(3, responder=Logged())
     w.step(1 / 60)
     assert w.responder.seen == len(w.contacts) > 0  # its own respond ran
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_a_copied_world_steps_on_as_the_original(how):
+    """A World copied mid-run (the one-call tick's buffers and kept views with it) goes on
+    bit for bit as the original, in one call and in stages."""
+    import pickle
+
+    w = scenes.pyramid(5, responder=phys2d.SoftStep())
+    for _ in range(20):
+        w.step(1 / 60)
+    twin = copy.deepcopy(w) if how == "deepcopy" else pickle.loads(pickle.dumps(w))
+    for i in range(20):
+        for x in (w, twin):
+            x.one_call_tick = i % 5 != 4
+            x.step(1 / 60)
+        assert fingerprint(w) == fingerprint(twin)

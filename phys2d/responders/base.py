@@ -202,6 +202,12 @@ class Responder:
     contacts_in_row_order = True
     found_lever_arms = False
 
+    def __getstate__(self) -> dict:
+        """A copy (pickle, deepcopy) leaves out the world's note of its one-call tick (``phys2d.tick``)."""
+        state = self.__dict__.copy()
+        state.pop("_tick_spec", None)
+        return state
+
     def __setattr__(self, name: str, value: object) -> None:
         super().__setattr__(name, value)  # a Setting checks the value here
         self.__dict__.pop("_tick_spec", None)  # the world reads the settings of its one-call tick again
