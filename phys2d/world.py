@@ -1028,20 +1028,14 @@ class World:
         )
 
 
+# Contacts' fields and the tick's buffers (``TickBuffers``) they are copied from
+CONTACTS_FROM_BUFFERS = {
+    "body_a": "body_a", "body_b": "body_b", "point": "point", "anchor": "anchor", "normal": "normal",
+    "separation": "separation", "lambda_n": "lambda_n", "lambda_t": "lambda_t", "feature": "feature", "key": "key",
+    "warm_started": "hit", "friction": "mu", "restitution": "e",
+}  # fmt: skip
+
+
 def _contacts_from(t: TickBuffers, side: int, k: int) -> Contacts:
     """A one-call tick's K contacts, copied out of side ``side`` of its buffers."""
-    return Contacts(
-        body_a=t.body_a[side][:k].copy(),
-        body_b=t.body_b[side][:k].copy(),
-        point=t.point[side][:k].copy(),
-        anchor=t.anchor[side][:k].copy(),
-        normal=t.normal[side][:k].copy(),
-        separation=t.separation[side][:k].copy(),
-        lambda_n=t.lambda_n[side][:k].copy(),
-        lambda_t=t.lambda_t[side][:k].copy(),
-        feature=t.feature[side][:k].copy(),
-        key=t.key[side][:k].copy(),
-        warm_started=t.hit[side][:k].copy(),
-        friction=t.mu[side][:k].copy(),
-        restitution=t.e[side][:k].copy(),
-    )
+    return Contacts(**{field: getattr(t, name)[side][:k].copy() for field, name in CONTACTS_FROM_BUFFERS.items()})
