@@ -628,6 +628,10 @@ def function_rows(per: dict) -> list[list[str]]:
     return rows
 
 
+def calls(n: int) -> str:
+    return f"{n} kernel call" + ("" if n == 1 else "s")
+
+
 def reading(results: dict) -> list[str]:
     """Where each step's time goes, and the fixed cost, in words (from the figures above)."""
     out = []
@@ -649,10 +653,10 @@ def reading(results: dict) -> list[str]:
         out.append(
             f"- Fixed cost per step on {small}, {r}: one-call {fixed:.0f} µs of {res['one_call']:.0f} µs "
             f"({pct(fixed, res['one_call'])}): Python {res['python']:.0f} µs and numba dispatch about "
-            f"{res['one_call_dispatch']:.0f} µs over {res['one_call_kernel_calls']} kernel call(s); staged "
+            f"{res['one_call_dispatch']:.0f} µs over {calls(res['one_call_kernel_calls'])}; staged "
             f"{staged_fixed:.0f} µs of {res['total']:.0f} µs ({pct(staged_fixed, res['total'])}): Python left "
             f"over {res['left_over']:.0f} µs and dispatch about {res['dispatch']:.0f} µs over "
-            f"{res['kernel_calls']} kernel calls. A one-box scene steps in {res['one_box']:.0f} µs in one call, "
+            f"{calls(res['kernel_calls'])}. A one-box scene steps in {res['one_box']:.0f} µs in one call, "
             f"{res['one_box_staged']:.0f} µs in stages."
         )
     return out
