@@ -532,6 +532,10 @@ def report(results: dict, args, pc_ns: float, added_ns: float, command: str, loa
         "",
         "## Headline",
         "",
+        "Time per step (µs) and, in brackets, its ratio to pymunk's. Each figure is its own median: the "
+        "ratios, taken within each repeat, are the ones to compare; when other work slows some repeats, a "
+        "median time can disagree with a median ratio.",
+        "",
         *headline(results),
     ]
     for scene, per in results.items():
