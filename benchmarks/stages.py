@@ -1,36 +1,82 @@
-"""Where a phys2d step spends its time, stage by stage (issue 11, item 2).
+"""Where a phys2d step spends its time (issue 11, item 2): the one-call step, and the staged
+step stage by stage.
 
     PYTHONPATH=. python benchmarks/stages.py            # writes benchmarks/STAGES.md
     PYTHONPATH=. python benchmarks/stages.py --quick    # smoke run, prints only
 
-The engine is not edited. ``World.step`` calls its stage functions by their names
-in ``phys2d.world`` (and a few methods of phys2d's classes); this script wraps
-those names with a timer while one world steps, and leaves them alone while its
-twin steps. The twins start equal and phys2d is deterministic, so both go
-through the same states; within each repeat the plain twin is timed first, then
-the wrapped one.
+``World.step`` runs a PGS (impulse form) or SoftStep world's tick in one numba kernel call
+(``phys2d.tick``): the **one-call step**, what users run. With ``World.one_call_tick = False``
+it runs the **staged step** (``World._step_in_stages``): the same stages, one kernel call
+each, with Python in between, bit-identical. The staged step shows where a step's work goes,
+stage by stage; the one-call step how much of it is left outside numba.
 
-- **stage times** (µs per step): the sum of the wrapped calls of each stage, less
-  the timer's own cost per call (two ``perf_counter_ns`` calls back to back);
-- **step**: the wrapped twin's time per step less what the wrappers add (the
-  extra wall time per call of a wrapped empty function, times the calls), so
-  the stages and the step come from the same steps; the plain twin's time per
-  step is shown beside it as a check;
-- **Python left over** = step minus the stages: the Python of ``World.step``
-  between the stage calls (argument checks, the state snapshot, array
-  allocation, the step report, ...);
-- **numba dispatch** (an estimate): each numba kernel called from Python costs a
-  dispatch (typing its arguments, finding the compiled version) before any work.
-  The script records the arguments of every kernel call of one step and times an
-  empty numba function called with the same arguments; the sum is the dispatch
-  cost per step, which is inside the stage times;
-- **fixed cost per step** = Python left over + numba dispatch on the small scene:
-  what a step costs whatever the scene's size. As a check, the step time of a
-  one-box scene, timed in the same repeats. On large scenes the Python left over
-  also holds numpy work that grows with the contacts (arrays allocated per pair,
-  the contact arrays sliced and handed on each step), so there it is not a fixed cost.
+The engine is not edited. For each scene and responder three twins start equal and step
+in lockstep (phys2d is deterministic, so they go through the same states; the script
+checks that they end equal):
 
-All figures are medians over repeats. Stages:
+- the **plain twin**: the staged step, untouched (a check on the wrapped twin);
+- the **wrapped twin**: the staged step with its stage functions wrapped by a timer. The
+  staged step calls them by their names in ``phys2d.world`` (and a few methods of phys2d's
+  classes); the script replaces those while this twin steps, and puts them back after;
+- the **one-call twin**: ``World.step`` as users run it, its tick kernel (``pgs_tick`` or
+  ``soft_tick``) wrapped by a timer. The world reaches the kernel through
+  ``phys2d.tick.tick_for(responder)``, a ``TickSpec`` kept on the responder; this twin's
+  responder is given a copy of it whose kernel is the wrapper.
+
+In each repeat the plain twin steps, then the one-call twin, pymunk on the same scene, a
+one-box scene (one-call, then staged), and the wrapped twin. All figures are medians over
+repeats; ratios are taken within each repeat.
+
+The one-call step:
+
+- **one-call step** (µs per step): the one-call twin's time per step less what the
+  kernel's wrapper adds (the extra wall time per call of a wrapped empty function, times
+  the calls);
+- **kernel call**: the wrapped kernel calls less the timer's own cost per call (two
+  ``perf_counter_ns`` calls back to back): the whole tick in numba, with its dispatch;
+- **numba dispatch** of that call (an estimate, inside the kernel call): see below;
+- **Python of the step** = one-call step minus the kernel call: ``World.step``'s check of
+  dt and ``World._step_in_one_call`` around the call (buffers checked, the tick's state
+  looked up, the caches' views, the step report); in a step where a body left its fat box
+  also the broadphase sweep (``sweep_and_prune``, ``colour_pairs``) between the kernel's
+  two calls;
+- **fixed cost** = Python of the step + dispatch, on the small scene; as a check, the
+  one-call step of a one-box scene. On large scenes the Python of the step grows too: it
+  runs on CPU caches the kernel has just filled with the scene's arrays (the same few
+  lines of Python ran 2.5x slower right after pyramid_40's kernel than on warm caches),
+  so there it is not a fixed cost;
+- **numba kernel calls from Python per step**: counted in one recorded step; 1 (the tick
+  kernel is called twice in a step that sweeps). The tick kernel's calls per timed step
+  show how often that happens.
+
+The staged step:
+
+- **stage times** (µs per step): the sum of the wrapped calls of each stage, less the
+  timer's own cost per call;
+- **step**: the wrapped twin's time per step less what the wrappers add, so the stages
+  and the step come from the same steps; the plain twin's time per step is shown beside
+  it as a check, and it is the staged step of the ratios;
+- **Python left over** = step minus the stages: the Python of ``World._step_in_stages``
+  between the stage calls (the state snapshot, array allocation, the step report, ...);
+- **numba dispatch** (an estimate, inside the stage times): each numba kernel called
+  from Python costs a dispatch (typing its arguments, finding the compiled version)
+  before any work; 7-8 kernels a step;
+- **fixed cost per step** = Python left over + numba dispatch on the small scene: what a
+  step costs whatever the scene's size. As a check, the staged step of a one-box scene.
+  On large scenes the Python left over also holds numpy work that grows with the
+  contacts (arrays allocated per pair, the contact arrays sliced and handed on each
+  step), so there it is not a fixed cost.
+
+Numba dispatch, both paths: the script records the arguments of every numba kernel called
+from Python during one step (every numba dispatcher bound to a name in a phys2d module,
+and the one-call tick's kernel), and times, for each, an empty numba function with the
+same parameters called with those arguments; the sum is the dispatch cost per step. (Not
+one empty function of ``*args``, as this script used before: numba dispatches that slower
+than the kernels' own parameters, 22 µs against 16 for the staged kernels of
+vertical_stack_10 under PGS, and about 200 µs against 2 for the tick's call, whose
+``TickState`` and tuples it types the slow way; load average 1.4.)
+
+Stages of the staged step:
 
 | stage | what is timed |
 | --- | --- |
@@ -48,6 +94,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import gc
+import inspect
 import os
 import platform
 import statistics
@@ -70,10 +117,11 @@ import phys2d.world as world_module  # noqa: E402
 from phys2d.collision.recycle import ManifoldCache  # noqa: E402
 from phys2d.constraints.rows import RowBuffer  # noqa: E402
 from phys2d.contacts import ContactCache  # noqa: E402
+from phys2d.tick import TickSpec, tick_for  # noqa: E402
 
 DT = 1.0 / 60.0
 
-# stage -> names in phys2d.world that World.step calls
+# stage -> names in phys2d.world that the staged step (World._step_in_stages) calls
 FUNCTION_STAGES = {
     "external forces": ("apply_external_forces",),
     "broadphase": ("update_geometry_in", "sweep_and_prune", "colour_pairs"),
@@ -81,7 +129,7 @@ FUNCTION_STAGES = {
     "rows": ("solve_order", "contact_rows", "joint_rows"),
     "integrate": ("integrate_positions", "first_too_fast"),
 }
-# stage -> (class, method name) that World.step calls on its objects
+# stage -> (class, method name) that the staged step calls on its objects
 METHOD_STAGES = {
     "narrowphase": ((ManifoldCache, "collide"),),
     "cache matching": ((ContactCache, "warm_start"), (ContactCache, "store_rows")),
@@ -161,60 +209,108 @@ class Probe:
         self.calls.clear()
 
 
+# -- the one-call tick's kernel ------------------------------------------------------------------
+
+
+def swap_tick_kernel(w: phys2d.World, wrap: Callable[[Callable], Callable]) -> TickSpec:
+    """Give w's responder a copy of its ``TickSpec`` whose kernel is ``wrap(kernel)``; returns
+    the spec it had, for ``put_back``."""
+    spec = tick_for(w.responder)
+    if spec is None or not w.one_call_tick:
+        raise RuntimeError(f"{w.responder.name}: this world does not step in one call")
+    w.responder.__dict__["_tick_spec"] = spec._replace(kernel=wrap(spec.kernel))
+    return spec
+
+
+def put_back(w: phys2d.World, spec: TickSpec) -> None:
+    """Give w's responder back the ``TickSpec`` that ``swap_tick_kernel`` returned."""
+    w.responder.__dict__["_tick_spec"] = spec
+
+
+class KernelTimer:
+    """Wraps the one-call tick's kernel of world w with a timer; collects its ns and calls."""
+
+    def __init__(self, w: phys2d.World) -> None:
+        self.ns: dict[str, int] = defaultdict(int)
+        self.calls: dict[str, int] = defaultdict(int)
+        self.spec = swap_tick_kernel(w, lambda kernel: make_timed(kernel, kernel.__name__, self.ns, self.calls))
+        self.name = self.spec.kernel.__name__
+
+    def reset(self) -> None:
+        self.ns.clear()
+        self.calls.clear()
+
+
 # -- numba dispatch ------------------------------------------------------------------------------
 
 
-def _sink_factory():
+def empty_like(kernel) -> Callable:
+    """An empty numba function with ``kernel``'s parameters: calling it costs the dispatch alone."""
     from numba import njit
 
-    @njit
-    def sink(*args):
-        return 0
+    signature = inspect.signature(kernel.py_func)
+    parameters = [p.replace(annotation=p.empty) for p in signature.parameters.values()]
+    namespace: dict[str, Callable] = {}
+    exec(
+        f"def empty{signature.replace(parameters=parameters, return_annotation=signature.empty)}:\n    return 0",
+        namespace,
+    )
+    return njit(namespace["empty"])
 
-    return sink
 
+def kernel_calls_of_one_step(w: phys2d.World) -> list[tuple[str, Callable, tuple]]:
+    """(name, kernel, args) of every numba kernel called from Python during one step of w.
 
-def kernel_calls_of_one_step(w: phys2d.World) -> list[tuple[str, tuple]]:
-    """(name, args) of every numba kernel called from Python during one step of w.
-
-    Every numba dispatcher bound to a name in a phys2d module is wrapped for one step
-    (all kernels are compiled by then, so no kernel is compiled against the wrapper).
+    Every numba dispatcher bound to a name in a phys2d module is wrapped for one step, and
+    so is the one-call tick's kernel when w steps in one call (all kernels are compiled by
+    then, so no kernel is compiled against a wrapper).
     """
     from numba.core.registry import CPUDispatcher
 
-    seen: list[tuple[str, tuple]] = []
+    seen: list[tuple[str, Callable, tuple]] = []
+
+    def recorder(kernel, name: str):
+        def record(*args):
+            seen.append((name, kernel, args))
+            return kernel(*args)
+
+        return record
+
     patches = []
     for mod_name, mod in list(sys.modules.items()):
         if not (mod_name == "phys2d" or mod_name.startswith("phys2d.")) or mod is None:
             continue
         for name, obj in list(vars(mod).items()):
             if isinstance(obj, CPUDispatcher):
-
-                def recorder(*args, _f=obj, _name=name):
-                    seen.append((_name, args))
-                    return _f(*args)
-
                 patches.append((mod, name, obj))
-                setattr(mod, name, recorder)
+                setattr(mod, name, recorder(obj, name))
+    one_call = w.one_call_tick and tick_for(w.responder) is not None
+    spec = swap_tick_kernel(w, lambda kernel: recorder(kernel, kernel.__name__)) if one_call else None
     try:
         w.step(DT)
     finally:
         for mod, name, obj in patches:
             setattr(mod, name, obj)
+        if spec is not None:
+            put_back(w, spec)
     return seen
 
 
-def dispatch_cost_us(calls: list[tuple[str, tuple]], sink, repeats: int = 7, loops: int = 2000) -> float:
-    """Median over repeats of the time (µs) to dispatch ``calls`` once each into an empty kernel."""
-    copies = [tuple(a.copy() if isinstance(a, np.ndarray) else a for a in args) for _, args in calls]
-    for args in copies:  # compile the sink for each argument signature first
-        sink(*args)
+def dispatch_cost_us(calls: list[tuple[str, Callable, tuple]], repeats: int = 7, loops: int = 2000) -> float:
+    """Median over repeats of the time (µs) to make ``calls`` once each into empty kernels of
+    the same parameters (``empty_like``)."""
+    empties: dict[int, Callable] = {}
+    for _, kernel, _ in calls:
+        empties.setdefault(id(kernel), empty_like(kernel))
+    made = [(empties[id(kernel)], args) for _, kernel, args in calls]
+    for empty, args in made:  # compile each empty for its arguments' types first
+        empty(*args)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter_ns()
         for _ in range(loops):
-            for args in copies:
-                sink(*args)
+            for empty, args in made:
+                empty(*args)
         times.append((time.perf_counter_ns() - t0) / loops / 1e3)
     return statistics.median(times)
 
@@ -236,8 +332,8 @@ def pymunk_twin(scene: str):
 def calibrate(pc_ns: float, samples: int = 100_000, repeats: int = 7) -> float:
     """The wall time (ns) a timing wrapper adds to one call, beyond the call itself.
 
-    Used to take the wrappers' cost out of the wrapped twin's step time, so that the
-    stages and the Python left over come from the same timed steps.
+    Used to take the wrappers' cost out of the wrapped twins' step times, so that the
+    stages (or the kernel call) and the Python come from the same timed steps.
     """
 
     def noop(*args):
@@ -267,35 +363,41 @@ def timed_loop(step, n: int) -> float:
     return (time.perf_counter_ns() - t0) / n / 1e3
 
 
-def profile(scene: str, responder: str, args, pc_ns: float, added_ns: float, sink) -> dict:
-    """Stage times of one scene and responder; see the module docstring."""
-    make = SCENES[scene]
-    plain = make(RESPONDERS[responder]())
-    wrapped = make(RESPONDERS[responder]())
-    one_box = phys2d.scenes.vertical_stack(1, responder=RESPONDERS[responder]())
+def staged(w: phys2d.World) -> phys2d.World:
+    """w, set to step in stages (``World._step_in_stages``: one kernel call per stage)."""
+    w.one_call_tick = False
+    return w
+
+
+def profile(scene: str, responder: str, args, pc_ns: float, added_ns: float) -> dict:
+    """The one-call step and the staged step's stage times of one scene and responder; see
+    the module docstring."""
+    make, new = SCENES[scene], RESPONDERS[responder]
+    plain, wrapped, one_call = staged(make(new())), staged(make(new())), make(new())
+    one_box = phys2d.scenes.vertical_stack(1, responder=new())
+    one_box_staged = staged(phys2d.scenes.vertical_stack(1, responder=new()))
     peer = pymunk_twin(scene)
     for _ in range(args.warmup):
-        plain.step(DT)
-        wrapped.step(DT)
-        one_box.step(DT)
+        for w in (plain, wrapped, one_call, one_box, one_box_staged):
+            w.step(DT)
         if peer is not None:
             peer.step()
     probe = Probe(type(wrapped.responder))
-    plain_us: list[float] = []
-    step_us: list[float] = []  # the wrapped twin's step less what the wrappers added
-    left_us: list[float] = []
-    box_us: list[float] = []
-    ratios: list[float] = []
+    kernel = KernelTimer(one_call)
+    per_repeat: dict[str, list[float]] = defaultdict(list)  # figure -> its value in each repeat
     per_label: dict[str, list[float]] = defaultdict(list)
     calls_per_step: dict[str, float] = {}
+    tick_calls = 0
     for _ in range(args.repeats):
         gc.collect()
         gc.disable()
         try:
-            plain_us.append(timed_loop(lambda: plain.step(DT), args.steps))
-            if peer is not None:
-                ratios.append(plain_us[-1] / timed_loop(peer.step, args.steps))
-            box_us.append(timed_loop(lambda: one_box.step(DT), args.steps))
+            plain_us = timed_loop(lambda: plain.step(DT), args.steps)
+            kernel.reset()
+            one_call_us = timed_loop(lambda: one_call.step(DT), args.steps)
+            peer_us = timed_loop(peer.step, args.steps) if peer is not None else float("nan")
+            per_repeat["one_box"].append(timed_loop(lambda: one_box.step(DT), args.steps))
+            per_repeat["one_box_staged"].append(timed_loop(lambda: one_box_staged.step(DT), args.steps))
             probe.reset()
             probe.on()
             try:
@@ -304,39 +406,55 @@ def profile(scene: str, responder: str, args, pc_ns: float, added_ns: float, sin
                 probe.off()
         finally:
             gc.enable()
-        n_calls = sum(probe.calls.values())
+        # the one-call step: the kernel call, and the Python around it
+        n = kernel.calls[kernel.name]
+        tick_calls += n
+        step = one_call_us - n * added_ns / args.steps / 1e3
+        kernel_us = (kernel.ns[kernel.name] - n * pc_ns) / args.steps / 1e3
+        per_repeat["one_call"].append(step)
+        per_repeat["kernel"].append(kernel_us)
+        per_repeat["python"].append(step - kernel_us)
+        # the staged step, by stage
         stages_us = 0.0
         for label in probe.stage_of:
-            n = probe.calls.get(label, 0)
-            us = (probe.ns.get(label, 0) - n * pc_ns) / args.steps / 1e3
+            calls = probe.calls.get(label, 0)
+            us = (probe.ns.get(label, 0) - calls * pc_ns) / args.steps / 1e3
             per_label[label].append(us)
             stages_us += us
-            calls_per_step[label] = n / args.steps
-        step = wrapped_us - n_calls * added_ns / args.steps / 1e3
-        step_us.append(step)
-        left_us.append(step - stages_us)
-    if not np.array_equal(plain.x, wrapped.x):
-        raise RuntimeError(f"{scene}/{responder}: the twins diverged, so the stage times are not comparable")
+            calls_per_step[label] = calls / args.steps
+        total = wrapped_us - sum(probe.calls.values()) * added_ns / args.steps / 1e3
+        per_repeat["total"].append(total)
+        per_repeat["left_over"].append(total - stages_us)
+        per_repeat["plain"].append(plain_us)
+        # the yardstick
+        per_repeat["pymunk"].append(peer_us)
+        per_repeat["ratio"].append(plain_us / peer_us)
+        per_repeat["one_call_ratio"].append(step / peer_us)
+        per_repeat["one_call_vs_staged"].append(step / plain_us)
+    for twin, name in ((wrapped, "wrapped"), (one_call, "one-call")):
+        if not (np.array_equal(plain.x, twin.x) and np.array_equal(plain.theta, twin.theta)):
+            raise RuntimeError(f"{scene}/{responder}: the {name} twin diverged, so its times are not comparable")
+    put_back(one_call, kernel.spec)
     label_us = {label: statistics.median(v) for label, v in per_label.items()}
     stage_us = {s: 0.0 for s in STAGE_ORDER}
     for label, us in label_us.items():
         stage_us[probe.stage_of[label]] += us
     kernels = kernel_calls_of_one_step(plain)
-    dispatch = dispatch_cost_us(kernels, sink) if sink is not None and kernels else float("nan")
+    one_call_kernels = kernel_calls_of_one_step(one_call)
     return {
-        "total": statistics.median(step_us),
-        "plain": statistics.median(plain_us),
-        "one_box": statistics.median(box_us),
+        **{figure: statistics.median(values) for figure, values in per_repeat.items()},
         "stages": stage_us,
-        "left_over": statistics.median(left_us),
         "labels": label_us,
         "calls": calls_per_step,
         "stage_of": dict(probe.stage_of),
         "kernel_calls": len(kernels),
-        "kernel_names": sorted({name for name, _ in kernels}),
-        "dispatch": dispatch,
+        "dispatch": dispatch_cost_us(kernels),
+        "tick_kernel": kernel.name,
+        "tick_calls": tick_calls / (args.repeats * args.steps),
+        "one_call_kernel_calls": len(one_call_kernels),
+        "one_call_kernel_names": [name for name, _, _ in one_call_kernels],
+        "one_call_dispatch": dispatch_cost_us(one_call_kernels),
         "contacts": len(plain.contacts),
-        "ratio": statistics.median(ratios) if ratios else float("nan"),
     }
 
 
@@ -387,7 +505,7 @@ def report(results: dict, args, pc_ns: float, added_ns: float, command: str, loa
     import numba
 
     L = [
-        "# Time per step by stage (issue 11)",
+        "# Time per step: the one-call step, and the staged step by stage (issue 11)",
         "",
         f"- command: `{command}`",
         f"- date: {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
@@ -397,85 +515,153 @@ def report(results: dict, args, pc_ns: float, added_ns: float, command: str, loa
         "the machine inflates the times; the shares and ratios suffer less)",
         f"- versions: python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}",
         f"- method: {args.warmup} warm-up steps, then {args.repeats} repeats of {args.steps} steps; in each "
-        "repeat the plain world, pymunk on the same scene, a one-box scene, then the twin with its stage "
-        "functions wrapped; medians over repeats. The timer's own cost "
-        f"({pc_ns:.0f} ns) is taken off each wrapped call, and the wall time a wrapper adds to a call "
-        f"({added_ns:.0f} ns) off the wrapped twin's step, so the stages and the Python left over come from "
-        "the same steps. Method and stage list: the docstring of `benchmarks/stages.py`.",
+        "repeat the plain (staged) twin, the one-call twin with its tick kernel wrapped, pymunk on the same "
+        "scene, a one-box scene (one-call, then staged), then the staged twin with its stage functions "
+        f"wrapped; medians over repeats, ratios taken within each repeat. The timer's own cost ({pc_ns:.0f} ns) "
+        f"is taken off each wrapped call, and the wall time a wrapper adds to a call ({added_ns:.0f} ns) off "
+        "the wrapped twins' steps, so the parts and the step come from the same steps. Method and stage "
+        "list: the docstring of `benchmarks/stages.py`.",
         "- responders: `PGS(iterations=10, warm_start=True)` (as in peers.py) and `SoftStep(substeps=4)`",
         "",
-        "Times in µs per step; in brackets the share of the step. The ratio to pymunk "
+        "The **one-call step** is `World.step` as users run it (`phys2d.tick`: the whole tick in one numba "
+        "kernel call); the **staged step** is the same tick with `World.one_call_tick = False` (one kernel "
+        "call per stage, Python in between; bit-identical states), timed here to show where a step's work "
+        "goes. Times in µs per step; in brackets the share of the step. The ratio to pymunk "
         "(benchmarks/engines.py's pymunk adapter on the same scene, in the same repeats) carries over between "
         "machines better than the times do.",
+        "",
+        "## Headline",
+        "",
+        "Time per step (µs) and, in brackets, its ratio to pymunk's. Each figure is its own median: the "
+        "ratios, taken within each repeat, are the ones to compare; when other work slows some repeats, a "
+        "median time can disagree with a median ratio.",
+        "",
+        *headline(results),
     ]
     for scene, per in results.items():
         names = list(per)
         L += ["", f"## {scene} ({per[names[0]]['contacts']} contact points at the end)", ""]
-        rows = []
-        for s in STAGE_ORDER:
-            rows.append(
-                [s] + [f"{per[r]['stages'][s]:.1f} ({pct(per[r]['stages'][s], per[r]['total'])})" for r in names]
-            )
-        rows.append(
-            ["Python left over"]
-            + [f"{per[r]['left_over']:.1f} ({pct(per[r]['left_over'], per[r]['total'])})" for r in names]
-        )
-        rows.append(["**step** (wrapped twin, less the wrappers)"] + [f"**{per[r]['total']:.1f}**" for r in names])
-        rows.append(["step of the plain twin (a check)"] + [f"{per[r]['plain']:.1f}" for r in names])
-        rows.append(["plain step / pymunk's step"] + [f"{per[r]['ratio']:.2f}x" for r in names])
-        rows.append(["numba kernels called from Python per step"] + [str(per[r]["kernel_calls"]) for r in names])
-        rows.append(
-            ["numba dispatch, estimated (inside the stages above)"]
-            + [f"{per[r]['dispatch']:.1f} ({pct(per[r]['dispatch'], per[r]['total'])})" for r in names]
-        )
-        rows.append(
-            ["**Python left over + dispatch** (the fixed cost, on a small scene)"]
-            + [
-                f"**{per[r]['left_over'] + per[r]['dispatch']:.1f}** "
-                f"({pct(per[r]['left_over'] + per[r]['dispatch'], per[r]['total'])})"
-                for r in names
-            ]
-        )
-        rows.append(["one-box scene's step, same repeats"] + [f"{per[r]['one_box']:.1f}" for r in names])
-        L += table(["stage", *names], rows)
-        labels = list(per[names[0]]["labels"])
-        for r in names[1:]:
-            labels += [x for x in per[r]["labels"] if x not in labels]
-        rows = []
-        for label in labels:
-            cells = []
-            for r in names:
-                if label in per[r]["labels"] and per[r]["calls"].get(label, 0) > 0:
-                    cells.append(f"{per[r]['labels'][label]:.2f} ({per[r]['calls'][label]:.2g}/step)")
-                else:
-                    cells.append("-")
-            stage = next(per[r]["stage_of"][label] for r in names if label in per[r]["stage_of"])
-            rows.append([f"`{label}`", stage] + cells)
-        L += ["", "<details><summary>by function (µs per step; calls per step in brackets)</summary>", ""]
-        L += table(["function", "stage", *names], rows)
-        L += ["", "</details>"]
+        L += ["### The one-call step", "", *table(["part", *names], one_call_rows(per))]
+        L += ["", "### The staged step, by stage", "", *table(["stage", *names], staged_rows(per))]
+        L += ["", "<details><summary>staged step by function (µs per step; calls per step in brackets)</summary>"]
+        L += ["", *table(["function", "stage", *names], function_rows(per)), "", "</details>"]
     L += ["", "## Reading", "", *reading(results), ""]
     return "\n".join(L)
 
 
+def headline(results: dict) -> list[str]:
+    """One row per scene and responder: the one-call step, the staged step and pymunk's."""
+    rows = []
+    for scene, per in results.items():
+        for r, res in per.items():
+            rows.append(
+                [scene, r, f"**{res['one_call']:.1f}** ({res['one_call_ratio']:.2f}x)",
+                 f"{res['plain']:.1f} ({res['ratio']:.2f}x)", f"{res['pymunk']:.1f}",
+                 f"{res['one_call_vs_staged']:.2f}x"]
+            )  # fmt: skip
+    header = ["scene", "responder", "one-call step (/ pymunk)", "staged step (/ pymunk)", "pymunk", "one-call / staged"]
+    return table(header, rows)
+
+
+def one_call_rows(per: dict) -> list[list[str]]:
+    """The one-call step of each responder, split into its kernel call and the Python around it."""
+    names = list(per)
+
+    def us(key: str) -> list[str]:
+        return [f"{per[r][key]:.1f} ({pct(per[r][key], per[r]['one_call'])})" for r in names]
+
+    fixed = {r: per[r]["python"] + per[r]["one_call_dispatch"] for r in names}
+    return [
+        ["the kernel call (" + ", ".join(sorted({f"`{per[r]['tick_kernel']}`" for r in names})) + "), from Python"]
+        + us("kernel"),
+        ["numba dispatch of that call, estimated (inside the kernel call)"] + us("one_call_dispatch"),
+        ["Python of the step (the step less the kernel call)"] + us("python"),
+        ["**one-call step** (wrapped twin, less the wrapper)"] + [f"**{per[r]['one_call']:.1f}**" for r in names],
+        ["one-call step / pymunk's step"] + [f"{per[r]['one_call_ratio']:.2f}x" for r in names],
+        ["one-call step / staged step (the plain twin's)"] + [f"{per[r]['one_call_vs_staged']:.2f}x" for r in names],
+        ["numba kernels called from Python per step (one step recorded)"]
+        + [str(per[r]["one_call_kernel_calls"]) for r in names],
+        ["tick kernel calls per timed step (2 in a step that sweeps)"] + [f"{per[r]['tick_calls']:.2f}" for r in names],
+        ["**Python + dispatch** (the fixed cost, on a small scene)"]
+        + [f"**{fixed[r]:.1f}** ({pct(fixed[r], per[r]['one_call'])})" for r in names],
+        ["one-box scene's one-call step, same repeats"] + [f"{per[r]['one_box']:.1f}" for r in names],
+    ]
+
+
+def staged_rows(per: dict) -> list[list[str]]:
+    """The staged step of each responder, stage by stage, with its Python left over and dispatch."""
+    names = list(per)
+
+    def us(value: Callable[[dict], float]) -> list[str]:
+        return [f"{value(per[r]):.1f} ({pct(value(per[r]), per[r]['total'])})" for r in names]
+
+    rows = [[s, *us(lambda res, s=s: res["stages"][s])] for s in STAGE_ORDER]
+    return rows + [
+        ["Python left over", *us(lambda res: res["left_over"])],
+        ["**staged step** (wrapped twin, less the wrappers)"] + [f"**{per[r]['total']:.1f}**" for r in names],
+        ["staged step of the plain twin (a check)"] + [f"{per[r]['plain']:.1f}" for r in names],
+        ["plain twin's step / pymunk's step"] + [f"{per[r]['ratio']:.2f}x" for r in names],
+        ["numba kernels called from Python per step"] + [str(per[r]["kernel_calls"]) for r in names],
+        ["numba dispatch, estimated (inside the stages above)", *us(lambda res: res["dispatch"])],
+        ["**Python left over + dispatch** (the fixed cost, on a small scene)"]
+        + [
+            f"**{per[r]['left_over'] + per[r]['dispatch']:.1f}** "
+            f"({pct(per[r]['left_over'] + per[r]['dispatch'], per[r]['total'])})"
+            for r in names
+        ],  # fmt: skip
+        ["one-box scene's staged step, same repeats"] + [f"{per[r]['one_box_staged']:.1f}" for r in names],
+    ]
+
+
+def function_rows(per: dict) -> list[list[str]]:
+    """The staged step's wrapped functions: µs per step and calls per step, per responder."""
+    names = list(per)
+    labels = list(per[names[0]]["labels"])
+    for r in names[1:]:
+        labels += [x for x in per[r]["labels"] if x not in labels]
+    rows = []
+    for label in labels:
+        cells = []
+        for r in names:
+            if label in per[r]["labels"] and per[r]["calls"].get(label, 0) > 0:
+                cells.append(f"{per[r]['labels'][label]:.2f} ({per[r]['calls'][label]:.2g}/step)")
+            else:
+                cells.append("-")
+        stage = next(per[r]["stage_of"][label] for r in names if label in per[r]["stage_of"])
+        rows.append([f"`{label}`", stage] + cells)
+    return rows
+
+
+def calls(n: int) -> str:
+    return f"{n} kernel call" + ("" if n == 1 else "s")
+
+
 def reading(results: dict) -> list[str]:
-    """Which stages dominate, and the fixed cost, in words (from the figures above)."""
+    """Where each step's time goes, and the fixed cost, in words (from the figures above)."""
     out = []
     for scene, per in results.items():
         parts = []
         for r, res in per.items():
             ranked = sorted(res["stages"].items(), key=lambda kv: -kv[1])
             top = ", ".join(f"{s} {pct(us, res['total'])}" for s, us in ranked[:3])
-            parts.append(f"{r}: {top}; Python left over {pct(res['left_over'], res['total'])}")
+            parts.append(
+                f"{r}: one-call step {res['one_call']:.0f} µs ({res['one_call_ratio']:.2f}x pymunk), "
+                f"{pct(res['kernel'], res['one_call'])} in the kernel call; staged step {res['plain']:.0f} µs "
+                f"({res['ratio']:.2f}x pymunk): {top}, Python left over {pct(res['left_over'], res['total'])}"
+            )
         out.append(f"- **{scene}**: " + "; ".join(parts) + ".")
     small = next(iter(results))
     for r, res in results[small].items():
-        fixed = res["left_over"] + res["dispatch"]
+        fixed = res["python"] + res["one_call_dispatch"]
+        staged_fixed = res["left_over"] + res["dispatch"]
         out.append(
-            f"- Fixed cost per step on {small}, {r}: {fixed:.0f} µs of {res['total']:.0f} µs "
-            f"({pct(fixed, res['total'])}): Python left over {res['left_over']:.0f} µs and numba dispatch "
-            f"about {res['dispatch']:.0f} µs over {res['kernel_calls']} kernel calls. A one-box scene steps "
-            f"in {res['one_box']:.0f} µs; the whole step is {res['ratio']:.1f}x pymunk's."
+            f"- Fixed cost per step on {small}, {r}: one-call {fixed:.0f} µs of {res['one_call']:.0f} µs "
+            f"({pct(fixed, res['one_call'])}): Python {res['python']:.0f} µs and numba dispatch about "
+            f"{res['one_call_dispatch']:.0f} µs over {calls(res['one_call_kernel_calls'])}; staged "
+            f"{staged_fixed:.0f} µs of {res['total']:.0f} µs ({pct(staged_fixed, res['total'])}): Python left "
+            f"over {res['left_over']:.0f} µs and dispatch about {res['dispatch']:.0f} µs over "
+            f"{calls(res['kernel_calls'])}. A one-box scene steps in {res['one_box']:.0f} µs in one call, "
+            f"{res['one_box_staged']:.0f} µs in stages."
         )
     return out
 
@@ -504,23 +690,19 @@ def main(argv=None) -> int:
     command = "python " + " ".join([os.path.relpath(sys.argv[0])] + sys.argv[1:])
     load_start = load_average()
     pc_ns = timer_cost_ns()
-    try:
-        sink = _sink_factory()
-    except Exception as exc:  # noqa: BLE001  (no estimate rather than no profile)
-        print(f"numba dispatch estimate unavailable: {exc}")
-        sink = None
     added_ns = calibrate(pc_ns)
     results: dict[str, dict] = {}
     for scene in args.scenes:
         results[scene] = {}
         for r in args.responders:
-            res = profile(scene, r, args, pc_ns, added_ns, sink)
-            results[scene][r] = res
+            res = results[scene][r] = profile(scene, r, args, pc_ns, added_ns)
             stages = ", ".join(f"{s} {us:.1f}" for s, us in res["stages"].items())
             print(
-                f"{scene} {r}: step {res['total']:.1f} us (plain {res['plain']:.1f}) = {stages}, Python left "
-                f"over {res['left_over']:.1f}; dispatch {res['dispatch']:.1f} us over {res['kernel_calls']} kernel "
-                f"calls; one box {res['one_box']:.1f} us",
+                f"{scene} {r}: one-call step {res['one_call']:.1f} us = kernel call {res['kernel']:.1f} (dispatch "
+                f"{res['one_call_dispatch']:.1f}) + Python {res['python']:.1f}; staged step {res['total']:.1f} us "
+                f"(plain {res['plain']:.1f}) = {stages}, Python left over {res['left_over']:.1f}; dispatch "
+                f"{res['dispatch']:.1f} us over {res['kernel_calls']} kernel calls; pymunk {res['pymunk']:.1f} us; "
+                f"one box {res['one_box']:.1f} / {res['one_box_staged']:.1f} us",
                 flush=True,
             )
     text = report(results, args, pc_ns, added_ns, command, (load_start, load_average()))
