@@ -127,7 +127,7 @@ class World:
         self._residuals = np.zeros(16)
         self._tick_state_over: tuple = ()  # the arrays the kept TickState was made over
         self._tick_state_kept: TickState | None = None
-        self.one_call_tick = True
+        self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self.tick = 0
         self.time = 0.0
@@ -192,6 +192,15 @@ class World:
     @contact_recycle_distance.setter
     def contact_recycle_distance(self, value: float) -> None:
         self._contact_recycle_distance = non_negative_float(value, "contact_recycle_distance")
+
+    @property
+    def one_call_tick(self) -> bool:
+        """Step PGS (impulse form) and SoftStep in one kernel call (``phys2d.tick``); False: stage by stage."""
+        return self._one_call_tick
+
+    @one_call_tick.setter
+    def one_call_tick(self, value: bool) -> None:
+        self._one_call_tick = check_bool(value, "one_call_tick")
 
     @property
     def max_speed(self) -> float:
@@ -488,7 +497,7 @@ class World:
         responder = self._responder
         if self._joints:
             self._check_joints_supported(responder)
-        spec = tick_for(responder) if self.one_call_tick else None
+        spec = tick_for(responder) if self._one_call_tick else None
         report = self._step_in_stages(dt, responder) if spec is None else self._step_in_one_call(dt, spec)
         self._last_step = report
         self.tick += 1

@@ -176,3 +176,12 @@ def test_a_copied_world_steps_on_as_the_original(how):
             x.one_call_tick = i % 5 != 4
             x.step(1 / 60)
         assert fingerprint(w) == fingerprint(twin)
+
+
+def test_one_call_tick_takes_only_a_bool():
+    w = scenes.vertical_stack(2)
+    with pytest.raises(TypeError, match="one_call_tick must be True or False"):
+        w.one_call_tick = 1
+    assert w.one_call_tick is True
+    w.one_call_tick = np.False_
+    assert w.one_call_tick is False
