@@ -46,6 +46,7 @@ from .responders.soft_step import SoftStep, soft_step_solve
 
 OK = 0
 NEED_SWEEP = 1  # a body left its fat box (or the bodies changed): sweep, then call again at stage 1
+NEED_ROOM = 3  # the manifold store has no room for this step's new manifolds: make it, then call again at stage 1
 TOO_FAST = 2  # a body ended the step past max_speed or not finite: undo and raise
 
 BODY_FIELDS = (
@@ -271,8 +272,8 @@ def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings):
 @njit(cache=True)
 def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
     """The tick up to the responder. Stage 0: ``begin_tick``, stopping with NEED_SWEEP when the
-    pairs no longer hold; then (stage 1 joins here after the sweep) ``find_contacts`` and
-    ``build_rows``.
+    pairs no longer hold; then (stage 1 joins here after the sweep) NEED_ROOM when the manifold
+    store is short of room for a new manifold per pair, else ``find_contacts`` and ``build_rows``.
 
     found: (n_pairs, colour_order, sweep_again); cached: (manifolds, contacts, rows_used,
     points_used) of the side last written; world: (gravity, |g|, dt, contact_margin,
@@ -286,6 +287,8 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
         fits = begin_tick(s, gravity, dt, margin)
         if sweep_again or not fits:
             return NEED_SWEEP, 0, 0, 0, rows_used, points_used, 0, 0.0
+    if rows_used + n_pairs > s.found_pose.shape[0] or points_used + 2 * n_pairs > s.m_anchor.shape[0]:
+        return NEED_ROOM, 0, 0, 0, rows_used, points_used, 0, 0.0  # (``ManifoldCache.make_room``)
     k, n_new, recycled, rows_used, points_used = find_contacts(
         s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance
     )

@@ -42,6 +42,7 @@ from .responders.pgs import PGS
 from .tick import (
     CACHE_FIELDS,
     CONTACT_FIELDS,
+    NEED_ROOM,
     NEED_SWEEP,
     ROW_FIELDS,
     TOO_FAST,
@@ -127,6 +128,9 @@ class World:
         self._residuals = np.zeros(16)
         self._tick_state_over: tuple = ()  # the arrays the kept TickState was made over
         self._tick_state_kept: TickState | None = None
+        # (spec, buffers, state) of the last one-call step: kept while the responder's settings hold and
+        # nothing set _sweep_again (bodies, joints, margin), swept, made room or stepped in stages
+        self._ready: tuple | None = None
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self.tick = 0
@@ -135,7 +139,7 @@ class World:
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the TickState, a numba structref: made anew when needed."""
         state = self.__dict__.copy()
-        state.update(_tick_state_kept=None, _tick_state_over=())
+        state.update(_tick_state_kept=None, _tick_state_over=(), _ready=None)
         return state
 
     # -- configuration ------------------------------------------------------
@@ -509,6 +513,7 @@ class World:
         ``respond``, integration (unless it moved the bodies itself), the limits, the caches."""
         b = self._bodies
         x, theta, V, M_inv = b.x, b.theta, b.V, b.M_inv
+        self._ready = None  # this step replaces the caches' arrays: a one-call tick looks them over again
         x0, theta0, V1 = x.copy(), theta.copy(), V.copy()  # the undo; V1 is also the velocity the tick began with
         manifolds_before = self._manifolds.state()
         try:
@@ -554,9 +559,14 @@ class World:
         stage, began = 0, False
         try:
             while True:
-                t = self._room_for_tick(spec)
+                ready = self._ready
+                if ready is not None and ready[0] is spec and not self._sweep_again:
+                    _, t, state = ready  # nothing was replaced since the last step (see _ready)
+                else:
+                    t = self._room_for_tick(spec)
+                    state = self._tick_state(t)
+                    self._ready = (spec, t, state)
                 side = t.side
-                state = self._tick_state(t)
                 began = True  # from here the undo buffers hold the state before the step
                 found = (self._n_pairs, spec.colour_order, self._sweep_again)
                 result = spec.kernel(
@@ -564,9 +574,13 @@ class World:
                     (m.key.shape[0], cache.keys.shape[0], m.rows_used, m.points_used), world, spec.row_settings,
                     self._max_speed, *spec.settings,
                 )  # fmt: skip
-                if result[0] != NEED_SWEEP:
+                if result[0] == NEED_SWEEP:
+                    self._sweep(self._geometry_buffers()[2])
+                elif result[0] == NEED_ROOM:
+                    m.make_room(self._n_pairs)
+                    self._ready = None
+                else:
                     break
-                self._sweep(self._geometry_buffers()[2])
                 stage = 1  # forces and geometry are done: go on from the contacts
             if result[0] == TOO_FAST:
                 self._check_limits()  # raises, naming the bodies
@@ -590,13 +604,13 @@ class World:
 
     def _room_for_tick(self, spec: TickSpec) -> TickBuffers:
         """The one-call tick's buffers, with room for this step's pairs, joint rows and sweeps, and
-        for the caches; caches a staged step left (arrays of their own) are copied in."""
+        for the caches; caches a staged step left (arrays of their own, or a store made anew with
+        its rows numbered anew) are copied in."""
         t, m, cache = self._tick_buffers, self._manifolds, self._cache
         n_joint_rows = self._joint_lam.shape[0]
         pairs = max(self._n_pairs, m.key.shape[0], (cache.keys.shape[0] + 1) // 2)
         if not t.holds(pairs, n_joint_rows):
             t = self._tick_buffers = TickBuffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
-        m.make_room(self._n_pairs)  # (a store made anew numbers its rows anew: m.row is then new)
         held = t.held
         if held[2] is not m.key or held[3] is not m.row or held[4] is not cache.keys:
             n, k, side = m.key.shape[0], cache.keys.shape[0], t.side  # not this side's views: copy them in
@@ -802,6 +816,7 @@ class World:
             self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
             n_pairs = sweep_and_prune(fat, self._bodies.static, self._excluded, self._pairs)
         self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
+        self._ready = None  # the one-call tick's buffers and state are looked over again
         self._pair_order = None  # coloured when a responder first visits these pairs by colour
 
     def _build_rows(

@@ -185,3 +185,26 @@ def test_one_call_tick_takes_only_a_bool():
     assert w.one_call_tick is True
     w.one_call_tick = np.False_
     assert w.one_call_tick is False
+
+
+def test_changes_between_steps_reach_the_one_call_tick():
+    """Bodies added and removed, a joint added, the contact margin and gravity changed between
+    steps: the one-call world keeps step with the staged one (its kept buffers and state are
+    looked over again whenever one of these changes)."""
+    one, staged = twins(lambda r: scenes.pyramid(4, responder=r), lambda: phys2d.PGS())
+    for i in range(60):
+        for w in (one, staged):
+            if i == 10:
+                w.add_box(position=(0.3, 6.0), half_extents=(0.4, 0.3), angle=0.2)
+            if i == 20:
+                w.remove(w.bodies[3])
+            if i == 30:
+                w.add_distance_joint(
+                    w.bodies[1], w.bodies[2], anchor_a=w.bodies[1].position, anchor_b=w.bodies[2].position
+                )
+            if i == 40:
+                w.contact_margin = 0.03
+            if i == 50:
+                w.gravity = (1.0, -9.0)
+            w.step(1 / 60)
+        assert fingerprint(one) == fingerprint(staged), i
