@@ -83,7 +83,7 @@ Stages of the staged step:
 | external forces | `apply_external_forces` |
 | broadphase | `update_geometry_in` (and the fat-box check); if a body left its box `sweep_and_prune`, `colour_pairs` |
 | narrowphase | `ManifoldCache.collide` (contact recycling, and the narrowphase for the pairs not recycled) |
-| cache matching | `ContactCache.store_rows` (and `ContactCache.warm_start` where it exists; else in `contact_rows`) |
+| cache matching | `ContactCache.store_rows` (the look-up runs inside `contact_rows`, under rows) |
 | rows | `RowBuffer.take`, `solve_order`, `World._context` (contacts in row order), `contact_rows`, `joint_rows` |
 | solve | the responder's `respond` (SoftStep's moves the positions too: its sub-steps integrate) |
 | integrate | `integrate_positions` (not called for SoftStep), `first_too_fast` (the speed limit check) |
@@ -125,14 +125,13 @@ DT = 1.0 / 60.0
 FUNCTION_STAGES = {
     "external forces": ("apply_external_forces",),
     "broadphase": ("update_geometry_in", "sweep_and_prune", "colour_pairs"),
-    "narrowphase": ("collide_pairs",),  # (an older world's; now ManifoldCache.collide below)
     "rows": ("solve_order", "contact_rows", "joint_rows"),
     "integrate": ("integrate_positions", "first_too_fast"),
 }
 # stage -> (class, method name) that the staged step calls on its objects
 METHOD_STAGES = {
     "narrowphase": ((ManifoldCache, "collide"),),
-    "cache matching": ((ContactCache, "warm_start"), (ContactCache, "store_rows")),
+    "cache matching": ((ContactCache, "store_rows"),),
     "rows": ((RowBuffer, "take"), (world_module.World, "_context")),
 }
 STAGE_ORDER = ("external forces", "broadphase", "narrowphase", "cache matching", "rows", "solve", "integrate")
