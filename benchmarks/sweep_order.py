@@ -55,7 +55,7 @@ import engines  # noqa: E402
 
 import phys2d  # noqa: E402
 from phys2d import scenes  # noqa: E402
-from phys2d.responders.pgs import apply_impulses, inverse_diagonal, sweep  # noqa: E402
+from phys2d.responders.pgs import apply_impulses, per_unit_A, sweep  # noqa: E402
 
 SCENES = {"pyramid_20": 20, "pyramid_40": 40}
 ORDERS = {
@@ -119,10 +119,10 @@ def ten_sweeps(rows, lam0, V0, visit, bodies=None):
     body_a, body_b = (r.body_a, r.body_b) if bodies is None else bodies[:2]
     lam, V = lam0.copy(), (V0 if bodies is None else bodies[2]).copy()
     apply_impulses(body_a, body_b, r.JM, lam, V)
-    inv = inverse_diagonal(r.A_kk)
+    J_hat, xi_hat = per_unit_A(r.J, r.xi, r.A_kk)
     t = time.perf_counter()
     for _ in range(10):
-        sweep(visit, body_a, body_b, r.J, r.JM, r.A_kk, inv, r.xi, r.lo, r.hi, r.bound_row, r.mu, lam, V)
+        sweep(visit, body_a, body_b, J_hat, r.JM, r.A_kk, xi_hat, r.lo, r.hi, r.bound_row, r.mu, lam, V)
     return time.perf_counter() - t, lam, V
 
 

@@ -36,7 +36,7 @@ def test_manifolds_of_a_resting_stack(block):
     JM = np.zeros_like(J)
     JM[:, :3] = M_inv[body_a] * J[:, :3]  # M^-1 J^T row by row, from the bodies' masses
     JM[:, 3:] = M_inv[body_b] * J[:, 3:]
-    start, static_pair, K12, as_block = prepare_manifolds(
+    start, static_pair, K12, as_block, inv_det = prepare_manifolds(
         normal_row.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32), J, JM, A_kk, M_inv, block
     )
     # three boxes resting flat: each touches the one below (or the ground) at two corners
@@ -55,3 +55,6 @@ def test_manifolds_of_a_resting_stack(block):
         assert K12[m] == (pytest.approx(K, rel=1e-12) if block else 0.0)
         # two corners a box width apart: far from parallel, so solved as a block when asked
         assert as_block[m] == block
+        # a block's 1 / det K, from the Jacobians as above (lcp2 multiplies by it)
+        det = A_kk[k] * A_kk[k2] - K * K
+        assert inv_det[m] == (pytest.approx(1.0 / det, rel=1e-12) if block else 0.0)

@@ -52,14 +52,15 @@ def apply_impulses(body_a, body_b, JM, lam, V):
 
 
 @njit(cache=True)
-def lcp2(K11, K12, K22, b1, b2):
+def lcp2(K11, K12, K22, inv_det, b1, b2):
     """The 2x2 LCP: x >= 0, w = K x + b >= 0, x . w = 0, by trying the four active sets.
 
-    K = [[K11, K12], [K12, K22]] must be symmetric positive definite.
+    K = [[K11, K12], [K12, K22]] must be symmetric positive definite; inv_det is
+    1 / (K11 K22 - K12^2), which the caller works out once (a division takes as long as
+    several products, and the soft step solves the same K many times a tick).
     """
-    det = K11 * K22 - K12 * K12
-    x1 = -(K22 * b1 - K12 * b2) / det  # both rows push
-    x2 = -(K11 * b2 - K12 * b1) / det
+    x1 = -(K22 * b1 - K12 * b2) * inv_det  # both rows push
+    x2 = -(K11 * b2 - K12 * b1) * inv_det
     if x1 >= 0.0 and x2 >= 0.0:
         return x1, x2
     x1 = -b1 / K11  # only row 1 pushes
@@ -87,12 +88,15 @@ def bounds(k, lo, hi, bound_row, mu, lam):
 
 
 @njit(cache=True)
-def sweep(visit, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V):
+def sweep(visit, body_a, body_b, J_hat, JM, A_kk, xi_hat, lo, hi, bound_row, mu, lam, V):
     """One projected Gauss-Seidel sweep over the rows ``visit``, one row at a time (the
     lecture's loop); returns the largest velocity correction |delta lambda_k| A_kk (m/s).
 
     J_k V is read off the current velocities, so it already holds every impulse applied
-    so far: sum_l A_kl lambda_l - b_k = J_k V - xi_k.
+    so far: sum_l A_kl lambda_l - b_k = J_k V - xi_k. The rows come divided by A_kk
+    (``per_unit_A``: J_hat = J_k / A_kk, xi_hat = xi_k / A_kk), so lambda_k + (xi_k - J_k V) / A_kk
+    is lambda_k + xi_hat_k - J_hat_k V: nothing but the clamp waits on the sum, which waits on
+    the last row's impulse (measured: a sweep takes ~12% less).
     """
     worst = 0.0
     for q in range(visit.shape[0]):
@@ -100,15 +104,15 @@ def sweep(visit, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, m
         if A_kk[k] <= 0.0:
             continue  # both bodies static: nothing can move
         low, high = bounds(k, lo, hi, bound_row, mu, lam)
-        if high == 0.0 and lam[k] == 0.0:
+        old = lam[k]
+        if high == 0.0 and old == 0.0:
             continue  # friction of a point that does not push: its cone [0, 0] is met already
         a, b = body_a[k], body_b[k]
-        delta = (xi[k] - row_velocity(k, a, b, J, V)) * inv_A_kk[k]  # (xi_k - J_k V) / A_kk
-        new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
-        delta = new - lam[k]
+        # lambda_k + (xi_k - J_k V) / A_kk, clamped: clamp the accumulated impulse, not delta
+        new = min(max(old + xi_hat[k] - row_velocity(k, a, b, J_hat, V), low), high)
         lam[k] = new
-        apply_row_impulse(k, a, b, JM, delta, V)
-        worst = max(worst, abs(delta) * A_kk[k])
+        apply_row_impulse(k, a, b, JM, new - old, V)
+        worst = max(worst, abs(new - old) * A_kk[k])
     return worst
 
 
@@ -129,6 +133,7 @@ def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
         K11,
         K12,
         K22,
+        1.0 / (K11 * K22 - K12 * K12),
         row_velocity(n1, a, b, J, V) - xi[n1] - (K11 * a1 + K12 * a2),
         row_velocity(n2, a, b, J, V) - xi[n2] - (K12 * a1 + K22 * a2),
     )
@@ -141,58 +146,33 @@ def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
 
 @njit(cache=True)
 def block_sweep(
-    normal_row, friction_row, joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V
+    normal_row, friction_row, joint_rows, body_a, body_b, J, J_hat, JM, A_kk, xi, xi_hat, lo, hi, bound_row, mu, lam, V
 ):
     """One block Gauss-Seidel sweep (Box2D's block solver): a two-point manifold's normal
-    rows together (``solve_normal_pair``), then its friction rows; other contacts and
-    the joints row by row (``sweep``). Returns the largest |delta lambda_k| A_kk (m/s).
-    With no friction rows (``friction_row`` empty) only the normal rows are swept."""
+    rows together (``solve_normal_pair``, on J and xi), then its friction rows; other contacts
+    and the joints row by row (``sweep``, on J_hat and xi_hat: ``per_unit_A``). Returns the
+    largest |delta lambda_k| A_kk (m/s). With no friction rows (``friction_row`` empty) only
+    the normal rows are swept."""
     worst = 0.0
     n_contacts = normal_row.shape[0]
     frictionless = friction_row.shape[0] == 0
+    rows = (body_a, body_b, J_hat, JM, A_kk, xi_hat, lo, hi, bound_row, mu, lam, V)  # what sweep takes after visit
     q = 0
     while q < n_contacts:
         n1 = normal_row[q]
         a, b = body_a[n1], body_b[n1]
+        together = 1  # contacts taken in this turn
         if q + 1 < n_contacts and body_a[normal_row[q + 1]] == a and body_b[normal_row[q + 1]] == b:
             err = solve_normal_pair(n1, normal_row[q + 1], a, b, J, JM, A_kk, xi, lam, V)
             if err >= 0.0:  # solved as a block: then the two friction rows
                 worst = max(worst, err)
-                if not frictionless:
-                    worst = max(
-                        worst,
-                        sweep(
-                            friction_row[q : q + 2],
-                            body_a,
-                            body_b,
-                            J,
-                            JM,
-                            A_kk,
-                            inv_A_kk,
-                            xi,
-                            lo,
-                            hi,
-                            bound_row,
-                            mu,
-                            lam,
-                            V,
-                        ),
-                    )
-                q += 2
-                continue
-        worst = max(
-            worst,
-            sweep(normal_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V),
-        )
+                together = 2
+        if together == 1:
+            worst = max(worst, sweep(normal_row[q : q + 1], *rows))
         if not frictionless:
-            worst = max(
-                worst,
-                sweep(
-                    friction_row[q : q + 1], body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V
-                ),
-            )
-        q += 1
-    return max(worst, sweep(joint_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V))
+            worst = max(worst, sweep(friction_row[q : q + together], *rows))
+        q += together
+    return max(worst, sweep(joint_rows, *rows))
 
 
 @njit(cache=True)
@@ -203,6 +183,20 @@ def inverse_diagonal(A_kk):
         if A_kk[k] > 0.0:
             inv_A_kk[k] = 1.0 / A_kk[k]
     return inv_A_kk
+
+
+@njit(cache=True)
+def per_unit_A(J, xi, A_kk):
+    """(J_hat, xi_hat): every row and its target divided by its A_kk (0 where A_kk = 0), once
+    per step, for ``sweep``."""
+    inv_A_kk = inverse_diagonal(A_kk)
+    J_hat = np.empty_like(J)
+    xi_hat = np.empty_like(xi)
+    for k in range(J.shape[0]):
+        for c in range(6):
+            J_hat[k, c] = J[k, c] * inv_A_kk[k]
+        xi_hat[k] = xi[k] * inv_A_kk[k]
+    return J_hat, xi_hat
 
 
 @njit(cache=True)
@@ -231,31 +225,18 @@ def pgs_solve(
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
     residuals[s] is sweep s's. ``block``: see ``pgs_step``."""
     apply_impulses(body_a, body_b, JM, lam, V)
-    inv_A_kk = inverse_diagonal(A_kk)
+    J_hat, xi_hat = per_unit_A(J, xi, A_kk)
     all_rows = np.arange(lam.shape[0], dtype=normal_row.dtype)  # the row map's dtype: sweep compiles once
     joint_rows = all_rows[first_joint_row:]
+    rows = (body_a, body_b, J_hat, JM, A_kk, xi_hat, lo, hi, bound_row, mu, lam, V)  # what sweep takes after visit
     for s in range(iterations):
         if block is not None:
             residuals[s] = block_sweep(
-                normal_row,
-                friction_row,
-                joint_rows,
-                body_a,
-                body_b,
-                J,
-                JM,
-                A_kk,
-                inv_A_kk,
-                xi,
-                lo,
-                hi,
-                bound_row,
-                mu,
-                lam,
-                V,
-            )
+                normal_row, friction_row, joint_rows, body_a, body_b, J, J_hat, JM, A_kk, xi, xi_hat, lo, hi,
+                bound_row, mu, lam, V,
+            )  # fmt: skip
         else:
-            residuals[s] = sweep(all_rows, body_a, body_b, J, JM, A_kk, inv_A_kk, xi, lo, hi, bound_row, mu, lam, V)
+            residuals[s] = sweep(all_rows, *rows)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -278,31 +259,17 @@ def push_out(
         pushing = pushing or push[k] > 0.0
     if not pushing:
         return 0
-    inv_A_kk = inverse_diagonal(A_kk)
+    J_hat, push_hat = per_unit_A(J, push, A_kk)
     none = normal_row[:0]  # no friction rows, no joint rows: the normal rows only
     for s in range(iterations):
         if block is not None:
             worst = block_sweep(
-                normal_row,
-                none,
-                none,
-                body_a,
-                body_b,
-                J,
-                JM,
-                A_kk,
-                inv_A_kk,
-                push,
-                lo,
-                hi,
-                bound_row,
-                mu,
-                lam_push,
-                V_push,
-            )
+                normal_row, none, none, body_a, body_b, J, J_hat, JM, A_kk, push, push_hat, lo, hi, bound_row, mu,
+                lam_push, V_push,
+            )  # fmt: skip
         else:
             worst = sweep(
-                normal_row, body_a, body_b, J, JM, A_kk, inv_A_kk, push, lo, hi, bound_row, mu, lam_push, V_push
+                normal_row, body_a, body_b, J_hat, JM, A_kk, push_hat, lo, hi, bound_row, mu, lam_push, V_push
             )
         if worst <= tolerance:
             return s + 1
@@ -585,4 +552,4 @@ class PGS(Responder):
         )
 
 
-__all__ = ["PGS", "apply_impulses", "block_sweep", "lcp2", "pgs_solve", "pgs_step", "sweep"]
+__all__ = ["PGS", "apply_impulses", "block_sweep", "lcp2", "per_unit_A", "pgs_solve", "pgs_step", "sweep"]

@@ -57,7 +57,7 @@ from ..constraints.joints import JointArrays, joint_rows
 from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
-from .pgs import block_is_well_conditioned, lcp2
+from .pgs import block_is_well_conditioned, inverse_diagonal, lcp2
 
 
 @njit(cache=True)
@@ -102,18 +102,35 @@ def _push(s, h, use_bias, soft):
 
 @njit(cache=True)
 def soft_sweep(
-    manifolds, normal_row, friction_row, body_a, body_b, J, JM, A_kk, mu, C, lam, V, h, use_bias, soft_dyn, soft_static
+    manifolds,
+    normal_row,
+    friction_row,
+    body_a,
+    body_b,
+    J,
+    JM,
+    A_kk,
+    inv_A_kk,
+    mu,
+    C,
+    lam,
+    V,
+    h,
+    use_bias,
+    soft_dyn,
+    soft_static,
 ):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
     then the friction rows. C[c] is contact c's separation now (m); ``manifolds`` comes from
-    ``prepare_manifolds``.
+    ``prepare_manifolds``; inv_A_kk = 1 / A_kk (``inverse_diagonal``: the sweeps multiply,
+    never divide).
 
     A two-point manifold marked as a block has its normal rows solved together (lcp2), each
     row scaled by its own softness (relax does so only while both points touch):
         K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
-    start, static_pair, K12, as_block = manifolds
+    start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
     for m in range(start.shape[0] - 1):
         c = start[m]
@@ -130,7 +147,7 @@ def soft_sweep(
             a1, a2 = lam[k], lam[k2]
             b1 = ms1 * (row_velocity(k, a, b, J, V) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
             b2 = ms2 * (row_velocity(k2, a, b, J, V) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
-            x1, x2 = lcp2(K11, K12[m], K22, b1, b2)
+            x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
             lam[k] = x1
             lam[k2] = x2
             apply_row_impulse(k, a, b, JM, x1 - a1, V)
@@ -144,7 +161,7 @@ def soft_sweep(
             s1 = C[c]
             if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
                 bias, mass_scale, impulse_scale = _push(s1, h, use_bias, soft)
-                d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_kk[k] - impulse_scale * lam[k]
+                d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
                 new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
                 d = new - lam[k]
                 lam[k] = new
@@ -156,7 +173,7 @@ def soft_sweep(
             continue  # static pair, or a point that does not push: its friction cone is [0, 0]
         a, b = body_a[k], body_b[k]
         top = mu[k] * lam[kn]
-        d = -row_velocity(k, a, b, J, V) / A_kk[k]
+        d = -row_velocity(k, a, b, J, V) * inv_A_kk[k]
         new = min(max(lam[k] + d, -top), top)
         d = new - lam[k]
         lam[k] = new
@@ -431,6 +448,7 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
         static_pair  (M,)      a partner is static (M^-1 = 0): the stiffer push
         K12          (M,)      J_1 M^-1 J_2^T of a two-point manifold's normal rows
         as_block     (M,)      ``block`` and its 2x2 K is well conditioned: solve them together
+        inv_det      (M,)      1 / det K of a block (``lcp2``), 0 elsewhere
     """
     n_contacts = normal_row.shape[0]
     start = np.empty(n_contacts + 1, np.uint32)
@@ -447,6 +465,7 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
     static_pair = np.empty(n, np.bool_)
     K12 = np.zeros(n)
     as_block = np.zeros(n, np.bool_)
+    inv_det = np.zeros(n)
     for m in range(n):
         k = normal_row[start[m]]
         a, b = body_a[k], body_b[k]
@@ -458,7 +477,9 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
                 K += J[k, q] * JM[k2, q]
             K12[m] = K
             as_block[m] = block_is_well_conditioned(A_kk[k], K, A_kk[k2])
-    return start, static_pair, K12, as_block
+            if as_block[m]:
+                inv_det[m] = 1.0 / (A_kk[k] * A_kk[k2] - K * K)
+    return start, static_pair, K12, as_block, inv_det
 
 
 @njit(cache=True)
@@ -564,6 +585,7 @@ def solve(
     J,
     JM,
     A_kk,
+    inv_A_kk,
     lo,
     mu,
     manifolds,
@@ -586,7 +608,7 @@ def solve(
     worst = max(
         worst,
         soft_sweep(
-            manifolds, normal_row, friction_row, body_a, body_b, J, JM, A_kk, mu, sub_C, lam, V, h, use_bias,
+            manifolds, normal_row, friction_row, body_a, body_b, J, JM, A_kk, inv_A_kk, mu, sub_C, lam, V, h, use_bias,
             soft_dyn, soft_static,
         ),
     )  # fmt: skip
@@ -667,6 +689,7 @@ def soft_step_solve(
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
     manifolds = prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block)
+    inv_A_kk = inverse_diagonal(A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
@@ -740,6 +763,7 @@ def soft_step_solve(
             J,
             JM,
             A_kk,
+            inv_A_kk,
             lo,
             mu,
             manifolds,
@@ -776,6 +800,7 @@ def soft_step_solve(
                 J,
                 JM,
                 A_kk,
+                inv_A_kk,
                 lo,
                 mu,
                 manifolds,
