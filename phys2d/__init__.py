@@ -14,7 +14,8 @@ Parquet table, on a process pool or a Dask cluster: ``phys2d.sweeps``) loads on
 first use, so ``import phys2d`` never imports pyarrow or dask.
 """
 
-from . import scenes
+# kernel_cache first (isort keeps it so): it stamps numba's cache before any kernel is defined
+from . import kernel_cache, scenes  # noqa: F401  (kernel_cache: imported for what it installs)
 from .bodies import Body
 from .collision import describe_feature
 from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
