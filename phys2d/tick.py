@@ -35,9 +35,9 @@ from numba.experimental import structref
 from .collision.broadphase import update_geometry_in
 from .collision.recycle import collide_recycling
 from .collision.sort import stable_argsort
-from .constraints.joints import joint_rows
+from .constraints.joints import start_joint_rows
 from .constraints.order import solve_order
-from .constraints.rows import FRICTION_LECTURE, contact_row_map, contact_rows
+from .constraints.rows import contact_row_map, contact_rows
 from .contacts import impulses_to_contacts_and_cache
 from .integrate import apply_external_forces, first_too_fast
 from .responders.base import Responder
@@ -63,7 +63,7 @@ CONTACT_FIELDS = (  # two sides
     "lambda_t", "hit", "order",
 )  # fmt: skip
 ROW_FIELDS = (
-    "pair_start", "points_in_manifold", "normal_row", "friction_row", "row_a", "row_b", "J", "JM", "A_kk", "xi",
+    "pair_start", "normal_row", "friction_row", "row_a", "row_b", "J", "JM", "A_kk", "xi",
     "push", "bounce", "impact", "lo", "hi", "bound_row", "row_mu", "lam",
 )  # fmt: skip
 JOINT_FIELDS = ("joint_kind", "joint_i", "joint_j", "joint_local_i", "joint_local_j", "joint_params",
@@ -104,8 +104,8 @@ def make_tick_state(bodies, geometry, store, cache, contacts, rows, joints, rest
     found_pose, found_rotation, span, m_anchor, m_normal, m_separation, m_feature, m_key, m_row = store
     cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed = cache
     body_a, body_b, point, normal, separation, feature, key, mu, e, anchor, lambda_n, lambda_t, hit, order = contacts
-    pair_start, points_in_manifold, normal_row, friction_row, row_a, row_b, J, JM, A_kk, xi = rows[:10]
-    push, bounce, impact, lo, hi, bound_row, row_mu, lam = rows[10:]
+    pair_start, normal_row, friction_row, row_a, row_b, J, JM, A_kk, xi = rows[:9]
+    push, bounce, impact, lo, hi, bound_row, row_mu, lam = rows[9:]
     joint_kind, joint_i, joint_j, joint_local_i, joint_local_j, joint_params, joint_row_offset, joint_lam = joints
     x0, theta0, V1, residuals = rest
     return TickState(
@@ -114,7 +114,7 @@ def make_tick_state(bodies, geometry, store, cache, contacts, rows, joints, rest
         found_pose, found_rotation, span, m_anchor, m_normal, m_separation, m_feature, m_key, m_row,
         cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed,
         body_a, body_b, point, normal, separation, feature, key, mu, e, anchor, lambda_n, lambda_t, hit, order,
-        pair_start, points_in_manifold, normal_row, friction_row, row_a, row_b, J, JM, A_kk, xi,
+        pair_start, normal_row, friction_row, row_a, row_b, J, JM, A_kk, xi,
         push, bounce, impact, lo, hi, bound_row, row_mu, lam,
         joint_kind, joint_i, joint_j, joint_local_i, joint_local_j, joint_params, joint_row_offset, joint_lam,
         x0, theta0, V1, residuals,
@@ -140,7 +140,7 @@ class TickBuffers:
         self.lambda_n, self.lambda_t, self.hit = np.zeros((2, cap)), np.zeros((2, cap)), np.zeros((2, cap), np.bool_)
         self.order = np.zeros((2, cap + 2), np.int32)  # two spare slots: ``solve_order``
         n_rows = 2 * cap + joint_rows
-        self.pair_start, self.points_in_manifold = np.zeros(pairs + 1, np.int64), np.zeros(cap)
+        self.pair_start = np.zeros(pairs + 1, np.int64)
         self.normal_row, self.friction_row, _ = contact_row_map(cap)
         self.row_a, self.row_b = np.zeros(n_rows, np.int32), np.zeros(n_rows, np.int32)
         self.J, self.JM = np.zeros((n_rows, 6)), np.zeros((n_rows, 6))
@@ -234,38 +234,30 @@ def find_contacts(s, side, n_pairs, colour_order, n_cached, rows_used, points_us
 
 
 @njit(cache=True)
-def build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings):
+def build_rows(s, side, k, k_cached, dt, gravity_norm, row_settings):
     """The contacts' rows (``contact_rows``: row pair q is contact order[q]) and then the joints'
-    (``joint_rows``), warm started from the caches when ``warm_start``. Returns (deepest
+    (``start_joint_rows``), warm started from the caches when ``warm_start``. Returns (deepest
     overlap in m, contacts warm started)."""
     beta, slop, push_max, restitution_threshold, friction_model, found_arms, warm_start = row_settings
     w = 1 - side
-    if friction_model == FRICTION_LECTURE:  # the lecture's bound shares m_c among a manifold's points
-        for p in range(n_pairs):
-            for c in range(s.pair_start[p], s.pair_start[p + 1]):
-                s.points_in_manifold[c] = s.pair_start[p + 1] - s.pair_start[p]
     first = 2 * k  # the first joint row
     n = first + s.joint_lam.shape[0]  # the step's rows
     deepest, hits = contact_rows(
         s.order[w][:k], s.normal_row[:k], s.friction_row[:k], s.body_a[w][:k], s.body_b[w][:k], s.point[w][:k],
         s.anchor[w][:k], found_arms, s.normal[w][:k], s.separation[w][:k], s.mu[w][:k], s.e[w][:k],
         s.x, s.V1, s.V, s.M_inv, dt, beta, slop, push_max, restitution_threshold, friction_model, gravity_norm,
-        s.points_in_manifold[:k], warm_start, s.cache_keys[side][:k_cached], s.cache_lambda_n[side][:k_cached],
+        warm_start, s.cache_keys[side][:k_cached], s.cache_lambda_n[side][:k_cached],
         s.cache_lambda_t[side][:k_cached], s.cache_pushed[side][:k_cached], s.key[w][:k], s.uid, s.static,
         s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n], s.push[:n], s.bounce[:n],
         s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n], s.hit[w][:k],
     )  # fmt: skip
     if s.joint_kind.shape[0] > 0:  # (a switch by argument type would compile the tick twice)
-        joint_rows(
+        start_joint_rows(
             s.joint_kind, s.joint_i, s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset,
             first, s.x, s.theta, s.M_inv, dt, beta, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
-            s.xi[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n],
+            s.xi[:n], s.push[:n], s.bounce[:n], s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n],
+            s.lam[:n], s.joint_lam, warm_start,
         )  # fmt: skip
-        for r in range(first, n):
-            s.push[r] = 0.0  # joints keep their Baumgarte term in xi
-            s.bounce[r] = 0.0
-            s.impact[r] = False
-            s.lam[r] = s.joint_lam[r - first] if warm_start else 0.0  # joints keep their identity
     return deepest, hits
 
 
@@ -292,7 +284,7 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
     k, n_new, recycled, rows_used, points_used = find_contacts(
         s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance
     )
-    deepest, hits = build_rows(s, side, k, k_cached, n_pairs, dt, gravity_norm, row_settings)
+    deepest, hits = build_rows(s, side, k, k_cached, dt, gravity_norm, row_settings)
     return OK, k, n_new, recycled, rows_used, points_used, hits, deepest
 
 

@@ -29,12 +29,12 @@ from .constraints.joints import (
     JointArrays,
     PinJoint,
     check_limits,
-    joint_rows,
     local_anchor,
     optional_limit,
+    start_joint_rows,
 )
 from .constraints.order import colour_pairs, contacts_in_order, solve_order
-from .constraints.rows import FRICTION_LECTURE, RowBuffer, Rows, contact_rows
+from .constraints.rows import RowBuffer, Rows, contact_rows
 from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
 from .responders.base import EMPTY, Responder, StepContext, StepReport
@@ -58,7 +58,6 @@ _J = TypeVar("_J", bound=Joint)
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
 FAT_GROWTH = np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
-NOT_COUNTED = np.ones(0)  # points per manifold, when the friction model does not need them
 NONE_WARM = np.zeros(0, np.bool_)  # placeholder until the step has warm started its contacts
 
 
@@ -835,13 +834,6 @@ class World:
         k = len(c)
         ja = self._joint_arrays
         rows = self._rows.take(order, ja.n_rows)
-        friction_model = r.friction_model
-        if friction_model == FRICTION_LECTURE:
-            pair = (c.body_a.astype(np.int64) << 32) | c.body_b
-            _, inverse, counts = np.unique(pair, return_inverse=True, return_counts=True)
-            points_in_manifold = counts[inverse].astype(np.float64)
-        else:
-            points_in_manifold = NOT_COUNTED  # Coulomb friction does not look at it
         cache = self._cache
         hit = np.empty(k, np.bool_)
         deepest, hits = contact_rows(
@@ -866,9 +858,8 @@ class World:
             r.slop,
             r.push_max,
             r.restitution_threshold,
-            friction_model,
+            r.friction_model,
             self._gravity_norm,
-            points_in_manifold,
             r.warm_start,
             cache.keys,
             cache.lambda_n,
@@ -893,41 +884,14 @@ class World:
             rows.lam,
             hit,
         )
-        if ja.n_rows:
-            joint_rows(
-                ja.kind,
-                ja.i,
-                ja.j,
-                ja.local_i,
-                ja.local_j,
-                ja.params,
-                ja.row_offset,
-                rows.first_joint_row,
-                b.x,
-                b.theta,
-                b.M_inv,
-                dt,
-                r.beta,
-                rows.body_a,
-                rows.body_b,
-                rows.J,
-                rows.JM,
-                rows.A_kk,
-                rows.xi,
-                rows.lo,
-                rows.hi,
-                rows.bound_row,
-                rows.mu,
-            )
-            rows.push[rows.first_joint_row :] = 0.0  # joints keep their Baumgarte term in xi
-            rows.bounce[rows.first_joint_row :] = 0.0
-            rows.impact[rows.first_joint_row :] = False
-            if r.warm_start:  # joints keep their identity: start from last step's reactions
-                for q, joint in enumerate(self._joints):
-                    start = rows.first_joint_row + ja.row_offset[q]
-                    rows.lam[start : start + joint.row_count] = joint._impulse
-            else:
-                rows.lam[rows.first_joint_row :] = 0.0
+        if ja.n_rows:  # joints keep their identity: last step's reactions start this one's
+            np.concatenate([q._impulse for q in self._joints], out=self._joint_lam)
+            start_joint_rows(
+                ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, rows.first_joint_row, b.x,
+                b.theta, b.M_inv, dt, r.beta, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi,
+                rows.push, rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
+                self._joint_lam, r.warm_start,
+            )  # fmt: skip
         return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray) -> None:

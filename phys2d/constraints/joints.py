@@ -350,3 +350,23 @@ def joint_rows(
             out_j[k + m] = j
             bound_row[k + m] = -1
             out_mu[k + m] = 0.0
+
+
+@njit(cache=True)
+def start_joint_rows(
+    kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta, M_inv, dt, beta, out_i, out_j,
+    J, JM, A_kk, xi, push, bounce, impact, lo, hi, bound_row, out_mu, lam, joint_lam, warm_start,
+):  # fmt: skip
+    """The joints' rows (``joint_rows``, from first_row on) as a step starts them: no push (a joint
+    keeps its Baumgarte term in xi), no bounce, no impact, and lambda from the joints' last
+    reactions (``joint_lam``, in joint order) when warm starting, since joints keep their
+    identity; else from 0."""
+    joint_rows(
+        kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta, M_inv, dt, beta, out_i,
+        out_j, J, JM, A_kk, xi, lo, hi, bound_row, out_mu,
+    )  # fmt: skip
+    for r in range(first_row, first_row + joint_lam.shape[0]):
+        push[r] = 0.0
+        bounce[r] = 0.0
+        impact[r] = False
+        lam[r] = joint_lam[r - first_row] if warm_start else 0.0

@@ -268,6 +268,23 @@ def bounce_target(e, vn_impact, dvn):
 
 
 @njit(cache=True)
+def manifold_sizes(body_a, body_b):
+    """How many points each contact's manifold has: the run of contacts on its pair of bodies
+    (a pair's points are consecutive in contact order)."""
+    k = body_a.shape[0]
+    sizes = np.empty(k, np.int32)
+    c = 0
+    while c < k:
+        end = c + 1
+        while end < k and body_a[end] == body_a[c] and body_b[end] == body_b[c]:
+            end += 1
+        for q in range(c, end):
+            sizes[q] = end - c
+        c = end
+    return sizes
+
+
+@njit(cache=True)
 def contact_rows(
     order,
     normal_row,
@@ -292,7 +309,6 @@ def contact_rows(
     restitution_threshold,
     friction_model,
     gravity,
-    points_in_manifold,
     warm_start,
     cache_keys,
     cache_lambda_n,
@@ -328,7 +344,7 @@ def contact_rows(
               restitution pass). lambda in [0, inf).
     Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of its normal row, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
-              the pair's reduced mass shared among the manifold's points.
+              the pair's reduced mass shared among the manifold's points (``manifold_sizes``).
 
     Lever arms (m): with ``found_arms``, anchor[c] = (r_a, r_b) as the point's manifold was
     found (a recycled one keeps them: Box2D v3's soft step); else p - x_a and p - x_b at the
@@ -350,6 +366,7 @@ def contact_rows(
         hits = 0
     deepest = 0.0
     coulomb = friction_model == FRICTION_COULOMB
+    points_in_manifold = np.empty(0, np.int32) if coulomb else manifold_sizes(body_a, body_b)  # the lecture's bound
     beta_over_dt = beta / dt
     for q in range(order.shape[0]):
         c = order[q]
