@@ -199,7 +199,7 @@ def per_unit_A(J, xi, A_kk):
     return J_hat, xi_hat
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pgs_solve(
     normal_row,
     friction_row,
@@ -243,6 +243,15 @@ def pgs_solve(
 
 
 @njit(cache=True)
+def pushes(normal_row, push):
+    """Whether any contact point overlaps past slop (push_k > 0): else there is nothing to push out."""
+    for k in normal_row:
+        if push[k] > 0.0:
+            return True
+    return False
+
+
+@njit(cache=True)
 def push_out(
     normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, lam_push, V_push, iterations, tolerance, block
 ):
@@ -254,10 +263,7 @@ def push_out(
     Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
     ``block``: see ``pgs_step``.
     """
-    pushing = False
-    for k in normal_row:
-        pushing = pushing or push[k] > 0.0
-    if not pushing:
+    if not pushes(normal_row, push):
         return 0
     J_hat, push_hat = per_unit_A(J, push, A_kk)
     none = normal_row[:0]  # no friction rows, no joint rows: the normal rows only
@@ -337,7 +343,7 @@ def pgs_step(
         block,
     )
     V_move = V
-    if split:
+    if split and pushes(normal_row, push):
         V_push = np.zeros_like(V)
         push_out(
             normal_row,

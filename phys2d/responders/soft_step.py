@@ -100,7 +100,7 @@ def _push(s, h, use_bias, soft):
     return 0.0, 1.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def soft_sweep(
     manifolds,
     normal_row,
@@ -570,7 +570,7 @@ def restitution(
             apply_row_impulse(kt, a, b, JM, d, V)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # a stage by name; inlined, its 25 arguments cost no call
 def solve(
     first_joint_row,
     n_rows,
@@ -746,7 +746,8 @@ def soft_step_solve(
             )
         if i == 0 or not relax:  # after a relax sweep the positions have not moved since its separations
             _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C)
-        _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
+        if n_pending > 0:  # (once every point has met its partner, nothing is left to note)
+            _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
         V += dv  # integrate velocities
         warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row)
         solve(  # with bias
@@ -777,15 +778,17 @@ def soft_step_solve(
             soft_dyn,
             soft_static,
         )
-        n_pending = _note_impacts(
-            pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold,
-            impacted, vn_impact, dvn_impact, landed,
-        )  # fmt: skip
+        if n_pending > 0:
+            n_pending = _note_impacts(
+                pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold,
+                impacted, vn_impact, dvn_impact, landed,
+            )  # fmt: skip
         integrate_positions(x, theta, V, h, x0, theta0, moved)
         residuals[n_sweeps] = 0.0
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
             _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C)
-            _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
+            if n_pending > 0:
+                _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
             residuals[n_sweeps] = solve(  # relax: without bias
                 first_joint_row,
                 n_rows,
@@ -814,10 +817,11 @@ def soft_step_solve(
                 soft_dyn,
                 soft_static,
             )
-            n_pending = _note_impacts(
-                pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold,
-                impacted, vn_impact, dvn_impact, landed,
-            )  # fmt: skip
+            if n_pending > 0:
+                n_pending = _note_impacts(
+                    pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn,
+                    restitution_threshold, impacted, vn_impact, dvn_impact, landed,
+                )  # fmt: skip
         n_sweeps += 1
         store(normal_row, friction_row, lam, total, landed)
     restitution(
