@@ -105,6 +105,7 @@ def captured_rows(size: int, responder: phys2d.PGS):
         return respond(self, ctx)
 
     type(responder).respond = spy
+    w.one_call_tick = False  # stage by stage, so the step goes through respond
     try:
         w.step(engines.DT)
     finally:
