@@ -100,7 +100,7 @@ def _push(s, h, use_bias, soft):
     return 0.0, 1.0, 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always")  # into solve, twice a sub-step: a call would cost its 17 arguments
 def soft_sweep(
     manifolds,
     normal_row,
