@@ -102,24 +102,9 @@ def _push(s, h, use_bias, soft):
 
 @njit(cache=True, inline="always")  # into solve, twice a sub-step: a call would cost its 17 arguments
 def soft_sweep(
-    manifolds,
-    normal_row,
-    friction_row,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    inv_A_kk,
-    mu,
-    C,
-    lam,
-    V,
-    h,
-    use_bias,
-    soft_dyn,
+    manifolds, normal_row, friction_row, body_a, body_b, J, JM, A_kk, inv_A_kk, mu, C, lam, V, h, use_bias, soft_dyn,
     soft_static,
-):
+):  # fmt: skip
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
     then the friction rows. C[c] is contact c's separation now (m); ``manifolds`` comes from
     ``prepare_manifolds``; inv_A_kk = 1 / A_kk (``inverse_diagonal``: the sweeps multiply,
