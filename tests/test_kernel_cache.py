@@ -6,6 +6,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numba
 import pytest
 
 import phys2d
@@ -69,6 +70,7 @@ def test_an_edit_restamps_exactly_the_kernels_that_import_it(package_copy: Path)
     assert after["collision/sort.py"] == before["collision/sort.py"]  # sort imports nothing of it
 
 
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="uncompiled kernels have no cache")
 def test_phys2d_kernels_are_cached_under_the_stamp() -> None:
     locator = tick.pgs_tick._cache._impl.locator  # numba's cache of the kernel (numba internals)
     assert type(locator).__name__.startswith("PackageStamped")
