@@ -586,10 +586,12 @@ def solve(
 ):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). Returns the largest velocity correction (m/s)."""
-    worst = solve_joints(
-        first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_kk, lo, C_joint, lam, V, h, use_bias,
-        soft_joint, direct,
-    )  # fmt: skip
+    worst = 0.0
+    if n_rows > first_joint_row:  # (no call, and its 18 arguments, for a scene without joints)
+        worst = solve_joints(
+            first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_kk, lo, C_joint, lam, V, h, use_bias,
+            soft_joint, direct,
+        )  # fmt: skip
     worst = max(
         worst,
         soft_sweep(
