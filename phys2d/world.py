@@ -49,6 +49,7 @@ from .tick import (
     TickBuffers,
     TickSpec,
     TickState,
+    compiled_for,
     make_tick_state,
     tick_for,
 )
@@ -127,8 +128,8 @@ class World:
         self._residuals = np.zeros(16)
         self._tick_state_over: tuple = ()  # the arrays the kept TickState was made over
         self._tick_state_kept: TickState | None = None
-        # (spec, buffers, state) of the last one-call step: kept while the responder's settings hold and
-        # nothing set _sweep_again (bodies, joints, margin), swept, made room or stepped in stages
+        # (spec, buffers, state, compiled kernel) of the last one-call step: kept while the responder's
+        # settings hold and nothing set _sweep_again (bodies, joints, margin), swept, made room or stepped in stages
         self._ready: tuple | None = None
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
@@ -560,19 +561,22 @@ class World:
             while True:
                 ready = self._ready
                 if ready is not None and ready[0] is spec and not self._sweep_again:
-                    _, t, state = ready  # nothing was replaced since the last step (see _ready)
+                    _, t, state, kernel = ready  # nothing was replaced since the last step (see _ready)
                 else:
                     t = self._room_for_tick(spec)
                     state = self._tick_state(t)
-                    self._ready = (spec, t, state)
+                    kernel = spec.kernel
                 side = t.side
                 began = True  # from here the undo buffers hold the state before the step
                 found = (self._n_pairs, spec.colour_order, self._sweep_again)
-                result = spec.kernel(
+                args = (
                     state, stage, side, found,
                     (m.key.shape[0], cache.keys.shape[0], m.rows_used, m.points_used), world, spec.row_settings,
                     self._max_speed, *spec.settings,
                 )  # fmt: skip
+                result = kernel(*args)
+                if kernel is spec.kernel:  # the next steps call its compiled code for these types directly
+                    self._ready = (spec, t, state, compiled_for(spec.kernel, args))
                 if result[0] == NEED_SWEEP:
                     self._sweep(self._geometry_buffers()[2])
                 elif result[0] == NEED_ROOM:

@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba import config
 
 import phys2d
 from phys2d import scenes
-from phys2d.tick import tick_for
+from phys2d.tick import compiled_for, pgs_tick, tick_for
 from tests.strategies import build, dts, fingerprint, responders, violent_scenes
 
 RESPONDERS = {
@@ -176,6 +177,27 @@ def test_a_copied_world_steps_on_as_the_original(how):
             x.one_call_tick = i % 5 != 4
             x.step(1 / 60)
         assert fingerprint(w) == fingerprint(twin)
+
+
+def test_later_steps_call_the_compiled_tick_without_dispatch():
+    """From the second step the world calls the tick's machine code for its argument types
+    directly (``compiled_for``): the twin tests above then compare that path with the staged one."""
+    w = scenes.pyramid(3)
+    spec = tick_for(w.responder)
+    w.step(1 / 60)
+    kernel = w._ready[3]
+    if config.DISABLE_JIT:
+        assert kernel is spec.kernel
+    else:
+        assert any(kernel is compiled.entry_point for compiled in spec.kernel.overloads.values())
+    before = fingerprint(w)
+    w.step(1 / 60)
+    assert w._ready[3] is kernel and fingerprint(w) != before  # it ran, and moved the pile
+
+
+def test_compiled_for_falls_back_to_the_dispatcher_for_types_it_has_no_code_for():
+    args = ("not a tick state", 0.5)
+    assert compiled_for(pgs_tick, args) is pgs_tick
 
 
 def test_one_call_tick_takes_only_a_bool():
