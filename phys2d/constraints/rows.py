@@ -357,6 +357,10 @@ def contact_rows(
 
     Returns the deepest overlap, max(0, -min C) (m), and the number of contacts warm started.
     """
+    # contacts, rows and bodies as unsigned indices: numba then leaves out its fix-up for negative
+    # indices on every array access (pyramid_20's 1180 contacts: 84-88 -> 44-67 us)
+    order, body_a, body_b = order.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32)
+    normal_row, friction_row = normal_row.astype(np.uint32), friction_row.astype(np.uint32)
     cached = np.empty(order.shape[0], np.int64)
     if warm_start:
         hits = find_in_cache(cache_keys, cache_pushed, key, body_a, body_b, uid, static, cached, hit)
