@@ -33,7 +33,7 @@ The one-call step:
   kernel's wrapper adds (the extra wall time per call of a wrapped empty function, times
   the calls);
 - **kernel call**: the wrapped kernel calls less the timer's own cost per call (two
-  ``perf_counter_ns`` calls back to back): the whole tick in numba, with its dispatch;
+  ``perf_counter_ns`` calls back to back): the whole tick in numba, with what is left of its dispatch;
 - **numba dispatch** of that call (an estimate, inside the kernel call): see below;
 - **Python of the step** = one-call step minus the kernel call: ``World.step``'s check of
   dt and ``World._step_in_one_call`` around the call (buffers checked, the tick's state
@@ -74,7 +74,10 @@ same parameters called with those arguments; the sum is the dispatch cost per st
 one empty function of ``*args``, as this script used before: numba dispatches that slower
 than the kernels' own parameters, 22 µs against 16 for the staged kernels of
 vertical_stack_10 under PGS, and about 200 µs against 2 for the tick's call, whose
-``TickState`` and tuples it types the slow way; load average 1.4.)
+``TickState`` and tuples it types the slow way; load average 1.4.) The world calls the
+tick's compiled code directly from its second step on (``phys2d.tick.compiled_for``), so the
+tick's call is timed, and its empty twin called, that way too (``Compiled``): what is left
+of its dispatch is unboxing the arguments.
 
 Stages of the staged step:
 
@@ -117,7 +120,7 @@ import phys2d.world as world_module  # noqa: E402
 from phys2d.collision.recycle import ManifoldCache  # noqa: E402
 from phys2d.constraints.rows import RowBuffer  # noqa: E402
 from phys2d.contacts import ContactCache  # noqa: E402
-from phys2d.tick import TickSpec, tick_for  # noqa: E402
+from phys2d.tick import TickSpec, compiled_for, tick_for  # noqa: E402
 
 DT = 1.0 / 60.0
 
@@ -211,6 +214,22 @@ class Probe:
 # -- the one-call tick's kernel ------------------------------------------------------------------
 
 
+class Compiled:
+    """Calls a tick kernel's compiled code for its arguments' types, without numba's dispatch,
+    as ``World`` does from a world's second step on (``phys2d.tick.compiled_for``): a wrapper
+    of the kernel would otherwise put the dispatch back into the step it times."""
+
+    def __init__(self, kernel: Callable) -> None:
+        self.kernel, self.code, self.__name__ = kernel, kernel, kernel.__name__
+
+    def __call__(self, *args):
+        if self.code is self.kernel:  # (the dispatcher compiles, or loads, on the first call)
+            out = self.kernel(*args)
+            self.code = compiled_for(self.kernel, args)
+            return out
+        return self.code(*args)
+
+
 def swap_tick_kernel(w: phys2d.World, wrap: Callable[[Callable], Callable]) -> TickSpec:
     """Give w's responder a copy of its ``TickSpec`` whose kernel is ``wrap(kernel)``; returns
     the spec it had, for ``put_back``."""
@@ -232,7 +251,9 @@ class KernelTimer:
     def __init__(self, w: phys2d.World) -> None:
         self.ns: dict[str, int] = defaultdict(int)
         self.calls: dict[str, int] = defaultdict(int)
-        self.spec = swap_tick_kernel(w, lambda kernel: make_timed(kernel, kernel.__name__, self.ns, self.calls))
+        self.spec = swap_tick_kernel(
+            w, lambda kernel: make_timed(Compiled(kernel), kernel.__name__, self.ns, self.calls)
+        )
         self.name = self.spec.kernel.__name__
 
     def reset(self) -> None:
@@ -284,7 +305,7 @@ def kernel_calls_of_one_step(w: phys2d.World) -> list[tuple[str, Callable, tuple
                 patches.append((mod, name, obj))
                 setattr(mod, name, recorder(obj, name))
     one_call = w.one_call_tick and tick_for(w.responder) is not None
-    spec = swap_tick_kernel(w, lambda kernel: recorder(kernel, kernel.__name__)) if one_call else None
+    spec = swap_tick_kernel(w, lambda kernel: recorder(Compiled(kernel), kernel.__name__)) if one_call else None
     try:
         w.step(DT)
     finally:
@@ -300,7 +321,8 @@ def dispatch_cost_us(calls: list[tuple[str, Callable, tuple]], repeats: int = 7,
     the same parameters (``empty_like``)."""
     empties: dict[int, Callable] = {}
     for _, kernel, _ in calls:
-        empties.setdefault(id(kernel), empty_like(kernel))
+        direct = isinstance(kernel, Compiled)  # the tick's kernel: called without dispatch
+        empties.setdefault(id(kernel), Compiled(empty_like(kernel.kernel)) if direct else empty_like(kernel))
     made = [(empties[id(kernel)], args) for _, kernel, args in calls]
     for empty, args in made:  # compile each empty for its arguments' types first
         empty(*args)
