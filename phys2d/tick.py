@@ -365,6 +365,12 @@ def compiled_for(kernel: Callable, args: tuple) -> Callable:
     return kernel if compiled is None else compiled.entry_point
 
 
+def tick_state_type(state: TickState) -> object:
+    """A TickState's numba type (None for the plain object of NUMBA_DISABLE_JIT): with the
+    spec, what fixes the types of a one-call tick's arguments."""
+    return getattr(state, "_numba_type_", None)
+
+
 class TickSpec(NamedTuple):
     """How the world runs a responder's one-call tick: read once, kept until a setting changes."""
 

@@ -52,6 +52,7 @@ from .tick import (
     compiled_for,
     make_tick_state,
     tick_for,
+    tick_state_type,
 )
 from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
 
@@ -131,6 +132,8 @@ class World:
         # (spec, buffers, state, compiled kernel) of the last one-call step: kept while the responder's
         # settings hold and nothing set _sweep_again (bodies, joints, margin), swept, made room or stepped in stages
         self._ready: tuple | None = None
+        # (spec, TickState type, compiled kernel): the tick's machine code for a spec and state type
+        self._tick_code: tuple = (None, None, None)
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self.tick = 0
@@ -139,7 +142,7 @@ class World:
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the TickState, a numba structref: made anew when needed."""
         state = self.__dict__.copy()
-        state.update(_tick_state_kept=None, _tick_state_over=(), _ready=None)
+        state.update(_tick_state_kept=None, _tick_state_over=(), _ready=None, _tick_code=(None, None, None))
         return state
 
     # -- configuration ------------------------------------------------------
@@ -565,7 +568,8 @@ class World:
                 else:
                     t = self._room_for_tick(spec)
                     state = self._tick_state(t)
-                    kernel = spec.kernel
+                    code = self._tick_code  # kept through sweeps: a fast chain sweeps nearly every step
+                    kernel = code[2] if code[0] is spec and code[1] is tick_state_type(state) else spec.kernel
                 side = t.side
                 began = True  # from here the undo buffers hold the state before the step
                 found = (self._n_pairs, spec.colour_order, self._sweep_again)
@@ -576,7 +580,9 @@ class World:
                 )  # fmt: skip
                 result = kernel(*args)
                 if kernel is spec.kernel:  # the next steps call its compiled code for these types directly
-                    self._ready = (spec, t, state, compiled_for(spec.kernel, args))
+                    kernel = compiled_for(spec.kernel, args)
+                    self._tick_code = (spec, tick_state_type(state), kernel)
+                self._ready = (spec, t, state, kernel)
                 if result[0] == NEED_SWEEP:
                     self._sweep(self._geometry_buffers()[2])
                 elif result[0] == NEED_ROOM:

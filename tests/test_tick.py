@@ -195,6 +195,29 @@ def test_later_steps_call_the_compiled_tick_without_dispatch():
     assert w._ready[3] is kernel and fingerprint(w) != before  # it ran, and moved the pile
 
 
+def test_the_compiled_tick_is_looked_up_once_though_the_broadphase_sweeps(monkeypatch):
+    """A swinging chain leaves its fat boxes, and the world sweeps, step after step: each sweep
+    makes the world look its buffers and state over, but the tick's compiled code is kept for
+    the spec and the state's type (looking it up types every argument: ~0.3 ms a step)."""
+    import phys2d.world as world_module
+
+    looked_up = []
+
+    def counting(kernel, args):
+        looked_up.append(kernel)
+        return compiled_for(kernel, args)
+
+    monkeypatch.setattr(world_module, "compiled_for", counting)
+    w = scenes.heavy_chain(responder=phys2d.PGS())
+    swept = []
+    sweep = w._sweep
+    monkeypatch.setattr(w, "_sweep", lambda aabb: swept.append(1) or sweep(aabb))
+    for _ in range(60):
+        w.step(1 / 60)
+    assert len(swept) >= 20  # the path under test: sweeps between the tick's calls
+    assert len(looked_up) == 1
+
+
 def test_compiled_for_falls_back_to_the_dispatcher_for_types_it_has_no_code_for():
     args = ("not a tick state", 0.5)
     assert compiled_for(pgs_tick, args) is pgs_tick
