@@ -118,6 +118,8 @@ def ten_sweeps(rows, lam0, V0, visit, bodies=None):
     ``bodies``: (body_a, body_b, V0) to use instead of the rows' own."""
     r = rows
     body_a, body_b = (r.body_a, r.body_b) if bodies is None else bodies[:2]
+    # unsigned indices, as pgs_step hands them to sweep (numba leaves out its negative-index fix-up)
+    visit, body_a, body_b = visit.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32)
     lam, V = lam0.copy(), (V0 if bodies is None else bodies[2]).copy()
     apply_impulses(body_a, body_b, r.JM, lam, V)
     J_hat, xi_hat = per_unit_A(r.J, r.xi, r.A_kk)
