@@ -356,8 +356,8 @@ def compiled_for(kernel: Callable, args: tuple) -> Callable:
     without numba's dispatch, or ``kernel`` itself when there is none (not compiled for them,
     or NUMBA_DISABLE_JIT). A dispatcher works out every argument's type on every call to pick
     its code: for the tick's ten arguments ~1.4 us of a ~2.1 us call, the TickState's type
-    through Python. A world keeps this while the arguments' types cannot change: the same
-    spec (settings) and TickState (arrays), scalars that ``World`` makes floats and ints."""
+    through Python. A world keeps it per spec (settings) and TickState type (arrays): nothing
+    else in the arguments can change type (``World`` makes its scalars floats and ints)."""
     overloads = getattr(kernel, "overloads", None)
     if overloads is None:  # NUMBA_DISABLE_JIT: the plain function
         return kernel

@@ -52,6 +52,15 @@ MET = 1e-6  # m: a contact point closer than this has met its partner (it touche
 # so the choice between "touching" and "still apart" never hangs on the last bit of a separation)
 
 
+@njit(cache=True, inline="always")
+def unsigned_indices(normal_row, friction_row, body_a, body_b):
+    """The row map and the bodies as uint32 copies, for a kernel's loops: numba then leaves
+    out its fix-up for negative indices on every array access (a PGS sweep of pyramid_20's
+    rows: 15.3 -> 12.4 ns a row; contact_rows on its 1180 contacts: 84-88 -> 44-67 us)."""
+    u = np.uint32
+    return normal_row.astype(u), friction_row.astype(u), body_a.astype(u), body_b.astype(u)
+
+
 def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:
     """The row map: the q-th visited contact owns rows 2q (normal) and 2q + 1 (friction);
     joint rows follow the last contact's. Returns (normal_row, friction_row, first_joint_row)."""
@@ -357,10 +366,8 @@ def contact_rows(
 
     Returns the deepest overlap, max(0, -min C) (m), and the number of contacts warm started.
     """
-    # contacts, rows and bodies as unsigned indices: numba then leaves out its fix-up for negative
-    # indices on every array access (pyramid_20's 1180 contacts: 84-88 -> 44-67 us)
-    order, body_a, body_b = order.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32)
-    normal_row, friction_row = normal_row.astype(np.uint32), friction_row.astype(np.uint32)
+    order = order.astype(np.uint32)  # unsigned, as the rest (``unsigned_indices``)
+    normal_row, friction_row, body_a, body_b = unsigned_indices(normal_row, friction_row, body_a, body_b)
     cached = np.empty(order.shape[0], np.int64)
     if warm_start:
         hits = find_in_cache(cache_keys, cache_pushed, key, body_a, body_b, uid, static, cached, hit)
