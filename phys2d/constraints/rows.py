@@ -232,6 +232,44 @@ def apply_row_impulse(k, a, b, JM, impulse, V):
 
 
 @njit(cache=True, inline="always")
+def pair_velocity(a, b, V):
+    """V_ab = (v_a, omega_a, v_b, omega_b): the part of V that a row between bodies a and b
+    multiplies, as a 6-tuple. Numba keeps a tuple in registers: a sweep holds the pair's
+    velocities while its rows follow one another, instead of storing V and loading it back."""
+    return (V[a, 0], V[a, 1], V[a, 2], V[b, 0], V[b, 1], V[b, 2])
+
+
+@njit(cache=True, inline="always")
+def store_pair_velocity(a, b, V_ab, V):
+    """Write the pair's velocities V_ab (``pair_velocity``) back into V."""
+    V[a, 0], V[a, 1], V[a, 2] = V_ab[0], V_ab[1], V_ab[2]
+    V[b, 0], V[b, 1], V[b, 2] = V_ab[3], V_ab[4], V_ab[5]
+
+
+@njit(cache=True, inline="always")
+def pair_row_velocity(k, J, V_ab):
+    """J_k V on the pair's velocities V_ab: ``row_velocity``, summed as the same tree."""
+    return (
+        (J[k, 0] * V_ab[0] + J[k, 1] * V_ab[1])
+        + (J[k, 2] * V_ab[2] + J[k, 5] * V_ab[5])
+        + (J[k, 3] * V_ab[3] + J[k, 4] * V_ab[4])
+    )
+
+
+@njit(cache=True, inline="always")
+def pair_row_impulse(k, JM, impulse, V_ab):
+    """V_ab + M^-1 J_k^T impulse: ``apply_row_impulse`` on the pair's velocities in hand."""
+    return (
+        V_ab[0] + JM[k, 0] * impulse,
+        V_ab[1] + JM[k, 1] * impulse,
+        V_ab[2] + JM[k, 2] * impulse,
+        V_ab[3] + JM[k, 3] * impulse,
+        V_ab[4] + JM[k, 4] * impulse,
+        V_ab[5] + JM[k, 5] * impulse,
+    )
+
+
+@njit(cache=True, inline="always")
 def speculative_target(C, dt):
     """xi of a normal row: a point still C > 0 apart may approach at C/dt (close the gap
     within the step, no more); a touching one may not approach at all (m/s)."""

@@ -59,7 +59,11 @@ from ..constraints.rows import (
     apply_row_impulse,
     approach_at_impact,
     bounce_target,
+    pair_row_impulse,
+    pair_row_velocity,
+    pair_velocity,
     row_velocity,
+    store_pair_velocity,
     unsigned_indices,
 )
 from ..validation import Setting, check_bool, check_int, non_negative_float
@@ -130,6 +134,7 @@ def soft_sweep(
         a, b = body_a[k], body_b[k]
         soft = soft_static if static_pair[m] else soft_dyn
         s1 = C[c]
+        V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
         if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
             k2 = normal_row[c + 1]
             s2 = C[c + 1]
@@ -137,13 +142,13 @@ def soft_sweep(
             bias1, ms1, is1 = _push(s1, h, use_bias, soft)
             bias2, ms2, is2 = _push(s2, h, use_bias, soft)
             a1, a2 = lam[k], lam[k2]
-            b1 = ms1 * (row_velocity(k, a, b, J, V) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
-            b2 = ms2 * (row_velocity(k2, a, b, J, V) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
+            b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
+            b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
             x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
             lam[k] = x1
             lam[k2] = x2
-            apply_row_impulse(k, a, b, JM, x1 - a1, V)
-            apply_row_impulse(k2, a, b, JM, x2 - a2, V)
+            V_ab = pair_row_impulse(k2, JM, x2 - a2, pair_row_impulse(k, JM, x1 - a1, V_ab))
+            store_pair_velocity(a, b, V_ab, V)
             worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
             continue
         # relax leaves a point still apart alone: the next sweep with the push limits its
@@ -153,24 +158,33 @@ def soft_sweep(
             s1 = C[c]
             if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
                 bias, mass_scale, impulse_scale = _push(s1, h, use_bias, soft)
-                d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
+                d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
                 new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
                 d = new - lam[k]
                 lam[k] = new
-                apply_row_impulse(k, a, b, JM, d, V)
+                V_ab = pair_row_impulse(k, JM, d, V_ab)
                 worst = max(worst, abs(d) * A_kk[k])
+        store_pair_velocity(a, b, V_ab, V)
+    if normal_row.shape[0] == 0:
+        return worst
+    a_held, b_held = body_a[friction_row[0]], body_b[friction_row[0]]
+    V_ab = pair_velocity(a_held, b_held, V)  # a manifold's friction rows follow one another
     for c in range(normal_row.shape[0]):
         k, kn = friction_row[c], normal_row[c]
         if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
             continue  # static pair, or a point that does not push: its friction cone is [0, 0]
         a, b = body_a[k], body_b[k]
+        if a != a_held or b != b_held:  # another pair: put the last one's velocities back
+            store_pair_velocity(a_held, b_held, V_ab, V)
+            a_held, b_held, V_ab = a, b, pair_velocity(a, b, V)
         top = mu[k] * lam[kn]
-        d = -row_velocity(k, a, b, J, V) * inv_A_kk[k]
+        d = -pair_row_velocity(k, J, V_ab) * inv_A_kk[k]
         new = min(max(lam[k] + d, -top), top)
         d = new - lam[k]
         lam[k] = new
-        apply_row_impulse(k, a, b, JM, d, V)
+        V_ab = pair_row_impulse(k, JM, d, V_ab)
         worst = max(worst, abs(d) * A_kk[k])
+    store_pair_velocity(a_held, b_held, V_ab, V)
     return worst
 
 
