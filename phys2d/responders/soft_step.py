@@ -688,7 +688,7 @@ def soft_step_solve(
     soft_static = _soft(2.0 * hertz, damping_ratio, h, push_max)
     soft_joint = _soft(min(joint_hertz, 0.25 / h), joint_damping_ratio, h, np.inf)
     # prepare
-    joint_body_a, joint_body_b = body_a, body_b  # the joints' rows are rebuilt in these (same bodies)
+    joint_body_a, joint_body_b = body_a, body_b  # the joints' rows are rebuilt in these (same bodies, same memory)
     normal_row, friction_row, body_a, body_b = unsigned_indices(normal_row, friction_row, body_a, body_b)
     for k in range(n_rows):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
