@@ -165,26 +165,22 @@ def soft_sweep(
                 V_ab = pair_row_impulse(k, JM, d, V_ab)
                 worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
-    if normal_row.shape[0] == 0:
-        return worst
-    a_held, b_held = body_a[friction_row[0]], body_b[friction_row[0]]
-    V_ab = pair_velocity(a_held, b_held, V)  # a manifold's friction rows follow one another
-    for c in range(normal_row.shape[0]):
-        k, kn = friction_row[c], normal_row[c]
-        if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
-            continue  # static pair, or a point that does not push: its friction cone is [0, 0]
+    for m in range(start.shape[0] - 1):  # then the friction rows, manifold by manifold
+        k = friction_row[start[m]]
         a, b = body_a[k], body_b[k]
-        if a != a_held or b != b_held:  # another pair: put the last one's velocities back
-            store_pair_velocity(a_held, b_held, V_ab, V)
-            a_held, b_held, V_ab = a, b, pair_velocity(a, b, V)
-        top = mu[k] * lam[kn]
-        d = -pair_row_velocity(k, J, V_ab) * inv_A_kk[k]
-        new = min(max(lam[k] + d, -top), top)
-        d = new - lam[k]
-        lam[k] = new
-        V_ab = pair_row_impulse(k, JM, d, V_ab)
-        worst = max(worst, abs(d) * A_kk[k])
-    store_pair_velocity(a_held, b_held, V_ab, V)
+        V_ab = pair_velocity(a, b, V)
+        for c in range(start[m], start[m + 1]):
+            k, kn = friction_row[c], normal_row[c]
+            if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
+                continue  # static pair, or a point that does not push: its friction cone is [0, 0]
+            top = mu[k] * lam[kn]
+            d = -pair_row_velocity(k, J, V_ab) * inv_A_kk[k]
+            new = min(max(lam[k] + d, -top), top)
+            d = new - lam[k]
+            lam[k] = new
+            V_ab = pair_row_impulse(k, JM, d, V_ab)
+            worst = max(worst, abs(d) * A_kk[k])
+        store_pair_velocity(a, b, V_ab, V)
     return worst
 
 
