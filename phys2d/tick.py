@@ -33,7 +33,7 @@ from numba import config, njit, types
 from numba.experimental import structref
 
 from .collision.broadphase import update_geometry_in
-from .collision.recycle import collide_recycling
+from .collision.recycle import collide_recycling, has_room
 from .collision.sort import stable_argsort
 from .constraints.joints import start_joint_rows
 from .constraints.order import solve_order
@@ -279,7 +279,7 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
         fits = begin_tick(s, gravity, dt, margin)
         if sweep_again or not fits:
             return NEED_SWEEP, 0, 0, 0, rows_used, points_used, 0, 0.0
-    if rows_used + n_pairs > s.found_pose.shape[0] or points_used + 2 * n_pairs > s.m_anchor.shape[0]:
+    if not has_room(s.found_pose.shape[0], rows_used, s.m_anchor.shape[0], points_used, n_pairs):
         return NEED_ROOM, 0, 0, 0, rows_used, points_used, 0, 0.0  # (``ManifoldCache.make_room``)
     k, n_new, recycled, rows_used, points_used = find_contacts(
         s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance

@@ -9,7 +9,7 @@ import phys2d
 from phys2d import scenes
 from phys2d.collision.broadphase import update_geometry, update_geometry_in
 from phys2d.collision.narrowphase import collide_pairs
-from phys2d.collision.recycle import RECYCLE_MAX_TURN, angle_difference, may_recycle, turn_since_cached
+from phys2d.collision.recycle import RECYCLE_MAX_TURN, angle_difference, has_room, may_recycle, turn_since_cached
 
 
 def narrowphase_now(w: phys2d.World):
@@ -297,3 +297,11 @@ def test_the_store_stays_bounded_while_pairs_are_collided_anew():
         assert m.rows_used <= len(m.pose) and m.points_used <= len(m.anchor)
         sizes.add(len(m.pose))
     assert max(sizes) <= max(64, 4 * w._n_pairs)
+
+
+def test_room_is_a_row_and_two_points_per_new_manifold():
+    # the one test both the kernel (NEED_ROOM) and ManifoldCache.make_room ask: exactly enough is enough
+    assert has_room(10, 8, 20, 16, 2)  # 2 rows and 4 points free: room for 2 new manifolds
+    assert not has_room(10, 9, 20, 16, 2)  # one row short
+    assert not has_room(10, 8, 20, 17, 2)  # one point short
+    assert has_room(10, 10, 20, 20, 0)  # a full store has room for nothing new

@@ -389,6 +389,13 @@ def collide_recycling(
     return k, n_new, n_recycled, rows_used, points_used, ascends
 
 
+@njit(cache=True, inline="always")
+def has_room(n_rows, rows_used, n_points, points_used, n_pairs):
+    """Whether a manifold store of n_rows rows and n_points points, rows_used and points_used of
+    them taken, has room for n_pairs new manifolds (a row and up to 2 points each)."""
+    return n_rows - rows_used >= n_pairs and n_points - points_used >= 2 * n_pairs
+
+
 @njit(cache=True)
 def compact(cached_row, found_pose, found_rotation, span, anchor, normal, separation, feature, rows):
     """The store's live rows (cached_row's, in its order) and their points copied into a new store of
@@ -499,7 +506,7 @@ class ManifoldCache:
     def make_room(self, n_pairs: int) -> None:
         """Room in the store for n_pairs new manifolds (2 n_pairs points): if there is not, a new
         store of the live rows only, with room for them twice over and for the new ones."""
-        if self.pose.shape[0] - self.rows_used >= n_pairs and self.anchor.shape[0] - self.points_used >= 2 * n_pairs:
+        if has_room(self.pose.shape[0], self.rows_used, self.anchor.shape[0], self.points_used, n_pairs):
             return
         self._rebuild(max(64, 2 * (self.key.shape[0] + n_pairs)))
 
