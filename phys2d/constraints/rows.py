@@ -222,8 +222,9 @@ def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
 
 @njit(cache=True, inline="always")
 def row_velocity(k, a, b, J, V):
-    """J_k V: the row's relative velocity (m/s for contacts). Summed as a tree: in a sweep this
-    sum waits for the last row's impulse, and a tree waits three additions, not five."""
+    """J_k V: the row's relative velocity (m/s for contacts). Summed as a tree: where a sum waits
+    for the last row's impulse (a sweep: ``pair_row_velocity``, the same tree), a tree waits
+    three additions, not five."""
     return (
         (J[k, 0] * V[a, 0] + J[k, 1] * V[a, 1])
         + (J[k, 2] * V[a, 2] + J[k, 5] * V[b, 2])

@@ -148,22 +148,21 @@ def soft_sweep(
             lam[k] = x1
             lam[k2] = x2
             V_ab = pair_row_impulse(k2, JM, x2 - a2, pair_row_impulse(k, JM, x1 - a1, V_ab))
-            store_pair_velocity(a, b, V_ab, V)
             worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
-            continue
-        # relax leaves a point still apart alone: the next sweep with the push limits its
-        # approach to closing the gap (cutting it here would bounce it off the air)
-        for c in range(start[m], start[m + 1]):
-            k = normal_row[c]
-            s1 = C[c]
-            if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
-                bias, mass_scale, impulse_scale = _push(s1, h, use_bias, soft)
-                d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
-                new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
-                d = new - lam[k]
-                lam[k] = new
-                V_ab = pair_row_impulse(k, JM, d, V_ab)
-                worst = max(worst, abs(d) * A_kk[k])
+        else:
+            # relax leaves a point still apart alone: the next sweep with the push limits its
+            # approach to closing the gap (cutting it here would bounce it off the air)
+            for c in range(start[m], start[m + 1]):
+                k = normal_row[c]
+                s1 = C[c]
+                if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
+                    bias, mass_scale, impulse_scale = _push(s1, h, use_bias, soft)
+                    d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
+                    new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
+                    d = new - lam[k]
+                    lam[k] = new
+                    V_ab = pair_row_impulse(k, JM, d, V_ab)
+                    worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
     for m in range(start.shape[0] - 1):  # then the friction rows, manifold by manifold
         k = friction_row[start[m]]
@@ -487,20 +486,18 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
 @njit(cache=True)
 def warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row):
     """Apply last sub-step's impulses (N s) to V: a manifold's rows (normal, then friction, point
-    by point) on its two bodies' velocities held in locals, stored once; then the joint rows."""
+    by point) on its pair's velocities held in hand (``pair_velocity``), stored once; then the
+    joint rows."""
     start = manifolds[0]
     for m in range(start.shape[0] - 1):
         k = normal_row[start[m]]
         a, b = body_a[k], body_b[k]
-        va0, va1, va2 = V[a, 0], V[a, 1], V[a, 2]
-        vb0, vb1, vb2 = V[b, 0], V[b, 1], V[b, 2]
+        V_ab = pair_velocity(a, b, V)
         for c in range(start[m], start[m + 1]):
             for k in (normal_row[c], friction_row[c]):
                 if lam[k] != 0.0:
-                    va0, va1, va2 = va0 + JM[k, 0] * lam[k], va1 + JM[k, 1] * lam[k], va2 + JM[k, 2] * lam[k]
-                    vb0, vb1, vb2 = vb0 + JM[k, 3] * lam[k], vb1 + JM[k, 4] * lam[k], vb2 + JM[k, 5] * lam[k]
-        V[a, 0], V[a, 1], V[a, 2] = va0, va1, va2
-        V[b, 0], V[b, 1], V[b, 2] = vb0, vb1, vb2
+                    V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
+        store_pair_velocity(a, b, V_ab, V)
     for k in range(first_joint_row, lam.shape[0]):
         if lam[k] != 0.0:
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
