@@ -373,6 +373,22 @@ def _last_line(path: str) -> str:
     return text[-300:]
 
 
+WAIT_POLL = 0.2  # s: how often Viewer.wait looks up from waiting on the viewer
+
+
+def _interrupt(*_: Any) -> NoReturn:
+    raise KeyboardInterrupt
+
+
+def _stop_on_sigterm() -> tuple[Any] | None:
+    """SIGTERM raises KeyboardInterrupt, as Ctrl-C does, so the viewer we started is stopped
+    with us; returns (the former handler,) to put back, or None off the main thread (where
+    Python takes no handler)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return (signal.signal(signal.SIGTERM, _interrupt),)
+
+
 class Viewer:
     """A rerun viewer process we started: native (``spawn``) or a web viewer with its gRPC proxy."""
 
@@ -397,17 +413,25 @@ class Viewer:
                 raise _no_display("--live")
             check_port_free(port, "--port")
             cmd = [exe, "--bind", "127.0.0.1", "--port", str(port)]
-        with open(self.log, "w") as log:
-            self.proc = subprocess.Popen(
-                cmd,
-                env={**os.environ, "BROWSER": "true"},
-                stdin=subprocess.DEVNULL,
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                start_new_session=kind != "web",
-            )
-        if kind == "web" or not files:
-            _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
+        # one we stop with us (a web viewer, a window on a file we wait on) hears SIGTERM from
+        # before it starts; a live run's native window outlives the run
+        self._sigterm = _stop_on_sigterm() if kind == "web" or files else None
+        self.proc: subprocess.Popen | None = None
+        try:
+            with open(self.log, "w") as log:
+                self.proc = subprocess.Popen(
+                    cmd,
+                    env={**os.environ, "BROWSER": "true"},
+                    stdin=subprocess.DEVNULL,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    start_new_session=kind != "web",
+                )
+            if kind == "web" or not files:
+                _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
+        except BaseException:
+            self.stop()
+            raise
 
     @property
     def url(self) -> str:
@@ -415,15 +439,27 @@ class Viewer:
             return grpc_url(self.port)
         return web_url(self.web_port, self.port, self.files.url if self.files is not None else None)
 
+    def serve(self, message: str | None = None) -> int:
+        """Print ``message``, then ``wait``: Ctrl-C or SIGTERM from here on is how it is meant to
+        end (exit 0), even when it comes before the wait begins."""
+        try:
+            if message:
+                print(message, flush=True)
+            return self.wait()
+        except KeyboardInterrupt:
+            self.stop()
+            return 0
+
     def wait(self) -> int:
         """Until the viewer exits or Ctrl-C / SIGTERM; then stop it."""
-
-        def stop(*_: Any) -> NoReturn:
-            raise KeyboardInterrupt
-
-        signal.signal(signal.SIGTERM, stop)
+        assert self.proc is not None
         try:
-            code = self.proc.wait()
+            while True:  # in short waits: a signal the kernel hands to another thread (the viewer's
+                try:  # stream, tqdm's monitor) does not wake a main thread blocked in waitpid, and
+                    code = self.proc.wait(WAIT_POLL)  # Python runs signal handlers in the main thread only
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
             if code != 0:
                 raise CLIError(f"the viewer failed (exit {code}): {_last_line(self.log)}")
             return 0
@@ -433,10 +469,14 @@ class Viewer:
             self.stop()
 
     def stop(self) -> None:
+        """Stop the viewer process (and the file server); give SIGTERM back its former handler."""
+        if self._sigterm is not None:
+            signal.signal(signal.SIGTERM, self._sigterm[0])
+            self._sigterm = None
         if self.files is not None:
             self.files.close()
             self.files = None
-        if self.proc.poll() is None:
+        if self.proc is not None and self.proc.poll() is None:
             self.proc.terminate()
             try:
                 self.proc.wait(10)
@@ -476,18 +516,35 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .recording import Recorder
-
     count = requested_count(args)
     choice = plot_choice(args)  # checked even when nothing is recorded
     responder = make_responder(args.responder, count)
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
     name = f"{args.scene}-{size}-{args.responder}{_count_tag(count, args.responder)}.rrd"
     path = None if args.no_record else (args.out or os.path.join(DEFAULT_DIR, name))
-    viewer = None
-    stream_to = None
-    if args.live is not None:
-        stream_to, viewer = start_live(args.live, args.web_port, args.port)
+    if args.live is None:
+        return _run(args, responder, choice, size, path, None, None)
+    stream_to, viewer = start_live(args.live, args.web_port, args.port)
+    try:
+        return _run(args, responder, choice, size, path, viewer, stream_to)
+    except BaseException:
+        if viewer is not None and viewer.kind == "web":
+            viewer.stop()  # a run that fails or is stopped leaves no web viewer serving behind it
+        raise
+
+
+def _run(
+    args: argparse.Namespace,
+    responder: Responder,
+    choice: Any,
+    size: Any,
+    path: str | None,
+    viewer: Viewer | None,
+    stream_to: str | None,
+) -> int:
+    """``phys2d run`` once its arguments are checked and its live viewer (if any) is up."""
+    from .recording import Recorder
+
     rec = None
     folder = os.path.dirname(os.path.abspath(path)) if path else None
     new_folder = folder is not None and not os.path.isdir(folder)
@@ -573,8 +630,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"plotted contacts: {', '.join(plotted)}")
         print(_how_to_open(path))
     if viewer is not None and viewer.kind == "web":
-        print(f"the run is over; the web viewer keeps serving it at {viewer.url} until Ctrl-C", flush=True)
-        return viewer.wait()
+        return viewer.serve(f"the run is over; the web viewer keeps serving it at {viewer.url} until Ctrl-C")
     return 0
 
 
@@ -678,9 +734,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     if not args.web and not has_display():
         raise _no_display(f"phys2d view {args.path}")
     viewer = Viewer("web" if args.web else "spawn", files=[args.path], web_port=args.web_port, port=args.port)
-    if args.web:
-        print(f"web viewer: {viewer.url}   (127.0.0.1 only; Ctrl-C stops it)", flush=True)
-    return viewer.wait()
+    return viewer.serve(f"web viewer: {viewer.url}   (127.0.0.1 only; Ctrl-C stops it)" if args.web else None)
 
 
 # -- the parser ------------------------------------------------------------------------

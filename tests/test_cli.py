@@ -526,6 +526,69 @@ def test_run_live_web_prints_the_viewer_url_and_serves_it(tmp_path):
     finally:
         run.terminate()
         run.wait(30)
+    assert run.returncode == 0, run.stderr.read()  # SIGTERM while it serves: the end it was waiting for
+    _wait_port_free(web)  # and the viewer went with it
+
+
+def _wait_port_free(port: int, timeout: float = 20) -> None:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) != 0:
+                return
+        time.sleep(0.1)
+    raise AssertionError(f"something still listens on {port}: the viewer outlived the command")
+
+
+def test_a_live_web_run_stopped_midway_stops_its_viewer(tmp_path):
+    """SIGTERM during the simulation: the command ends as interrupted (130), and the web viewer
+    it started is not left serving on its ports."""
+    web, grpc = _free_port(), _free_port()
+    env = {**os.environ, "PYTHONPATH": REPO}
+    cmd = [sys.executable, "-m", "phys2d", "run", "pyramid", "--size", "10", "--steps", "1000000", "--no-record"]
+    cmd += ["--live", "web", "--web-port", str(web), "--port", str(grpc)]
+    with open(tmp_path / "stderr.txt", "w") as err:  # a file: a viewer left behind would hold a pipe open
+        run = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=err, text=True)
+    try:
+        line = run.stdout.readline()
+        assert line.startswith("live web viewer: http://127.0.0.1:"), line
+        time.sleep(1.0)
+        assert run.poll() is None  # a million steps: still running
+        run.terminate()
+        run.wait(30)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 130, (tmp_path / "stderr.txt").read_text()
+    _wait_port_free(web)
+
+
+VIEWER_WAIT_SCRIPT = """
+import signal, subprocess, sys, tempfile, threading, time
+from phys2d import cli
+
+v = object.__new__(cli.Viewer)  # a Viewer over a stand-in process (no rerun binary needed)
+v.kind, v.files, v.log = "web", None, tempfile.NamedTemporaryFile(delete=False).name
+v._sigterm = cli._stop_on_sigterm()
+v.proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+def other_thread():  # the kernel may hand a process's SIGTERM to any thread that does not block it
+    time.sleep(0.5)
+    signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
+threading.Thread(target=other_thread).start()
+code = v.serve()
+print(code, v.proc.poll() is not None, signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+"""
+
+
+def test_viewer_wait_ends_on_a_sigterm_another_thread_received(tmp_path):
+    """Python runs signal handlers in the main thread only: a SIGTERM delivered to another thread
+    must still end the wait (it hung in waitpid when it waited without a timeout)."""
+    env = {**os.environ, "PYTHONPATH": REPO}
+    out = subprocess.run(
+        [sys.executable, "-c", VIEWER_WAIT_SCRIPT], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=30
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["0", "True", "True"]  # exit 0, its process stopped, SIGTERM's handler put back
 
 
 def test_plot_options_choose_the_plotted_contacts(tmp_path):
