@@ -83,7 +83,9 @@ class Browser:
             self.close()
             raise RuntimeError("chromium did not open its DevTools port")
         page = [t for t in tabs if t["type"] == "page"][0]
-        self.ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=120)
+        # no Origin header: newer Chromium (111+) refuses a DevTools socket from an origin it was not
+        # told to allow (403), and takes one with none, as from a debugger rather than a page
+        self.ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=120, suppress_origin=True)
         self.n = 0
         self.call("Emulation.setDeviceMetricsOverride", width=WIDTH, height=HEIGHT, deviceScaleFactor=1, mobile=False)
 
