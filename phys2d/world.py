@@ -125,7 +125,9 @@ class World:
         self._pending_contacts: tuple | None = None  # (buffers, K) of a one-call tick's contacts, read lazily
         self._tick_buffers = TickBuffers(0, 0)
         self._undo = (np.empty((0, 2)), np.empty(0), np.empty((0, 3)))  # x0, theta0, V1 of the one-call tick
-        self._joint_lam = np.zeros(0)  # the joints' reactions warm starting the one-call tick
+        self._joint_lam = np.zeros(0)  # the joints' last reactions, in joint order: each step's warm start
+        self._joint_rows_first = 0  # the first joint row of the last step
+        self._joints_placed = True  # every joint knows where its rows stood in the last step
         self._residuals = np.zeros(16)
         self._tick_state_over: tuple = ()  # the arrays the kept TickState was made over
         self._tick_state_kept: TickState | None = None
@@ -475,15 +477,25 @@ class World:
             raise ValueError("joint belongs to another world")
         if not joint.alive:
             raise ValueError("joint was removed from this world")
+        joint._impulse = joint.impulse  # its last reactions, kept by the handle from now on
+        joint._offset = None
         self._joints.remove(joint)
         joint.alive = False
         joint._has_rows = False
         self._joints_changed()
 
     def _joints_changed(self) -> None:
-        """Repack the joints and rebuild the sorted keys of pairs that must not collide."""
-        self._joint_arrays = JointArrays(self._joints)
-        self._joint_lam = np.zeros(self._joint_arrays.n_rows)
+        """Repack the joints (each keeps its last reactions) and rebuild the sorted keys of pairs
+        that must not collide."""
+        self._joint_arrays = ja = JointArrays(self._joints)
+        lam = np.zeros(ja.n_rows)
+        for q, joint in enumerate(self._joints):
+            offset = int(ja.row_offset[q])
+            if joint._offset is not None:
+                lam[offset : offset + joint.row_count] = joint.impulse
+            joint._offset = offset
+        self._joint_lam = lam
+        self._joints_placed = False
         keys = [
             (min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
             for q in self._joints
@@ -556,8 +568,6 @@ class World:
         first). The kernel writes the side of the double buffers the last good step did not;
         only a step that succeeds makes it the caches' and the contacts'."""
         b, m, cache = self._bodies, self._manifolds, self._cache
-        if self._joints:  # joints keep their identity: last step's reactions start this one's
-            np.concatenate([q._impulse for q in self._joints], out=self._joint_lam)
         world = (self._gravity, self._gravity_norm, dt, self._contact_margin, self._contact_recycle_distance)
         stage, began = 0, False
         try:
@@ -894,8 +904,7 @@ class World:
             rows.lam,
             hit,
         )
-        if ja.n_rows:  # joints keep their identity: last step's reactions start this one's
-            np.concatenate([q._impulse for q in self._joints], out=self._joint_lam)
+        if ja.n_rows:  # joints keep their identity: last step's reactions (_joint_lam) start this one's
             start_joint_rows(
                 ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, rows.first_joint_row, b.x,
                 b.theta, b.M_inv, dt, r.beta, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi,
@@ -905,13 +914,15 @@ class World:
         return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray) -> None:
-        """Hand each joint its rows and reactions (``lam`` of the step's rows) of the step just taken."""
-        ja = self._joint_arrays
-        for q, joint in enumerate(self._joints):
-            start = first_joint_row + int(ja.row_offset[q])
-            joint._row_start = start
-            joint._has_rows = True
-            joint._impulse = lam[start : start + joint.row_count].copy()
+        """Keep the joints' reactions (``lam`` of the step's rows, from first_joint_row) of the step
+        just taken: one copy, which every joint's ``impulse`` reads its rows of."""
+        self._joint_lam[:] = lam[first_joint_row : first_joint_row + self._joint_lam.shape[0]]
+        self._joint_rows_first = first_joint_row
+        if not self._joints_placed:  # joints were added or removed since: each learns its rows' place
+            for joint in self._joints:
+                assert joint._offset is not None  # placed by _joints_changed
+                joint._rows_offset, joint._has_rows = joint._offset, True
+            self._joints_placed = True
 
     def _check_limits(self) -> None:
         b = self._bodies

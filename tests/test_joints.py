@@ -232,6 +232,34 @@ def test_removing_bodies_and_joints():
     assert cd.impulse.shape == (2,)
 
 
+@pytest.mark.parametrize("one_call", [True, False])
+def test_joints_keep_their_reactions_and_rows_when_another_is_removed_or_added(one_call):
+    """A joint's impulse and row_range speak of the last step until the next one: removing or
+    adding another joint changes neither; after the next step the joints' rows follow the
+    contact rows in joint order, and each joint's impulse is its share of the step's report."""
+    w = scenes.heavy_chain(6, responder=phys2d.PGS(iterations=10, warm_start=True))
+    w.one_call_tick = one_call
+    for _ in range(40):
+        w.step(1 / 60)
+    before = {id(q): (q.impulse, q.row_range) for q in w.joints}
+    gone = w.joints[2]
+    anchor = tuple(gone.anchors()[0])
+    w.remove(gone)
+    new = w.add_pin_joint(w.bodies[3], w.bodies[4], anchor=anchor)
+    for q in w.joints[:-1]:
+        np.testing.assert_array_equal(q.impulse, before[id(q)][0])
+        assert q.row_range == before[id(q)][1]
+    np.testing.assert_array_equal(gone.impulse, before[id(gone)][0])  # the removed one keeps its last
+    assert gone.row_range == range(0) and new.row_range == range(0) and not new.impulse.any()
+    w.step(1 / 60)
+    start = 2 * w.last_step.contact_count
+    for q in w.joints:
+        assert q.row_range == range(start, start + q.row_count)
+        start += q.row_count
+    np.testing.assert_array_equal(np.concatenate([q.impulse for q in w.joints]), w.last_step.joint_impulses)
+    assert new.impulse.any()  # it carries the box now
+
+
 def test_bad_joints_raise_and_leave_the_world_unchanged():
     w = phys2d.World()
     ground = w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)

@@ -77,9 +77,12 @@ class Joint:
         self.local_a = local_a  # anchor in body a's frame, m
         self.local_b = local_b
         self.collide_connected = collide_connected
+        # while in its world, its reactions are the world's (``World._joint_lam``, in joint order)
+        # from _offset on; once removed, the last of them, kept here
         self._impulse = np.zeros(self.row_count)
-        self._row_start = 0
-        self._has_rows = False
+        self._offset: int | None = None
+        self._rows_offset = 0  # where its rows stood among the joint rows of the last step
+        self._has_rows = False  # it took part in a step since it was added
         self.alive = True
 
     @property
@@ -90,12 +93,15 @@ class Joint:
     def row_range(self) -> range:
         if not self._has_rows:
             return range(0)
-        return range(self._row_start, self._row_start + self.row_count)
+        start = self._world._joint_rows_first + self._rows_offset
+        return range(start, start + self.row_count)
 
     @property
     def impulse(self) -> np.ndarray:
         """The reaction impulses of the joint's rows in the last step (a copy)."""
-        return self._impulse.copy()
+        if self._offset is None:
+            return self._impulse.copy()
+        return self._world._joint_lam[self._offset : self._offset + self.row_count].copy()
 
     def _params(self) -> tuple[float, float, float, float, float]:
         """(length, theta_0, lower, upper, limit flags) for the packed joint arrays."""
