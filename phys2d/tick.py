@@ -13,9 +13,10 @@ staged path's (tests/test_tick.py).
     pgs_tick / soft_tick   the responder's kernel, then ``end_tick``: the speed limits, the cache
 
 The kernels read the world's arrays from one ``TickState`` (a numba structref: a call costs
-~0.18 us per array argument, and the tick reads 85 arrays; the state is one argument). What
-stays in Python (``World._step_in_one_call``): the broadphase sweep when a body left its fat
-box (the kernel stops after the geometry and says so), growing buffers, the report.
+~0.18 us per array argument, and the tick reads 85 arrays; the state is one argument). When a
+body left its fat box the kernel sweeps for the pairs itself (``sweep_in_tick``). What stays in
+Python (``World._step_in_one_call``): the sweep after the bodies or joints changed, growing
+buffers (the kernel stops and says so), the report.
 
 Double buffers: the contacts, the contact cache and the manifold keys come in two sides
 (a leading axis of 2). A tick reads the side the last good step wrote and writes the
@@ -32,11 +33,11 @@ import numpy as np
 from numba import config, njit, types
 from numba.experimental import structref
 
-from .collision.broadphase import update_geometry_in
+from .collision.broadphase import fatten, sweep_and_prune, update_geometry_in
 from .collision.recycle import collide_recycling, has_room
 from .collision.sort import stable_argsort
 from .constraints.joints import start_joint_rows
-from .constraints.order import solve_order
+from .constraints.order import colour_pairs, solve_order
 from .constraints.rows import contact_row_map, contact_rows
 from .contacts import impulses_to_contacts_and_cache
 from .integrate import apply_external_forces, first_too_fast
@@ -53,7 +54,7 @@ BODY_FIELDS = (
     "x", "theta", "V", "M_inv", "kind", "radius", "vstart", "vcount", "local_v", "local_n", "static", "uid",
     "friction", "restitution",
 )  # fmt: skip
-GEOMETRY_FIELDS = ("world_v", "world_n", "aabb", "travel", "rotation", "fat", "pairs", "pair_order")
+GEOMETRY_FIELDS = ("world_v", "world_n", "aabb", "travel", "rotation", "fat", "pairs", "pair_order", "excluded")
 STORE_FIELDS = (  # the manifold store (``ManifoldCache``), then the manifolds' keys and rows, two sides
     "found_pose", "found_rotation", "span", "m_anchor", "m_normal", "m_separation", "m_feature", "m_key", "m_row",
 )  # fmt: skip
@@ -100,7 +101,7 @@ else:
 def make_tick_state(bodies, geometry, store, cache, contacts, rows, joints, rest):
     """A ``TickState`` of the groups of arrays (each a tuple, in the order of its ``*_FIELDS``)."""
     x, theta, V, M_inv, kind, radius, vstart, vcount, local_v, local_n, static, uid, friction, restitution = bodies
-    world_v, world_n, aabb, travel, rotation, fat, pairs, pair_order = geometry
+    world_v, world_n, aabb, travel, rotation, fat, pairs, pair_order, excluded = geometry
     found_pose, found_rotation, span, m_anchor, m_normal, m_separation, m_feature, m_key, m_row = store
     cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed = cache
     body_a, body_b, point, normal, separation, feature, key, mu, e, anchor, lambda_n, lambda_t, hit, order = contacts
@@ -110,7 +111,7 @@ def make_tick_state(bodies, geometry, store, cache, contacts, rows, joints, rest
     x0, theta0, V1, residuals = rest
     return TickState(
         x, theta, V, M_inv, kind, radius, vstart, vcount, local_v, local_n, static, uid, friction, restitution,
-        world_v, world_n, aabb, travel, rotation, fat, pairs, pair_order,
+        world_v, world_n, aabb, travel, rotation, fat, pairs, pair_order, excluded,
         found_pose, found_rotation, span, m_anchor, m_normal, m_separation, m_feature, m_key, m_row,
         cache_keys, cache_lambda_n, cache_lambda_t, cache_pushed,
         body_a, body_b, point, normal, separation, feature, key, mu, e, anchor, lambda_n, lambda_t, hit, order,
@@ -202,6 +203,23 @@ def begin_tick(s, gravity, dt, margin):
 
 
 @njit(cache=True)
+def sweep_in_tick(s, colour_order):
+    """The broadphase's pairs anew in the state's buffers (``fatten``, ``sweep_and_prune``, as
+    ``World._sweep`` does), coloured (``pair_order``) when the responder visits them by colour.
+    Returns their count, or -1 when they would not fit the pair buffer or the tick's buffers:
+    then the world grows them and sweeps (NEED_SWEEP)."""
+    fatten(s.aabb, s.fat)
+    n_pairs = sweep_and_prune(s.fat, s.static, s.excluded, s.pairs)
+    if n_pairs < 0 or n_pairs > s.pair_order.shape[0]:
+        return -1
+    if colour_order:
+        coloured = colour_pairs(s.pairs, n_pairs, s.static, s.x.shape[0])
+        for p in range(n_pairs):
+            s.pair_order[p] = coloured[p]
+    return n_pairs
+
+
+@njit(cache=True)
 def find_contacts(s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance):
     """The step's contact points into side 1 - side (``collide_recycling``: recycled manifolds or
     new ones), this step's manifolds sorted by key for the next step's look-up, and the solve
@@ -263,29 +281,35 @@ def build_rows(s, side, k, k_cached, dt, gravity_norm, row_settings):
 
 @njit(cache=True)
 def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
-    """The tick up to the responder. Stage 0: ``begin_tick``, stopping with NEED_SWEEP when the
-    pairs no longer hold; then (stage 1 joins here after the sweep) NEED_ROOM when the manifold
-    store is short of room for a new manifold per pair, else ``find_contacts`` and ``build_rows``.
+    """The tick up to the responder. Stage 0: ``begin_tick``; when a body left its fat box, the
+    pairs anew (``sweep_in_tick``), or NEED_SWEEP when the bodies or joints changed or the pairs
+    outgrow the buffers (the world sweeps). Then (stage 1 joins here after the world's sweep)
+    NEED_ROOM when the manifold store is short of room for a new manifold per pair, else
+    ``find_contacts`` and ``build_rows``.
 
     found: (n_pairs, colour_order, sweep_again); cached: (manifolds, contacts, rows_used,
     points_used) of the side last written; world: (gravity, |g|, dt, contact_margin,
     recycle_distance). Returns (status, K, manifolds, recycled, rows_used, points_used,
-    warm-started contacts, deepest overlap m).
+    warm-started contacts, deepest overlap m, the pairs' count when this call swept, else -1).
     """
     n_pairs, colour_order, sweep_again = found
     n_cached, k_cached, rows_used, points_used = cached
     gravity, gravity_norm, dt, margin, recycle_distance = world
+    swept = -1
     if stage == 0:
         fits = begin_tick(s, gravity, dt, margin)
-        if sweep_again or not fits:
-            return NEED_SWEEP, 0, 0, 0, rows_used, points_used, 0, 0.0
+        if not fits and not sweep_again:
+            swept = sweep_in_tick(s, colour_order)
+            n_pairs = swept
+        if sweep_again or n_pairs < 0:
+            return NEED_SWEEP, 0, 0, 0, rows_used, points_used, 0, 0.0, -1
     if not has_room(s.found_pose.shape[0], rows_used, s.m_anchor.shape[0], points_used, n_pairs):
-        return NEED_ROOM, 0, 0, 0, rows_used, points_used, 0, 0.0  # (``ManifoldCache.make_room``)
+        return NEED_ROOM, 0, 0, 0, rows_used, points_used, 0, 0.0, swept  # (``ManifoldCache.make_room``)
     k, n_new, recycled, rows_used, points_used = find_contacts(
         s, side, n_pairs, colour_order, n_cached, rows_used, points_used, margin, recycle_distance
     )
     deepest, hits = build_rows(s, side, k, k_cached, dt, gravity_norm, row_settings)
-    return OK, k, n_new, recycled, rows_used, points_used, hits, deepest
+    return OK, k, n_new, recycled, rows_used, points_used, hits, deepest, swept
 
 
 @njit(cache=True)
@@ -310,12 +334,12 @@ def end_tick(s, side, k, max_speed):
 def pgs_tick(s, stage, side, found, cached, world, row_settings, max_speed, iterations, tolerance, block, split):
     """One tick under ``PGS`` (impulse form): ``contacts_and_rows``, ``pgs_step``, ``end_tick``.
     Returns (status, K, manifolds, recycled, rows_used, points_used, warm-started contacts,
-    deepest overlap m, sweeps)."""
-    status, k, n_new, recycled, rows_used, points_used, hits, deepest = contacts_and_rows(
+    deepest overlap m, sweeps, the pairs' count when it swept them, else -1)."""
+    status, k, n_new, recycled, rows_used, points_used, hits, deepest, swept = contacts_and_rows(
         s, stage, side, found, cached, world, row_settings
     )
     if status != OK:
-        return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0
+        return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0, swept
     w, n = 1 - side, 2 * k + s.joint_lam.shape[0]
     sweeps = pgs_step(
         s.normal_row[:k], s.friction_row[:k], 2 * k, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
@@ -323,7 +347,7 @@ def pgs_tick(s, stage, side, found, cached, world, row_settings, max_speed, iter
         s.x, s.theta, s.V, s.separation[w][:k], world[2], iterations, tolerance, block, split, s.residuals,
     )  # fmt: skip
     status = end_tick(s, side, k, max_speed)
-    return status, k, n_new, recycled, rows_used, points_used, hits, deepest, sweeps
+    return status, k, n_new, recycled, rows_used, points_used, hits, deepest, sweeps, swept
 
 
 @njit(cache=True)
@@ -332,11 +356,11 @@ def soft_tick(s, stage, side, found, cached, world, row_settings, max_speed, set
     settings: (substeps, relax, contact_hertz, damping_ratio, push_max, joint_hertz,
     joint_damping_ratio, direct_joints, restitution_threshold). Returns as ``pgs_tick``
     (the count is sub-steps)."""
-    status, k, n_new, recycled, rows_used, points_used, hits, deepest = contacts_and_rows(
+    status, k, n_new, recycled, rows_used, points_used, hits, deepest, swept = contacts_and_rows(
         s, stage, side, found, cached, world, row_settings
     )
     if status != OK:
-        return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0
+        return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0, swept
     substeps, relax, contact_hertz, damping_ratio, push_max, joint_hertz, joint_zeta, direct, threshold = settings
     w, n = 1 - side, 2 * k + s.joint_lam.shape[0]
     count = soft_step_solve(
@@ -348,7 +372,7 @@ def soft_tick(s, stage, side, found, cached, world, row_settings, max_speed, set
         s.residuals,
     )  # fmt: skip
     status = end_tick(s, side, k, max_speed)
-    return status, k, n_new, recycled, rows_used, points_used, hits, deepest, count
+    return status, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept
 
 
 def compiled_for(kernel: Callable, args: tuple) -> Callable:

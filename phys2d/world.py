@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import sweep_and_prune, update_geometry_in
+from .collision.broadphase import fatten, sweep_and_prune, update_geometry_in
 from .collision.recycle import ManifoldCache
 from .constraints.joints import (
     AngleJoint,
@@ -58,8 +58,6 @@ from .validation import check_bool, finite_float, float_in, non_negative_float, 
 
 _J = TypeVar("_J", bound=Joint)
 
-FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
-FAT_GROWTH = np.array([-FAT_MARGIN, -FAT_MARGIN, FAT_MARGIN, FAT_MARGIN])
 NONE_WARM = np.zeros(0, np.bool_)  # placeholder until the step has warm started its contacts
 
 
@@ -589,6 +587,10 @@ class World:
                     self._max_speed, *spec.settings,
                 )  # fmt: skip
                 result = kernel(*args)
+                if result[-1] >= 0:  # the kernel swept: its pairs (and their colouring) are the world's
+                    self._n_pairs = result[-1]
+                    self._pair_order = t.pair_order[: self._n_pairs] if spec.colour_order else None
+                    t.coloured = self._pair_order
                 if kernel is spec.kernel:  # the next steps call its compiled code for these types directly
                     kernel = compiled_for(spec.kernel, args)
                     self._tick_code = (spec, tick_state_type(state), kernel)
@@ -607,7 +609,7 @@ class World:
             if began:
                 b.restore(self._undo)
             raise
-        _, k, n_new, m.recycled, m.rows_used, m.points_used, hits, deepest, count = result
+        _, k, n_new, m.recycled, m.rows_used, m.points_used, hits, deepest, count, _ = result
         w = t.side = 1 - side
         t.held = t.caches_of(w, n_new, k)
         _, _, m.key, m.row, cache.keys, cache.lambda_n, cache.lambda_t, cache.pushed, order = t.held
@@ -667,11 +669,12 @@ class World:
             or over[7] is not self._joint_lam
             or over[8] is not self._residuals
             or over[9] is not self._undo
+            or over[10] is not self._excluded
         ):
             ja = self._joint_arrays
             self._tick_state_kept = make_tick_state(
                 b.kernel_arrays,
-                (*geometry, self._fat, self._pairs, t.pair_order),
+                (*geometry, self._fat, self._pairs, t.pair_order, self._excluded),
                 (*m.store, t.m_key, t.m_row),
                 t.group(CACHE_FIELDS),
                 t.group(CONTACT_FIELDS),
@@ -681,7 +684,7 @@ class World:
             )
             self._tick_state_over = (
                 b.kernel_arrays, geometry, self._fat, self._pairs, t, m.store, ja, self._joint_lam, self._residuals,
-                self._undo,
+                self._undo, self._excluded,
             )  # fmt: skip
         return self._tick_state_kept  # type: ignore[return-value]
 
@@ -827,9 +830,10 @@ class World:
         ), order
 
     def _sweep(self, aabb: np.ndarray) -> None:
-        """The broadphase's pairs anew, from the bodies' boxes grown by FAT_MARGIN (the fat boxes)."""
+        """The broadphase's pairs anew, from the bodies' boxes grown by FAT_MARGIN (the fat boxes).
+        The one-call tick sweeps itself (``tick.sweep_in_tick``) while its buffers have room."""
         fat = self._fat if self._fat.shape == aabb.shape else np.empty_like(aabb)  # kept: the tick's state holds it
-        np.add(aabb, FAT_GROWTH, out=fat)
+        fatten(aabb, fat)
         n_pairs = sweep_and_prune(fat, self._bodies.static, self._excluded, self._pairs)
         if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
             self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)

@@ -213,9 +213,35 @@ def test_the_compiled_tick_is_looked_up_once_though_the_broadphase_sweeps(monkey
     sweep = w._sweep
     monkeypatch.setattr(w, "_sweep", lambda aabb: swept.append(1) or sweep(aabb))
     for _ in range(60):
+        w._sweep_again = True  # as when bodies or joints change: the world sweeps between the tick's calls
         w.step(1 / 60)
-    assert len(swept) >= 20  # the path under test: sweeps between the tick's calls
+    assert len(swept) == 60  # the path under test
     assert len(looked_up) == 1
+
+
+def test_the_tick_sweeps_for_the_pairs_itself_when_a_body_leaves_its_fat_box(monkeypatch):
+    """A swinging chain leaves its fat boxes nearly every step: the kernel sweeps (no call back
+    to Python), and its pairs are those a brute-force test of every two fat boxes finds."""
+    w = scenes.heavy_chain(responder=phys2d.SoftStep())
+    swept, in_kernel = [], 0
+    sweep = w._sweep
+    monkeypatch.setattr(w, "_sweep", lambda aabb: swept.append(1) or sweep(aabb))
+    for _ in range(60):
+        fat_before, python_sweeps = w._fat.copy(), len(swept)
+        w.step(1 / 60)
+        aabb, fat, static = w._geometry_buffers()[2], w._fat, w._bodies.static
+        in_kernel += len(swept) == python_sweeps and not np.array_equal(fat, fat_before)  # fat boxes anew
+        assert np.all(fat[:, :2] <= aabb[:, :2]) and np.all(fat[:, 2:] >= aabb[:, 2:])  # the pairs hold
+        want = [
+            (a, b)
+            for a in range(w._bodies.n)
+            for b in range(a + 1, w._bodies.n)
+            if not (static[a] and static[b])
+            and ((a << 32) | b) not in set(w._excluded.tolist())
+            and fat[a, 0] <= fat[b, 2] and fat[b, 0] <= fat[a, 2] and fat[a, 1] <= fat[b, 3] and fat[b, 1] <= fat[a, 3]
+        ]  # fmt: skip
+        assert [tuple(p) for p in w._pairs[: w._n_pairs].tolist()] == want
+    assert in_kernel >= 30 and len(swept) <= 10  # (the world sweeps when the pairs outgrow its buffers)
 
 
 def test_compiled_for_falls_back_to_the_dispatcher_for_types_it_has_no_code_for():

@@ -68,6 +68,17 @@ def update_geometry(
         aabb[b, 3] = hi_y + grow
 
 
+FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
+
+
+@njit(cache=True)
+def fatten(aabb, fat):
+    """fat = each tight box grown by FAT_MARGIN on every side: the boxes the sweep pairs up."""
+    for b in range(aabb.shape[0]):
+        fat[b, 0], fat[b, 1] = aabb[b, 0] - FAT_MARGIN, aabb[b, 1] - FAT_MARGIN
+        fat[b, 2], fat[b, 3] = aabb[b, 2] + FAT_MARGIN, aabb[b, 3] + FAT_MARGIN
+
+
 @njit(cache=True, inline="always")
 def fits_inside(aabb, fat):
     """True when every tight box lies inside its fat box: last step's pairs still hold."""
