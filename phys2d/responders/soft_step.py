@@ -277,13 +277,15 @@ def factor_joint_rows(eq, body_a, body_b, J, JM, L, first):
     PIVOT_TOL A_pp) gets L_pp = 0 and is left out of the solve.
     """
     n = eq.shape[0]
+    n_bodies = 0
     for p in range(n):
-        first[p] = p
-        for q in range(p):
-            a, b = body_a[eq[p]], body_b[eq[p]]
-            if a == body_a[eq[q]] or a == body_b[eq[q]] or b == body_a[eq[q]] or b == body_b[eq[q]]:
-                first[p] = q
-                break
+        n_bodies = max(n_bodies, body_a[eq[p]] + 1, body_b[eq[p]] + 1)
+    first_touch = np.full(n_bodies, n, np.int64)  # per body, the first row on it so far (n: none)
+    for p in range(n):  # the envelope in one pass (a scan of the rows before each row is O(n^2))
+        a, b = body_a[eq[p]], body_b[eq[p]]
+        first[p] = min(p, first_touch[a], first_touch[b])
+        first_touch[a] = min(first_touch[a], p)
+        first_touch[b] = min(first_touch[b], p)
     for p in range(n):
         for q in range(first[p], p + 1):
             s = _coupling(eq[p], eq[q], body_a, body_b, J, JM)
