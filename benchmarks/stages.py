@@ -37,9 +37,9 @@ The one-call step:
 - **numba dispatch** of that call (an estimate, inside the kernel call): see below;
 - **Python of the step** = one-call step minus the kernel call: ``World.step``'s check of
   dt and ``World._step_in_one_call`` around the call (buffers checked, the tick's state
-  looked up, the caches' views, the step report); in a step where a body left its fat box
-  also the broadphase sweep (``sweep_and_prune``, ``colour_pairs``) between the kernel's
-  two calls;
+  looked up, the caches' views, the step report); the kernel sweeps for the pairs itself
+  when a body left its fat box, and the world only after bodies or joints changed
+  (``find_pairs``, ``colour_pairs``, between the kernel's two calls);
 - **fixed cost** = Python of the step + dispatch, on the small scene; as a check, the
   one-call step of a one-box scene. On large scenes the Python of the step grows too: it
   runs on CPU caches the kernel has just filled with the scene's arrays (the same few
@@ -84,7 +84,7 @@ Stages of the staged step:
 | stage | what is timed |
 | --- | --- |
 | external forces | `apply_external_forces` |
-| broadphase | `update_geometry_in` (and the fat-box check); if a body left its box `sweep_and_prune`, `colour_pairs` |
+| broadphase | `update_geometry_in` (and the fat-box check); if a body left its box `find_pairs`, `colour_pairs` |
 | narrowphase | `ManifoldCache.collide` (contact recycling, and the narrowphase for the pairs not recycled) |
 | cache matching | `ContactCache.store_rows` (the look-up runs inside `contact_rows`, under rows) |
 | rows | `RowBuffer.take`, `solve_order`, `World._context` (contacts in row order), `contact_rows`, `joint_rows` |
@@ -127,7 +127,7 @@ DT = 1.0 / 60.0
 # stage -> names in phys2d.world that the staged step (World._step_in_stages) calls
 FUNCTION_STAGES = {
     "external forces": ("apply_external_forces",),
-    "broadphase": ("update_geometry_in", "sweep_and_prune", "colour_pairs"),
+    "broadphase": ("update_geometry_in", "find_pairs", "colour_pairs"),
     "rows": ("solve_order", "contact_rows", "joint_rows"),
     "integrate": ("integrate_positions", "first_too_fast"),
 }

@@ -33,7 +33,7 @@ import numpy as np
 from numba import config, njit, types
 from numba.experimental import structref
 
-from .collision.broadphase import fatten, sweep_and_prune, update_geometry_in
+from .collision.broadphase import find_pairs, update_geometry_in
 from .collision.recycle import collide_recycling, has_room
 from .collision.sort import stable_argsort
 from .constraints.joints import start_joint_rows
@@ -204,12 +204,11 @@ def begin_tick(s, gravity, dt, margin):
 
 @njit(cache=True)
 def sweep_in_tick(s, colour_order):
-    """The broadphase's pairs anew in the state's buffers (``fatten``, ``sweep_and_prune``, as
-    ``World._sweep`` does), coloured (``pair_order``) when the responder visits them by colour.
+    """The broadphase's pairs anew in the state's buffers (``find_pairs``, as ``World._sweep``
+    does), coloured (``pair_order``) when the responder visits them by colour.
     Returns their count, or -1 when they would not fit the pair buffer or the tick's buffers:
     then the world grows them and sweeps (NEED_SWEEP)."""
-    fatten(s.aabb, s.fat)
-    n_pairs = sweep_and_prune(s.fat, s.static, s.excluded, s.pairs)
+    n_pairs = find_pairs(s.aabb, s.fat, s.static, s.excluded, s.pairs)
     if n_pairs < 0 or n_pairs > s.pair_order.shape[0]:
         return -1
     if colour_order:
@@ -301,7 +300,7 @@ def contacts_and_rows(s, stage, side, found, cached, world, row_settings):
         if not fits and not sweep_again:
             swept = sweep_in_tick(s, colour_order)
             n_pairs = swept
-        if sweep_again or n_pairs < 0:
+        if sweep_again or n_pairs < 0:  # (n_pairs < 0: the buffers had no room for the kernel's sweep)
             return NEED_SWEEP, 0, 0, 0, rows_used, points_used, 0, 0.0, -1
     if not has_room(s.found_pose.shape[0], rows_used, s.m_anchor.shape[0], points_used, n_pairs):
         return NEED_ROOM, 0, 0, 0, rows_used, points_used, 0, 0.0, swept  # (``ManifoldCache.make_room``)

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import fatten, sweep_and_prune, update_geometry_in
+from .collision.broadphase import find_pairs, update_geometry_in
 from .collision.recycle import ManifoldCache
 from .constraints.joints import (
     AngleJoint,
@@ -617,7 +617,7 @@ class World:
         joint_impulses = EMPTY
         if self._joints:
             self._store_joint_impulses(2 * k, t.lam)
-            joint_impulses = t.lam[2 * k : 2 * k + self._joint_lam.shape[0]].copy()
+            joint_impulses = self._joint_lam.copy()
         return StepReport(
             spec.name, dt, count, self._residuals[:count].copy(), deepest, k, hits, joint_impulses, None,
             order.copy(), spec.counts,
@@ -833,11 +833,10 @@ class World:
         """The broadphase's pairs anew, from the bodies' boxes grown by FAT_MARGIN (the fat boxes).
         The one-call tick sweeps itself (``tick.sweep_in_tick``) while its buffers have room."""
         fat = self._fat if self._fat.shape == aabb.shape else np.empty_like(aabb)  # kept: the tick's state holds it
-        fatten(aabb, fat)
-        n_pairs = sweep_and_prune(fat, self._bodies.static, self._excluded, self._pairs)
+        n_pairs = find_pairs(aabb, fat, self._bodies.static, self._excluded, self._pairs)
         if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
             self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
-            n_pairs = sweep_and_prune(fat, self._bodies.static, self._excluded, self._pairs)
+            n_pairs = find_pairs(aabb, fat, self._bodies.static, self._excluded, self._pairs)
         self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
         self._ready = None  # the one-call tick's buffers and state are looked over again
         self._pair_order = None  # coloured when a responder first visits these pairs by colour

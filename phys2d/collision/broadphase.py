@@ -144,6 +144,14 @@ def _excluded(excluded, a, b):
 
 
 @njit(cache=True)
+def find_pairs(aabb, fat, static, excluded, pairs):
+    """The broadphase anew: ``fatten`` the tight boxes into ``fat``, then ``sweep_and_prune``
+    them (its count, or minus the room needed when ``pairs`` is too small)."""
+    fatten(aabb, fat)
+    return sweep_and_prune(fat, static, excluded, pairs)
+
+
+@njit(cache=True)
 def sweep_and_prune(aabb, static, excluded, pairs):
     """Write the candidate pairs (a < b) into ``pairs``, sorted by (a, b).
 
