@@ -41,6 +41,7 @@ from .constraints.order import colour_pairs, solve_order
 from .constraints.rows import contact_row_map, contact_rows
 from .contacts import impulses_to_contacts_and_cache
 from .integrate import apply_external_forces, first_too_fast
+from .pipeline.records import BodyRecord, JointRecord, RowRecord
 from .responders.base import Responder
 from .responders.pgs import PGS, pgs_step
 from .responders.soft_step import SoftStep, soft_step_solve
@@ -269,12 +270,16 @@ def build_rows(s, side, k, k_cached, dt, gravity_norm, row_settings):
         s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n], s.hit[w][:k],
     )  # fmt: skip
     if s.joint_kind.shape[0] > 0:  # (a switch by argument type would compile the tick twice)
-        start_joint_rows(
+        joints = JointRecord(
             s.joint_kind, s.joint_i, s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset,
-            first, s.x, s.theta, s.M_inv, dt, beta, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
-            s.xi[:n], s.push[:n], s.bounce[:n], s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n],
-            s.lam[:n], s.joint_lam, warm_start,
+            s.joint_lam,
         )  # fmt: skip
+        rows = RowRecord(
+            s.normal_row[:k], s.friction_row[:k], s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n],
+            s.push[:n], s.bounce[:n], s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n],
+        )  # fmt: skip
+        bodies = BodyRecord(s.x, s.theta, s.V, s.M_inv, s.V1)
+        start_joint_rows(joints, first, bodies, dt, beta, warm_start, rows)
     return deepest, hits
 
 

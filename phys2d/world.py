@@ -37,6 +37,7 @@ from .constraints.order import colour_pairs, contacts_in_order, solve_order
 from .constraints.rows import RowBuffer, Rows, contact_rows
 from .contacts import ContactCache, Contacts
 from .integrate import apply_external_forces, first_too_fast, integrate_positions
+from .pipeline import records
 from .responders.base import EMPTY, Responder, StepContext, StepReport
 from .responders.pgs import PGS
 from .tick import (
@@ -679,7 +680,7 @@ class World:
                 t.group(CACHE_FIELDS),
                 t.group(CONTACT_FIELDS),
                 t.group(ROW_FIELDS),
-                (ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, self._joint_lam),
+                (ja.kind, ja.body_a, ja.body_b, ja.local_a, ja.local_b, ja.params, ja.row_offset, self._joint_lam),
                 (*self._undo, self._residuals),
             )
             self._tick_state_over = (
@@ -908,12 +909,11 @@ class World:
             hit,
         )
         if ja.n_rows:  # joints keep their identity: last step's reactions (_joint_lam) start this one's
+            joints = records.record_of_joints(ja, self._joint_lam)
+            bodies = records.new_bodies((b.x, b.theta, V, b.M_inv, V1))
             start_joint_rows(
-                ja.kind, ja.i, ja.j, ja.local_i, ja.local_j, ja.params, ja.row_offset, rows.first_joint_row, b.x,
-                b.theta, b.M_inv, dt, r.beta, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi,
-                rows.push, rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
-                self._joint_lam, r.warm_start,
-            )  # fmt: skip
+                joints, rows.first_joint_row, bodies, dt, r.beta, r.warm_start, records.record_of_rows(rows)
+            )
         return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray) -> None:

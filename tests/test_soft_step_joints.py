@@ -11,6 +11,7 @@ import phys2d
 from phys2d import scenes
 from phys2d.constraints.joints import JointArrays, joint_rows
 from phys2d.constraints.rows import Rows
+from phys2d.pipeline import records
 from phys2d.responders.soft_step import factor_joint_rows, solve_factored
 from tests.test_joints import G, amplitude_factor, measured_period, swing
 
@@ -101,31 +102,8 @@ def _rows_of(w: phys2d.World) -> Rows:
     """The joint rows of w at its positions now, with xi = -C (beta = dt = 1)."""
     ja = JointArrays(list(w.joints))
     rows = Rows(ja.n_rows)
-    joint_rows(
-        ja.kind,
-        ja.i,
-        ja.j,
-        ja.local_i,
-        ja.local_j,
-        ja.params,
-        ja.row_offset,
-        0,
-        w.x,
-        w.theta,
-        w.M_inv,
-        1.0,
-        1.0,
-        rows.body_a,
-        rows.body_b,
-        rows.J,
-        rows.JM,
-        rows.A_kk,
-        rows.xi,
-        rows.lo,
-        rows.hi,
-        rows.bound_row,
-        rows.mu,
-    )
+    bodies = records.new_bodies((w.x, w.theta, w.V, w.M_inv, w.V))
+    joint_rows(records.record_of_joints(ja, np.zeros(ja.n_rows)), 0, bodies, 1.0, 1.0, records.record_of_rows(rows))
     return rows
 
 

@@ -229,24 +229,24 @@ def local_anchor(body, point, name: str) -> np.ndarray:
 
 # -- the rows ------------------------------------------------------------------------------
 class JointArrays:
-    """The world's joints packed into flat arrays for the row kernel."""
+    """The world's joints packed into flat arrays (the fields of a ``JointRecord``, less lam)."""
 
     def __init__(self, joints) -> None:
         n = len(joints)
         self.kind = np.zeros(n, np.int32)
-        self.i = np.zeros(n, np.int32)
-        self.j = np.zeros(n, np.int32)
-        self.local_i = np.zeros((n, 2))
-        self.local_j = np.zeros((n, 2))
+        self.body_a = np.zeros(n, np.int32)
+        self.body_b = np.zeros(n, np.int32)
+        self.local_a = np.zeros((n, 2))
+        self.local_b = np.zeros((n, 2))
         self.params = np.zeros((n, 5))  # length, theta_0, lower, upper, limit flags
         self.row_offset = np.zeros(n, np.int32)
         offset = 0
         for q, joint in enumerate(joints):
             self.kind[q] = joint.kind
-            self.i[q] = joint.body_a._index
-            self.j[q] = joint.body_b._index
-            self.local_i[q] = joint.local_a
-            self.local_j[q] = joint.local_b
+            self.body_a[q] = joint.body_a._index
+            self.body_b[q] = joint.body_b._index
+            self.local_a[q] = joint.local_a
+            self.local_b[q] = joint.local_b
             self.params[q] = joint._params()
             self.row_offset[q] = offset
             offset += joint.row_count
@@ -254,16 +254,17 @@ class JointArrays:
 
 
 @njit(cache=True)
-def _fill_angular_row(k, i, j, sign, M_inv, J, JM, A_kk):
-    """Row k = sign * [0, 0, -1 | 0, 0, 1]: the rate of theta_j - theta_i."""
+def _fill_angular_row(k, a, b, sign, M_inv, rows):
+    """Row k = sign * [0, 0, -1 | 0, 0, 1]: the rate of theta_b - theta_a."""
+    J, JM = rows.J, rows.JM
     for c in range(6):
         J[k, c] = 0.0
         JM[k, c] = 0.0
     J[k, 2] = -sign
     J[k, 5] = sign
-    JM[k, 2] = -sign * M_inv[i, 2]
-    JM[k, 5] = sign * M_inv[j, 2]
-    A_kk[k] = M_inv[i, 2] + M_inv[j, 2]
+    JM[k, 2] = -sign * M_inv[a, 2]
+    JM[k, 5] = sign * M_inv[b, 2]
+    rows.A_kk[k] = M_inv[a, 2] + M_inv[b, 2]
 
 
 @njit(cache=True)
@@ -275,54 +276,34 @@ def _limit_xi(gap, beta, dt):
 
 
 @njit(cache=True)
-def joint_rows(
-    kind,
-    body_i,
-    body_j,
-    local_i,
-    local_j,
-    params,
-    row_offset,
-    first_row,
-    x,
-    theta,
-    M_inv,
-    dt,
-    beta,
-    out_i,
-    out_j,
-    J,
-    JM,
-    A_kk,
-    xi,
-    lo,
-    hi,
-    bound_row,
-    out_mu,
-):
-    """Rows first_row + row_offset[q] ... of joint q (see the module docstring)."""
-    for q in range(kind.shape[0]):
-        i, j = body_i[q], body_j[q]
-        ci, si = np.cos(theta[i]), np.sin(theta[i])
-        cj, sj = np.cos(theta[j]), np.sin(theta[j])
-        r_ix = ci * local_i[q, 0] - si * local_i[q, 1]
-        r_iy = si * local_i[q, 0] + ci * local_i[q, 1]
-        r_jx = cj * local_j[q, 0] - sj * local_j[q, 1]
-        r_jy = sj * local_j[q, 0] + cj * local_j[q, 1]
-        dx = x[j, 0] + r_jx - x[i, 0] - r_ix  # d = p_j - p_i
-        dy = x[j, 1] + r_jy - x[i, 1] - r_iy
-        k = first_row + row_offset[q]
+def joint_rows(joints, first_row, bodies, dt, beta, rows):
+    """Rows first_row + row_offset[q] ... of joint q into ``rows`` (see the module docstring),
+    at the bodies' pose now."""
+    x, theta, M_inv = bodies.x, bodies.theta, bodies.M_inv
+    xi, lo, hi = rows.xi, rows.lo, rows.hi
+    for q in range(joints.kind.shape[0]):
+        a, b = joints.body_a[q], joints.body_b[q]
+        ca, sa = np.cos(theta[a]), np.sin(theta[a])
+        cb, sb = np.cos(theta[b]), np.sin(theta[b])
+        r_ax = ca * joints.local_a[q, 0] - sa * joints.local_a[q, 1]
+        r_ay = sa * joints.local_a[q, 0] + ca * joints.local_a[q, 1]
+        r_bx = cb * joints.local_b[q, 0] - sb * joints.local_b[q, 1]
+        r_by = sb * joints.local_b[q, 0] + cb * joints.local_b[q, 1]
+        dx = x[b, 0] + r_bx - x[a, 0] - r_ax  # d = p_b - p_a
+        dy = x[b, 1] + r_by - x[a, 1] - r_ay
+        k = first_row + joints.row_offset[q]
+        params = joints.params[q]
         n_rows = 1
-        if kind[q] == JOINT_DISTANCE:  # normalised by L
-            L = params[q, 0]
-            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, dx / L, dy / L, M_inv, J, JM, A_kk)
+        if joints.kind[q] == JOINT_DISTANCE:  # normalised by L
+            L = params[0]
+            fill_row(k, a, b, (r_ax, r_ay, r_bx, r_by), dx / L, dy / L, M_inv, rows)
             C = 0.5 * (dx * dx + dy * dy - L * L) / L
             xi[k] = -(beta / dt) * C
             lo[k] = -np.inf
             hi[k] = np.inf
-        elif kind[q] == JOINT_PIN:  # x row, then y row
-            fill_row(k, i, j, r_ix, r_iy, r_jx, r_jy, 1.0, 0.0, M_inv, J, JM, A_kk)
-            fill_row(k + 1, i, j, r_ix, r_iy, r_jx, r_jy, 0.0, 1.0, M_inv, J, JM, A_kk)
+        elif joints.kind[q] == JOINT_PIN:  # x row, then y row
+            fill_row(k, a, b, (r_ax, r_ay, r_bx, r_by), 1.0, 0.0, M_inv, rows)
+            fill_row(k + 1, a, b, (r_ax, r_ay, r_bx, r_by), 0.0, 1.0, M_inv, rows)
             xi[k] = -(beta / dt) * dx
             xi[k + 1] = -(beta / dt) * dy
             n_rows = 2
@@ -330,49 +311,43 @@ def joint_rows(
                 lo[k + m] = -np.inf
                 hi[k + m] = np.inf
         else:  # relative angle
-            C = theta[j] - theta[i] - params[q, 1]
-            flags = int(params[q, 4])
+            C = theta[b] - theta[a] - params[1]
+            flags = int(params[4])
             if flags == 0:
-                _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_kk)
+                _fill_angular_row(k, a, b, 1.0, M_inv, rows)
                 xi[k] = -(beta / dt) * C
                 lo[k] = -np.inf
                 hi[k] = np.inf
             else:
                 n_rows = 0
                 if flags & 1:  # lower: C - lower >= 0, row +[0, 0, -1 | 0, 0, 1]
-                    _fill_angular_row(k, i, j, 1.0, M_inv, J, JM, A_kk)
-                    xi[k] = _limit_xi(C - params[q, 2], beta, dt)
+                    _fill_angular_row(k, a, b, 1.0, M_inv, rows)
+                    xi[k] = _limit_xi(C - params[2], beta, dt)
                     n_rows = 1
                 if flags & 2:  # upper: upper - C >= 0, row -[0, 0, -1 | 0, 0, 1]
                     u = k + n_rows
-                    _fill_angular_row(u, i, j, -1.0, M_inv, J, JM, A_kk)
-                    xi[u] = _limit_xi(params[q, 3] - C, beta, dt)
+                    _fill_angular_row(u, a, b, -1.0, M_inv, rows)
+                    xi[u] = _limit_xi(params[3] - C, beta, dt)
                     n_rows += 1
                 for m in range(n_rows):
                     lo[k + m] = 0.0
                     hi[k + m] = np.inf
         for m in range(n_rows):
-            out_i[k + m] = i
-            out_j[k + m] = j
-            bound_row[k + m] = -1
-            out_mu[k + m] = 0.0
+            rows.body_a[k + m] = a
+            rows.body_b[k + m] = b
+            rows.bound_row[k + m] = -1
+            rows.mu[k + m] = 0.0
 
 
 @njit(cache=True)
-def start_joint_rows(
-    kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta, M_inv, dt, beta, out_i, out_j,
-    J, JM, A_kk, xi, push, bounce, impact, lo, hi, bound_row, out_mu, lam, joint_lam, warm_start,
-):  # fmt: skip
+def start_joint_rows(joints, first_row, bodies, dt, beta, warm_start, rows):
     """The joints' rows (``joint_rows``, from first_row on) as a step starts them: no push (a joint
     keeps its Baumgarte term in xi), no bounce, no impact, and lambda from the joints' last
-    reactions (``joint_lam``, in joint order) when warm starting, since joints keep their
+    reactions (``joints.lam``, in joint order) when warm starting, since joints keep their
     identity; else from 0."""
-    joint_rows(
-        kind, body_i, body_j, local_i, local_j, params, row_offset, first_row, x, theta, M_inv, dt, beta, out_i,
-        out_j, J, JM, A_kk, xi, lo, hi, bound_row, out_mu,
-    )  # fmt: skip
-    for r in range(first_row, first_row + joint_lam.shape[0]):
-        push[r] = 0.0
-        bounce[r] = 0.0
-        impact[r] = False
-        lam[r] = joint_lam[r - first_row] if warm_start else 0.0
+    joint_rows(joints, first_row, bodies, dt, beta, rows)
+    for r in range(first_row, first_row + joints.lam.shape[0]):
+        rows.push[r] = 0.0
+        rows.bounce[r] = 0.0
+        rows.impact[r] = False
+        rows.lam[r] = joints.lam[r - first_row] if warm_start else 0.0

@@ -213,11 +213,12 @@ def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk):
 
 
 @njit(cache=True, inline="always")
-def fill_row(k, a, b, r_ax, r_ay, r_bx, r_by, dx, dy, M_inv, J, JM, A_kk):
-    """Row k of J for direction d acting at lever arms r_a, r_b: [-d, -(r_a x d) | d, r_b x d]
+def fill_row(k, a, b, arms, dx, dy, M_inv, rows):
+    """Row k of J for direction d acting at lever arms (r_a, r_b) = arms: [-d, -(r_a x d) | d, r_b x d]
     (``jacobian``), with its JM and A_kk (``store_row``)."""
+    r_ax, r_ay, r_bx, r_by = arms
     M_inv_a, M_inv_b = (M_inv[a, 0], M_inv[a, 1], M_inv[a, 2]), (M_inv[b, 0], M_inv[b, 1], M_inv[b, 2])
-    store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, dx, dy), M_inv_a, M_inv_b, J, JM, A_kk)
+    store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, dx, dy), M_inv_a, M_inv_b, rows.J, rows.JM, rows.A_kk)
 
 
 @njit(cache=True, inline="always")

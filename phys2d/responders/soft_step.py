@@ -66,9 +66,10 @@ from ..constraints.rows import (
     store_pair_velocity,
     unsigned_indices,
 )
+from ..pipeline.records import BodyRecord, JointRecord, RowRecord
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
-from .pgs import block_is_well_conditioned, inverse_diagonal, lcp2
+from .block import block_is_well_conditioned, inverse_diagonal, lcp2
 
 
 @njit(cache=True)
@@ -395,31 +396,11 @@ def prepare_joints(
     """The joint rows at the bodies' positions now: J, A_kk and C; with ``direct`` the
     factor of the equality rows' A."""
     n_rows = body_a.shape[0]
-    joint_rows(
-        kind,
-        joint_a,
-        joint_b,
-        local_a,
-        local_b,
-        params,
-        row_offset,
-        first_joint_row,
-        x,
-        theta,
-        M_inv,
-        1.0,
-        1.0,
-        body_a,
-        body_b,
-        J,
-        JM,
-        A_kk,
-        xi,
-        lo,
-        hi,
-        bound_row,
-        mu,
+    joints = JointRecord(kind, joint_a, joint_b, local_a, local_b, params, row_offset, xi[:0])
+    rows = RowRecord(
+        body_a[:0], body_a[:0], body_a, body_b, J, JM, A_kk, xi, xi, xi, xi[:0] > 0.0, lo, hi, bound_row, mu, xi
     )
+    joint_rows(joints, first_joint_row, BodyRecord(x, theta, M_inv, M_inv, M_inv), 1.0, 1.0, rows)
     _joint_C(first_joint_row, n_rows, xi, C)
     if direct:
         factor_joint_rows(eq, body_a, body_b, J, JM, L, first)
@@ -955,10 +936,10 @@ class SoftStep(Responder):
             self.restitution_threshold,
             self.block,
             ja.kind,
-            ja.i,
-            ja.j,
-            ja.local_i,
-            ja.local_j,
+            ja.body_a,
+            ja.body_b,
+            ja.local_a,
+            ja.local_b,
             ja.params,
             ja.row_offset,
             rows.first_joint_row,
