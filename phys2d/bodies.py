@@ -112,10 +112,6 @@ class BodyArrays:
             setattr(self, name, getattr(self, "_" + name)[: self.n])
         self.local_v = self._local_v[: self.n_verts]
         self.local_n = self._local_n[: self.n_verts]
-        self.kernel_arrays = (
-            self.x, self.theta, self.V, self.M_inv, self.kind, self.radius, self.vstart, self.vcount, self.local_v,
-            self.local_n, self.static, self.uid, self.friction, self.restitution,
-        )  # fmt: skip  # the arrays the one-call tick reads (``phys2d.tick``), in its order
 
     def append(
         self,

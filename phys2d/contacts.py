@@ -22,10 +22,10 @@ from numba import njit
 from .collision.sort import lower_bound
 
 if TYPE_CHECKING:  # constraints.rows imports this module: its contact rows start from the cache
-    from .constraints.rows import Rows
+    pass
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def warm_start_from_cache(cache_keys, keys, cached):
     """Contact caching: walk both sorted key lists together (a merge), and for every contact c
     set cached[c] to the index of its key in last tick's cache, or -1 when it is not there."""
@@ -40,7 +40,7 @@ UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pai
 FEATURE_BITS = 16
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _root(parent, b):
     """The representative of body b's island (union-find with path halving)."""
     while parent[b] != b:
@@ -49,7 +49,7 @@ def _root(parent, b):
     return b
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def lost_a_load(cache_keys, cache_pushed, keys):
     """True if a pair that pushed last tick has no contact now (a merge of the sorted keys by pair)."""
     m = 0
@@ -62,7 +62,7 @@ def lost_a_load(cache_keys, cache_pushed, keys):
     return False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold):
     """cold[c] = True for every contact c whose island lost a load since last tick.
 
@@ -102,7 +102,7 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
         cold[c] = any_unloaded and unloaded[_root(parent, body)]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cached, hit):
     """Contact caching: cached[c] = the cache entry contact c starts its rows from
     (``warm_start_from_cache``; ``constraints.rows.contact_rows`` reads it), or -1 when it
@@ -133,17 +133,19 @@ def rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n,
 
 
 @njit(cache=True)
-def impulses_to_contacts_and_cache(
-    order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, cache_lambda_n, cache_lambda_t, cache_pushed
-):
-    """Contact c = order[q]'s lambda_n, lambda_t (N s) read off its rows (``rows_to_contacts``),
-    and what the cache keeps of them (``impulses_to_cache``)."""
-    impact = np.empty(order.shape[0], np.bool_)
-    rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact)
-    impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed)
+def impulses_to_contacts_and_cache(rows, found, k):
+    """The K contacts' lambda_n, lambda_t (N s) read off their rows (``rows_to_contacts``: contact
+    c = order[q] owns row pair q), and what the cache keeps of them (``impulses_to_cache``), into
+    ``found`` (a ContactRecord)."""
+    impact = np.empty(k, np.bool_)
+    lambda_n, lambda_t = found.lambda_n[:k], found.lambda_t[:k]
+    rows_to_contacts(found.order[:k], rows.normal_row, rows.friction_row, rows.lam, rows.impact, lambda_n, lambda_t,
+                     impact)  # fmt: skip
+    impulses_to_cache(lambda_n, lambda_t, impact, found.cache_lambda_n[:k], found.cache_lambda_t[:k],
+                      found.cache_pushed[:k])  # fmt: skip
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed):
     """What the cache keeps of this step's impulses (N s): 0 for a contact that met its partner
     fast within the step (``impact``: an event, not a load), and which contacts pushed."""
@@ -219,44 +221,3 @@ class Contacts:
             f"<Contacts: {k} points, deepest overlap {max(0.0, -self.separation.min()):.4g} m, "
             f"{int(self.warm_started.sum())} warm started>"
         )
-
-
-class ContactCache:
-    """Accumulated impulses of last tick's contacts, by contact key (warm starting)."""
-
-    def __init__(self) -> None:
-        self.clear()
-
-    def clear(self) -> None:
-        self.keys = np.zeros(0, np.int64)
-        self.lambda_n = np.zeros(0)
-        self.lambda_t = np.zeros(0)
-        self.pushed = np.zeros(0, np.bool_)
-
-    def __len__(self) -> int:
-        return int(self.keys.shape[0])
-
-    def store_rows(self, keys: np.ndarray, rows: Rows) -> tuple[np.ndarray, np.ndarray]:
-        """Remember this tick's impulses (N s), read off ``rows``, for warm starting; ``keys``
-        must be sorted ascending. A contact that met its partner fast within the tick (an
-        impact) took an event, not a load: 0 is cached for it. Which contacts pushed at all
-        is kept too (``unloaded_islands``). Returns (lambda_n, lambda_t) in contact order for
-        the contacts: arrays of their own, so the ones handed to the user never feed the
-        next warm start."""
-        k = keys.shape[0]
-        self.keys = keys.copy()
-        self.lambda_n, self.lambda_t, self.pushed = np.empty(k), np.empty(k), np.empty(k, np.bool_)
-        lambda_n, lambda_t = np.empty(k), np.empty(k)
-        impulses_to_contacts_and_cache(
-            rows.order,
-            rows.normal_row,
-            rows.friction_row,
-            rows.lam,
-            rows.impact,
-            lambda_n,
-            lambda_t,
-            self.lambda_n,
-            self.lambda_t,
-            self.pushed,
-        )
-        return lambda_n, lambda_t

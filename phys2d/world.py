@@ -1,13 +1,13 @@
-"""The World: owns the body arrays and runs one tick of the pipeline.
+"""The World: the bodies, the joints and the settings, and the user's API to them.
 
-    external forces -> collision -> cache matching -> constraint rows
+``World.step`` hands a tick to the world's ``Pipeline`` (``phys2d.pipeline``), which owns
+the buffers a step fills and runs its stages:
+
+    external forces -> collision -> contacts and cache -> constraint rows
                     -> responder -> integration
 
-Each stage lives in its own module; ``World._step_in_stages`` is the pipeline in one
-screen. Responders that move positions themselves (the split push, sub-steps, a bounce
-after the move) say so, and the world does not integrate again. For PGS and SoftStep,
-``World.step`` runs the same stages in one numba call (``phys2d.tick``): on a small
-scene the calls from Python and the Python between them cost more than the physics.
+in one numba call for PGS and SoftStep (``pipeline.stages.tick``), or one stage at a time
+from Python for every other responder (and for any with ``one_call_tick = False``).
 """
 
 from __future__ import annotations
@@ -20,8 +20,6 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import Body, BodyArrays
-from .collision.broadphase import find_pairs, update_geometry_in
-from .collision.recycle import ManifoldCache
 from .constraints.joints import (
     AngleJoint,
     DistanceJoint,
@@ -31,39 +29,14 @@ from .constraints.joints import (
     check_limits,
     local_anchor,
     optional_limit,
-    start_joint_rows,
 )
-from .constraints.order import colour_pairs, contacts_in_order, solve_order
-from .constraints.rows import RowBuffer, Rows, contact_rows
-from .contacts import ContactCache, Contacts
-from .integrate import apply_external_forces, first_too_fast, integrate_positions
-from .pipeline import records
-from .responders.base import EMPTY, Responder, StepContext, StepReport
+from .contacts import Contacts
+from .pipeline.step import Pipeline, SimulationError
+from .responders.base import Responder, StepReport
 from .responders.pgs import PGS
-from .tick import (
-    CACHE_FIELDS,
-    CONTACT_FIELDS,
-    NEED_ROOM,
-    NEED_SWEEP,
-    ROW_FIELDS,
-    TOO_FAST,
-    TickBuffers,
-    TickSpec,
-    TickState,
-    compiled_for,
-    make_tick_state,
-    tick_for,
-    tick_state_type,
-)
 from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
 
 _J = TypeVar("_J", bound=Joint)
-
-NONE_WARM = np.zeros(0, np.bool_)  # placeholder until the step has warm started its contacts
-
-
-class SimulationError(RuntimeError):
-    """A step produced velocities past the world's limits; the world was left as before it."""
 
 
 class World:
@@ -104,47 +77,23 @@ class World:
         self._responder = self._check_responder(PGS() if responder is None else responder)
         self.contact_margin = contact_margin
         self.max_speed = max_speed
-        self._manifolds = ManifoldCache()
+        self._pipeline = Pipeline()  # the buffers of a step, and the step that fills them
         self.contact_recycle_distance = contact_recycle_distance
         self._bodies = BodyArrays()
         self._handles: list[Body] = []
-        self._cache = ContactCache()
         self._excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
         self._joints: list[Joint] = []
         self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
-        self._pairs = np.zeros((64, 2), np.int32)
-        self._n_pairs = 0
-        self._pair_order: np.ndarray | None = None  # pair indices in solve order (graph colouring), made when needed
-        self._fat = np.zeros((0, 4))  # the fat boxes the pairs were swept with
-        self._geometry: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._sweep_again = True  # bodies or exclusions changed since: the pairs must be found anew
-        self._rows = RowBuffer()
         self._contacts = Contacts().read_only()
         self._contacts_sealed = True
-        self._pending_contacts: tuple | None = None  # (buffers, K) of a one-call tick's contacts, read lazily
-        self._tick_buffers = TickBuffers(0, 0)
-        self._undo = (np.empty((0, 2)), np.empty(0), np.empty((0, 3)))  # x0, theta0, V1 of the one-call tick
+        self._pending_contacts: tuple | None = None  # (buffers, K) of the last step's contacts, read lazily
         self._joint_lam = np.zeros(0)  # the joints' last reactions, in joint order: each step's warm start
         self._joint_rows_first = 0  # the first joint row of the last step
         self._joints_placed = True  # every joint knows where its rows stood in the last step
-        self._residuals = np.zeros(16)
-        self._tick_state_over: tuple = ()  # the arrays the kept TickState was made over
-        self._tick_state_kept: TickState | None = None
-        # (spec, buffers, state, compiled kernel) of the last one-call step: kept while the responder's
-        # settings hold and nothing set _sweep_again (bodies, joints, margin), swept, made room or stepped in stages
-        self._ready: tuple | None = None
-        # (spec, TickState type, compiled kernel): the tick's machine code for a spec and state type
-        self._tick_code: tuple = (None, None, None)
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self.tick = 0
         self.time = 0.0
-
-    def __getstate__(self) -> dict:
-        """A copy (pickle, deepcopy) leaves out the TickState, a numba structref: made anew when needed."""
-        state = self.__dict__.copy()
-        state.update(_tick_state_kept=None, _tick_state_over=(), _ready=None, _tick_code=(None, None, None))
-        return state
 
     # -- configuration ------------------------------------------------------
     @staticmethod
@@ -179,6 +128,7 @@ class World:
     def gravity(self, value: ArrayLike) -> None:
         self._gravity = vec2(value, "gravity")
         self._gravity_norm = float(math.hypot(*self._gravity))  # |g|, m/s^2
+        self._settings_changed()
 
     @property
     def contact_margin(self) -> float:
@@ -188,9 +138,9 @@ class World:
     @contact_margin.setter
     def contact_margin(self, value: float) -> None:
         self._contact_margin = non_negative_float(value, "contact_margin")
-        self._sweep_again = True  # the fat boxes were grown by the old margin
-        if hasattr(self, "_manifolds"):
-            self._manifolds.clear()  # their points were found with the old margin
+        self._settings_changed()
+        if hasattr(self, "_pipeline"):  # the points were found with the old margin, the fat boxes grown by it
+            self._pipeline.forget_manifolds()
 
     @property
     def contact_recycle_distance(self) -> float:
@@ -200,10 +150,12 @@ class World:
     @contact_recycle_distance.setter
     def contact_recycle_distance(self, value: float) -> None:
         self._contact_recycle_distance = non_negative_float(value, "contact_recycle_distance")
+        self._settings_changed()
 
     @property
     def one_call_tick(self) -> bool:
-        """Step PGS (impulse form) and SoftStep in one kernel call (``phys2d.tick``); False: stage by stage."""
+        """Step PGS (impulse form) and SoftStep in one kernel call (``pipeline.stages.tick``); False: stage by
+        stage."""
         return self._one_call_tick
 
     @one_call_tick.setter
@@ -218,6 +170,12 @@ class World:
     @max_speed.setter
     def max_speed(self, value: float) -> None:
         self._max_speed = positive_float(value, "max_speed")
+        self._settings_changed()
+
+    def _settings_changed(self) -> None:
+        """The next step reads the world's settings and joints anew."""
+        if "_pipeline" in self.__dict__:
+            self._pipeline.settings_changed()
 
     # -- the lecture's arrays (views: the first N rows) ------------------------
     @property
@@ -351,7 +309,7 @@ class World:
         index = self._bodies.append(spec, x, theta, (v[0], v[1], omega), mass, inertia, friction, restitution, static)
         handle = Body(self, index, int(self._bodies.uid[index]))
         self._handles.append(handle)
-        self._sweep_again = True  # a new body
+        self._pipeline.bodies_changed()  # a new body
         return handle
 
     def _own(self, body: object, name: str = "body") -> int:
@@ -501,200 +459,37 @@ class World:
             if not q.collide_connected
         ]
         self._excluded = np.unique(np.asarray(keys, np.int64))
-        self._sweep_again = True
+        self._pipeline.bodies_changed()
+        self._settings_changed()
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:
         """Advance the world by dt seconds; returns (and keeps as ``last_step``) the report.
 
-        The tick runs in one kernel call (``phys2d.tick``) when the responder has one and
-        ``one_call_tick`` is set, else stage by stage (``_step_in_stages``): the same stages
-        in the same order, with bit-identical results."""
+        The pipeline (``phys2d.pipeline``) runs the tick in one kernel call when the responder
+        has one and ``one_call_tick`` is set, else stage by stage, with bit-identical results."""
         if type(dt) is not float or not 0.0 < dt < math.inf:  # (a plain positive float passes at once)
             dt = positive_float(dt, "dt")
         responder = self._responder
         if self._joints:
             self._check_joints_supported(responder)
-        spec = tick_for(responder) if self._one_call_tick else None
-        report = self._step_in_stages(dt, responder) if spec is None else self._step_in_one_call(dt, spec)
+        report = self._pipeline.step(self, dt, self._one_call_tick)
         self._last_step = report
         self.tick += 1
         self.time += dt
         return report
 
-    def _step_in_stages(self, dt: float, responder: Responder) -> StepReport:
-        """The tick one stage at a time: external forces, collision, rows, the responder's
-        ``respond``, integration (unless it moved the bodies itself), the limits, the caches."""
-        b = self._bodies
-        x, theta, V, M_inv = b.x, b.theta, b.V, b.M_inv
-        self._ready = None  # this step replaces the caches' arrays: a one-call tick looks them over again
-        x0, theta0, V1 = x.copy(), theta.copy(), V.copy()  # the undo; V1 is also the velocity the tick began with
-        manifolds_before = self._manifolds.state()
-        try:
-            apply_external_forces(V, M_inv, self._gravity, dt)
-            c, order = self._collide(dt)
-            rows, hit, hits, deepest = self._build_rows(c, order, V1, V, dt)
-            ctx = self._context(c, order, rows, dt, V1)
-            result = responder.respond(ctx)
-            if not result.integrated:
-                integrate_positions(x, theta, V, dt)
-            self._check_limits()
-        except BaseException:
-            b.restore((x0, theta0, V1))
-            self._manifolds.restore(manifolds_before)
-            raise
-        k = len(c)
-        c.lambda_n, c.lambda_t = self._cache.store_rows(c.key, rows)
-        c.warm_started = hit
-        self._store_joint_impulses(rows.first_joint_row, rows.lam)
-        self._contacts, self._contacts_sealed, self._pending_contacts = c, False, None  # sealed when first looked at
-        return StepReport(
-            responder=responder.name,
-            dt=dt,
-            iterations=result.iterations,
-            counted=responder.counts,
-            residuals=result.residuals,
-            max_penetration=deepest,
-            contact_count=k,
-            cache_hits=hits,
-            joint_impulses=rows.joint_impulses() if self._joints else EMPTY,
-            system=result.system,
-            solve_order=order,
-        )  # its arrays turn read-only when first looked at
-
-    def _step_in_one_call(self, dt: float, spec: TickSpec) -> StepReport:
-        """The tick as one kernel call (``phys2d.tick``; two when the broadphase must sweep
-        first). The kernel writes the side of the double buffers the last good step did not;
-        only a step that succeeds makes it the caches' and the contacts'."""
-        b, m, cache = self._bodies, self._manifolds, self._cache
-        world = (self._gravity, self._gravity_norm, dt, self._contact_margin, self._contact_recycle_distance)
-        stage, began = 0, False
-        try:
-            while True:
-                ready = self._ready
-                if ready is not None and ready[0] is spec and not self._sweep_again:
-                    _, t, state, kernel = ready  # nothing was replaced since the last step (see _ready)
-                else:
-                    t = self._room_for_tick(spec)
-                    state = self._tick_state(t)
-                    code = self._tick_code  # kept through sweeps: a fast chain sweeps nearly every step
-                    kernel = code[2] if code[0] is spec and code[1] is tick_state_type(state) else spec.kernel
-                side = t.side
-                began = True  # from here the undo buffers hold the state before the step
-                found = (self._n_pairs, spec.colour_order, self._sweep_again)
-                args = (
-                    state, stage, side, found,
-                    (m.key.shape[0], cache.keys.shape[0], m.rows_used, m.points_used), world, spec.row_settings,
-                    self._max_speed, *spec.settings,
-                )  # fmt: skip
-                result = kernel(*args)
-                if result[-1] >= 0:  # the kernel swept: its pairs (and their colouring) are the world's
-                    self._n_pairs = result[-1]
-                    self._pair_order = t.pair_order[: self._n_pairs] if spec.colour_order else None
-                    t.coloured = self._pair_order
-                if kernel is spec.kernel:  # the next steps call its compiled code for these types directly
-                    kernel = compiled_for(spec.kernel, args)
-                    self._tick_code = (spec, tick_state_type(state), kernel)
-                self._ready = (spec, t, state, kernel)
-                if result[0] == NEED_SWEEP:
-                    self._sweep(self._geometry_buffers()[2])
-                elif result[0] == NEED_ROOM:
-                    m.make_room(self._n_pairs)
-                    self._ready = None
-                else:
-                    break
-                stage = 1  # forces and geometry are done: go on from the contacts
-            if result[0] == TOO_FAST:
-                self._check_limits()  # raises, naming the bodies
-        except BaseException:
-            if began:
-                b.restore(self._undo)
-            raise
-        _, k, n_new, m.recycled, m.rows_used, m.points_used, hits, deepest, count, _ = result
-        w = t.side = 1 - side
-        t.held = t.caches_of(w, n_new, k)
-        _, _, m.key, m.row, cache.keys, cache.lambda_n, cache.lambda_t, cache.pushed, order = t.held
-        self._pending_contacts, self._contacts_sealed = (t, w, k), False
-        joint_impulses = EMPTY
-        if self._joints:
-            self._store_joint_impulses(2 * k, t.lam)
-            joint_impulses = self._joint_lam.copy()
-        return StepReport(
-            spec.name, dt, count, self._residuals[:count].copy(), deepest, k, hits, joint_impulses, None,
-            order.copy(), spec.counts,
-        )  # fmt: skip
-
-    def _room_for_tick(self, spec: TickSpec) -> TickBuffers:
-        """The one-call tick's buffers, with room for this step's pairs, joint rows and sweeps, and
-        for the caches; caches a staged step left (arrays of their own, or a store made anew with
-        its rows numbered anew) are copied in."""
-        t, m, cache = self._tick_buffers, self._manifolds, self._cache
-        n_joint_rows = self._joint_lam.shape[0]
-        pairs = max(self._n_pairs, m.key.shape[0], (cache.keys.shape[0] + 1) // 2)
-        if not t.holds(pairs, n_joint_rows):
-            t = self._tick_buffers = TickBuffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
-        held = t.held
-        if held[2] is not m.key or held[3] is not m.row or held[4] is not cache.keys:
-            n, k, side = m.key.shape[0], cache.keys.shape[0], t.side  # not this side's views: copy them in
-            t.m_key[side][:n], t.m_row[side][:n] = m.key, m.row
-            t.cache_keys[side][:k], t.cache_lambda_n[side][:k] = cache.keys, cache.lambda_n
-            t.cache_lambda_t[side][:k], t.cache_pushed[side][:k] = cache.lambda_t, cache.pushed
-            t.held = t.caches_of(side, n, k)
-            _, _, m.key, m.row, cache.keys, cache.lambda_n, cache.lambda_t, cache.pushed, _ = t.held
-        if self._residuals.shape[0] < spec.n_residuals:
-            self._residuals = np.zeros(spec.n_residuals)
-        if spec.colour_order and not self._sweep_again:  # the pairs in colour order, in the buffers
-            if self._pair_order is None:
-                self._pair_order = colour_pairs(self._pairs, self._n_pairs, self._bodies.static, self._bodies.n)
-            if t.coloured is not self._pair_order:
-                t.pair_order[: self._n_pairs] = self._pair_order
-                t.coloured = self._pair_order
-        return t
-
-    def _tick_state(self, t: TickBuffers) -> TickState:
-        """The ``TickState`` over the world's arrays: made anew when one of them was replaced."""
-        b, m = self._bodies, self._manifolds
-        if self._undo[1].shape[0] != b.n:
-            self._undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
-        geometry = self._geometry_buffers()
-        over = self._tick_state_over
-        if (
-            not over
-            or over[0] is not b.kernel_arrays
-            or over[1] is not geometry
-            or over[2] is not self._fat
-            or over[3] is not self._pairs
-            or over[4] is not t
-            or over[5] is not m.store
-            or over[6] is not self._joint_arrays
-            or over[7] is not self._joint_lam
-            or over[8] is not self._residuals
-            or over[9] is not self._undo
-            or over[10] is not self._excluded
-        ):
-            ja = self._joint_arrays
-            self._tick_state_kept = make_tick_state(
-                b.kernel_arrays,
-                (*geometry, self._fat, self._pairs, t.pair_order, self._excluded),
-                (*m.store, t.m_key, t.m_row),
-                t.group(CACHE_FIELDS),
-                t.group(CONTACT_FIELDS),
-                t.group(ROW_FIELDS),
-                (ja.kind, ja.body_a, ja.body_b, ja.local_a, ja.local_b, ja.params, ja.row_offset, self._joint_lam),
-                (*self._undo, self._residuals),
-            )
-            self._tick_state_over = (
-                b.kernel_arrays, geometry, self._fat, self._pairs, t, m.store, ja, self._joint_lam, self._residuals,
-                self._undo, self._excluded,
-            )  # fmt: skip
-        return self._tick_state_kept  # type: ignore[return-value]
+    def _contacts_from(self, buffers: object, k: int) -> None:
+        """The last step's K contacts are in ``buffers`` (one side's): copied out when first looked at."""
+        self._pending_contacts, self._contacts_sealed = (buffers, k), False
 
     @property
     def contacts(self) -> Contacts:
         """The contact points of the last step (read-only arrays)."""
         if not self._contacts_sealed:
-            if self._pending_contacts is not None:  # a one-call tick's: copied out of its buffers now
-                self._contacts = _contacts_from(*self._pending_contacts)
+            if self._pending_contacts is not None:  # copied out of the pipeline's buffers now
+                buffers, k = self._pending_contacts
+                self._contacts = buffers.contacts(k)  # type: ignore[attr-defined]
                 self._pending_contacts = None
             self._contacts.read_only()
             self._contacts_sealed = True
@@ -704,217 +499,6 @@ class World:
     def last_step(self) -> StepReport:
         """What the last step did (``StepReport``; read-only arrays)."""
         return self._last_step
-
-    def _context(self, c: Contacts, order: np.ndarray, rows: Rows, dt: float, V1: np.ndarray) -> StepContext:
-        """What the responder sees: the contacts in row order (contact q of ctx is contact order[q]),
-        or as found for a responder that gathers what it reads (``contacts_in_row_order`` False)."""
-        b = self._bodies
-        r = self._responder
-        if r.colour_order and r.contacts_in_row_order:  # the fields a responder reads, in row order
-            body_a, body_b, point, normal, separation, restitution, anchor = contacts_in_order(
-                order, c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution, c.anchor
-            )
-        else:  # pair order (row order is contact order), or a responder that gathers for itself
-            body_a, body_b, point, normal = c.body_a, c.body_b, c.point, c.normal
-            separation, restitution, anchor = c.separation, c.restitution, c.anchor
-        return StepContext(
-            dt,
-            b.x,
-            b.theta,
-            b.V,
-            V1,
-            b.M_inv,
-            rows,
-            len(c),
-            body_a,
-            body_b,
-            point,
-            normal,
-            separation,
-            restitution,
-            gravity=self._gravity,
-            joints=self._joint_arrays,
-            anchor=anchor,
-        )
-
-    def _geometry_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """World vertices, edge normals, AABBs, travel and rotations: kept while the bodies are the same."""
-        b = self._bodies
-        if self._geometry is None or self._geometry[0].shape[0] != b.n_verts or self._geometry[2].shape[0] != b.n:
-            self._geometry = (
-                np.empty((b.n_verts, 2)),
-                np.empty((b.n_verts, 2)),
-                np.empty((b.n, 4)),
-                np.empty(b.n),
-                np.empty((b.n, 2)),
-            )
-        return self._geometry
-
-    def _collide(self, dt: float = 0.0) -> tuple[Contacts, np.ndarray]:
-        """Broadphase and narrowphase at the current positions: this step's contacts, and
-        the order the responder visits them in (contact order[q] is the q-th visited).
-
-        Bodies are looked for as far apart as contact_margin plus what their current
-        velocities could close within dt (speculative contacts).
-        """
-        b = self._bodies
-        world_v, world_n, aabb, travel, rotation = self._geometry_buffers()
-        fits = update_geometry_in(
-            b.x,
-            b.theta,
-            b.kind,
-            b.radius,
-            b.vstart,
-            b.vcount,
-            b.local_v,
-            b.local_n,
-            b.V,
-            dt,
-            self._contact_margin,
-            world_v,
-            world_n,
-            aabb,
-            travel,
-            rotation,
-            self._fat,
-        )
-        if self._sweep_again or not fits:  # something left its fat box: sweep again
-            self._sweep(aabb)
-        cap = 2 * self._n_pairs
-        out = (
-            np.empty(cap, np.int32),
-            np.empty(cap, np.int32),
-            np.empty((cap, 2)),
-            np.empty((cap, 2)),
-            np.empty(cap),
-            np.empty(cap, np.int32),
-            np.empty(cap, np.int64),
-            np.empty(cap),
-            np.empty(cap),
-            np.empty((cap, 4)),
-        )
-        pair_start = np.empty(self._n_pairs + 1, np.int64)
-        k = self._manifolds.collide(
-            self._pairs,
-            self._n_pairs,
-            b,
-            rotation,
-            world_v,
-            world_n,
-            self.contact_margin,
-            travel,
-            self.contact_recycle_distance,
-            out,
-            pair_start,
-        )
-        body_a, body_b, point, normal, separation, feature, key, mu, e, anchor = [a[:k] for a in out]
-        if self._responder.colour_order:
-            if self._pair_order is None:
-                self._pair_order = colour_pairs(self._pairs, self._n_pairs, b.static, b.n)
-            order = solve_order(self._pair_order, pair_start)
-        else:
-            order = np.arange(k, dtype=np.int32)
-        return Contacts(
-            body_a=body_a,
-            body_b=body_b,
-            point=point,
-            anchor=anchor,
-            normal=normal,
-            separation=separation,
-            lambda_n=EMPTY,
-            lambda_t=EMPTY,
-            feature=feature,
-            key=key,
-            warm_started=NONE_WARM,
-            friction=mu,
-            restitution=e,
-        ), order
-
-    def _sweep(self, aabb: np.ndarray) -> None:
-        """The broadphase's pairs anew, from the bodies' boxes grown by FAT_MARGIN (the fat boxes).
-        The one-call tick sweeps itself (``tick.sweep_in_tick``) while its buffers have room."""
-        fat = self._fat if self._fat.shape == aabb.shape else np.empty_like(aabb)  # kept: the tick's state holds it
-        n_pairs = find_pairs(aabb, fat, self._bodies.static, self._excluded, self._pairs)
-        if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
-            self._pairs = np.zeros((2 * -n_pairs, 2), np.int32)
-            n_pairs = find_pairs(aabb, fat, self._bodies.static, self._excluded, self._pairs)
-        self._fat, self._n_pairs, self._sweep_again = fat, n_pairs, False
-        self._ready = None  # the one-call tick's buffers and state are looked over again
-        self._pair_order = None  # coloured when a responder first visits these pairs by colour
-
-    def _build_rows(
-        self, c: Contacts, order: np.ndarray, V1: np.ndarray, V: np.ndarray, dt: float
-    ) -> tuple[Rows, np.ndarray, int, float]:
-        """Constraint rows for this step: contacts (visited in ``order``), then the joints' rows.
-
-        V1 is the velocity the tick began with, V the one after external forces.
-
-        Returns the rows, lambda started from the contact cache when the responder
-        warm starts, the mask of contacts found in the cache and their number, and the
-        deepest overlap (m).
-        """
-        b = self._bodies
-        r = self._responder
-        k = len(c)
-        ja = self._joint_arrays
-        rows = self._rows.take(order, ja.n_rows)
-        cache = self._cache
-        hit = np.empty(k, np.bool_)
-        deepest, hits = contact_rows(
-            rows.order,
-            rows.normal_row,
-            rows.friction_row,
-            c.body_a,
-            c.body_b,
-            c.point,
-            c.anchor,
-            r.found_lever_arms,
-            c.normal,
-            c.separation,
-            c.friction,
-            c.restitution,
-            b.x,
-            V1,
-            V,
-            b.M_inv,
-            dt,
-            r.beta,
-            r.slop,
-            r.push_max,
-            r.restitution_threshold,
-            r.friction_model,
-            self._gravity_norm,
-            r.warm_start,
-            cache.keys,
-            cache.lambda_n,
-            cache.lambda_t,
-            cache.pushed,
-            c.key,
-            b.uid,
-            b.static,
-            rows.body_a,
-            rows.body_b,
-            rows.J,
-            rows.JM,
-            rows.A_kk,
-            rows.xi,
-            rows.push,
-            rows.bounce,
-            rows.impact,
-            rows.lo,
-            rows.hi,
-            rows.bound_row,
-            rows.mu,
-            rows.lam,
-            hit,
-        )
-        if ja.n_rows:  # joints keep their identity: last step's reactions (_joint_lam) start this one's
-            joints = records.record_of_joints(ja, self._joint_lam)
-            bodies = records.new_bodies((b.x, b.theta, V, b.M_inv, V1))
-            start_joint_rows(
-                joints, rows.first_joint_row, bodies, dt, r.beta, r.warm_start, records.record_of_rows(rows)
-            )
-        return rows, hit, hits, deepest
 
     def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray) -> None:
         """Keep the joints' reactions (``lam`` of the step's rows, from first_joint_row) of the step
@@ -926,27 +510,6 @@ class World:
                 assert joint._offset is not None  # placed by _joints_changed
                 joint._rows_offset, joint._has_rows = joint._offset, True
             self._joints_placed = True
-
-    def _check_limits(self) -> None:
-        b = self._bodies
-        V = b.V
-        first = first_too_fast(V, b.x, b.theta, self._max_speed)
-        if first >= 0:
-            speed = np.hypot(V[:, 0], V[:, 1])
-            bad = ~(
-                np.isfinite(speed)
-                & (speed <= self._max_speed)
-                & np.isfinite(V[:, 2])
-                & (np.abs(V[:, 2]) <= self._max_speed)
-                & np.isfinite(b.x).all(axis=1)
-                & np.isfinite(b.theta)
-            )
-            idx = np.flatnonzero(bad)
-            shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
-            raise SimulationError(
-                f"step would leave bodies [{shown}] faster than max_speed={self._max_speed:g} "
-                "(m/s or rad/s) or with a non-finite state; the world was left as it was before the step"
-            )
 
     # -- energy and momentum ---------------------------------------------------------
     def kinetic_energy(self) -> float:
@@ -1040,14 +603,4 @@ class World:
         )
 
 
-# Contacts' fields and the tick's buffers (``TickBuffers``) they are copied from
-CONTACTS_FROM_BUFFERS = {
-    "body_a": "body_a", "body_b": "body_b", "point": "point", "anchor": "anchor", "normal": "normal",
-    "separation": "separation", "lambda_n": "lambda_n", "lambda_t": "lambda_t", "feature": "feature", "key": "key",
-    "warm_started": "hit", "friction": "mu", "restitution": "e",
-}  # fmt: skip
-
-
-def _contacts_from(t: TickBuffers, side: int, k: int) -> Contacts:
-    """A one-call tick's K contacts, copied out of side ``side`` of its buffers."""
-    return Contacts(**{field: getattr(t, name)[side][:k].copy() for field, name in CONTACTS_FROM_BUFFERS.items()})
+__all__ = ["SimulationError", "World"]

@@ -301,7 +301,7 @@ def fingerprint(w: phys2d.World) -> tuple:
         c.key,
         c.warm_started,
     ]
-    cache = w._cache
+    cache_keys, cache_lambda_n, cache_lambda_t = w._pipeline.cache()
     return (
         b.n,
         b.n_verts,
@@ -315,9 +315,9 @@ def fingerprint(w: phys2d.World) -> tuple:
         len(w.bodies),
         tuple(a.tobytes() for a in arrays),
         tuple(a.tobytes() for a in contact_arrays),
-        cache.keys.tobytes(),
-        cache.lambda_n.tobytes(),
-        cache.lambda_t.tobytes(),
+        cache_keys.tobytes(),
+        cache_lambda_n.tobytes(),
+        cache_lambda_t.tobytes(),
         w.last_step.iterations,
         w.last_step.residuals.tobytes(),
         tuple(
@@ -326,7 +326,7 @@ def fingerprint(w: phys2d.World) -> tuple:
         ),
         getattr(w, "_excluded", np.zeros(0)).tobytes(),
         w.contact_recycle_distance,
-        tuple(np.asarray(a).tobytes() for a in w._manifolds.live()),
+        tuple(np.asarray(a).tobytes() for a in w._pipeline.store.live(*w._pipeline.manifold_keys())),
     )
 
 

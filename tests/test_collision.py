@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 import phys2d
+from tests.probe import contacts_now, manifolds_of, records_now
 
 
 def collide(w: phys2d.World) -> phys2d.Contacts:
     """This step's contacts, without moving anything (zero gravity, zero velocities, dt tiny)."""
-    return w._collide()[0]
+    return contacts_now(w)
 
 
 def zero_g(margin: float = 0.0) -> phys2d.World:
@@ -135,63 +136,10 @@ def test_broadphase_finds_the_same_pairs_as_all_pairs():
     c = collide(w)
     found = set(zip(c.body_a.tolist(), c.body_b.tolist()))
     # second method: every pair through the narrowphase, no broadphase
-    from phys2d.collision.narrowphase import collide_pairs
-
-    b = w._bodies
     n = len(w.bodies)
     pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)], np.int32)
-    wv, wn, aabb = np.empty((b.n_verts, 2)), np.empty((b.n_verts, 2)), np.empty((n, 4))
-    from phys2d.collision.broadphase import update_geometry
-
-    travel = np.zeros(n)
-    update_geometry(
-        b.x,
-        b.theta,
-        b.kind,
-        b.radius,
-        b.vstart,
-        b.vcount,
-        b.local_v,
-        b.local_n,
-        b.V,
-        0.0,
-        0.0,
-        wv,
-        wn,
-        aabb,
-        travel,
-        np.empty((n, 2)),
-    )
-    m = 2 * len(pairs)
-    out = [
-        np.empty(m, np.int32),
-        np.empty(m, np.int32),
-        np.empty((m, 2)),
-        np.empty((m, 2)),
-        np.empty(m),
-        np.empty(m, np.int32),
-        np.empty(m, np.int64),
-        np.empty(m),
-        np.empty(m),
-    ]
-    k = collide_pairs(
-        pairs,
-        len(pairs),
-        b.x,
-        b.kind,
-        b.radius,
-        b.vstart,
-        b.vcount,
-        wv,
-        wn,
-        0.0,
-        travel,
-        b.uid,
-        b.friction,
-        b.restitution,
-        *out,
-        np.empty(len(pairs) + 1, np.int64),
-    )
-    expected = set(zip(out[0][:k].tolist(), out[1][:k].tolist()))
+    bodies, shapes, _, _ = records_now(w, w.V, pairs, dt=0.0)
+    everything = manifolds_of(w, bodies, shapes, len(pairs))
+    expected = set(zip(everything.body_a.tolist(), everything.body_b.tolist()))
     assert len(expected) > 10
     assert found == expected

@@ -10,7 +10,8 @@ import numba
 import pytest
 
 import phys2d
-from phys2d import kernel_cache, tick
+from phys2d import kernel_cache
+from phys2d.pipeline import tick
 
 PACKAGE = Path(phys2d.__file__).resolve().parent
 
@@ -20,7 +21,7 @@ def names(paths: tuple[Path, ...], root: Path) -> set[str]:
 
 
 def test_the_tick_depends_on_every_stage_it_calls() -> None:
-    deps = names(kernel_cache.dependencies(PACKAGE / "tick.py"), PACKAGE)
+    deps = names(kernel_cache.dependencies(PACKAGE / "pipeline/tick.py"), PACKAGE)
     # the stages the one-call tick runs, each in its own module
     stages = {
         "collision/broadphase.py",
@@ -55,7 +56,8 @@ def forget() -> None:
 def stamps(root: Path) -> dict[str, str]:
     forget()
     return {
-        name: kernel_cache.source_stamp(root / name) for name in ("tick.py", "responders/pgs.py", "collision/sort.py")
+        name: kernel_cache.source_stamp(root / name)
+        for name in ("pipeline/tick.py", "responders/pgs.py", "collision/sort.py")
     }
 
 
@@ -66,13 +68,13 @@ def test_an_edit_restamps_exactly_the_kernels_that_import_it(package_copy: Path)
     pgs.write_text(pgs.read_text() + "\n# a student's edit of the sweep\n")
     after = stamps(package_copy)
     assert after["responders/pgs.py"] != before["responders/pgs.py"]
-    assert after["tick.py"] != before["tick.py"]  # the tick calls pgs_step: it must recompile
+    assert after["pipeline/tick.py"] != before["pipeline/tick.py"]  # the tick calls pgs_step: it must recompile
     assert after["collision/sort.py"] == before["collision/sort.py"]  # sort imports nothing of it
 
 
 @pytest.mark.skipif(numba.config.DISABLE_JIT, reason="uncompiled kernels have no cache")
 def test_phys2d_kernels_are_cached_under_the_stamp() -> None:
-    locator = tick.pgs_tick._cache._impl.locator  # numba's cache of the kernel (numba internals)
+    locator = tick.tick._cache._impl.locator  # numba's cache of the kernel (numba internals)
     assert type(locator).__name__.startswith("PackageStamped")
-    assert locator.get_source_stamp() == kernel_cache.source_stamp(PACKAGE / "tick.py")
+    assert locator.get_source_stamp() == kernel_cache.source_stamp(PACKAGE / "pipeline/tick.py")
     assert kernel_cache.install()  # installing again changes nothing and reports it is in place

@@ -7,70 +7,18 @@ import pytest
 
 import phys2d
 from phys2d import scenes
-from phys2d.collision.broadphase import update_geometry, update_geometry_in
-from phys2d.collision.narrowphase import collide_pairs
 from phys2d.collision.recycle import RECYCLE_MAX_TURN, angle_difference, has_room, may_recycle, turn_since_cached
+from tests.probe import manifolds_of, records_now
 
 
 def narrowphase_now(w: phys2d.World):
     """The narrowphase's own manifolds of w's current pairs at its current positions (a second method)."""
-    b = w._bodies
-    world_v = np.empty((b.n_verts, 2))
-    world_n = np.empty((b.n_verts, 2))
-    aabb = np.empty((b.n, 4))
-    travel = np.empty(b.n)
     V = w.V.copy()
-    V[~b.static, :2] += w.gravity / 60.0  # the step's travel is taken after gravity
-    update_geometry(
-        b.x,
-        b.theta,
-        b.kind,
-        b.radius,
-        b.vstart,
-        b.vcount,
-        b.local_v,
-        b.local_n,
-        V,
-        1 / 60,
-        w.contact_margin,
-        world_v,
-        world_n,
-        aabb,
-        travel,
-        np.empty((b.n, 2)),
-    )
-    cap = 2 * w._n_pairs
-    out = (
-        np.empty(cap, np.int32),
-        np.empty(cap, np.int32),
-        np.empty((cap, 2)),
-        np.empty((cap, 2)),
-        np.empty(cap),
-        np.empty(cap, np.int32),
-        np.empty(cap, np.int64),
-        np.empty(cap),
-        np.empty(cap),
-    )
-    pair_start = np.empty(w._n_pairs + 1, np.int64)
-    k = collide_pairs(
-        w._pairs,
-        w._n_pairs,
-        b.x,
-        b.kind,
-        b.radius,
-        b.vstart,
-        b.vcount,
-        world_v,
-        world_n,
-        w.contact_margin,
-        travel,
-        b.uid,
-        b.friction,
-        b.restitution,
-        *out,
-        pair_start,
-    )
-    return {name: a[:k] for name, a in zip(("a", "b", "point", "normal", "separation", "feature", "key"), out)}
+    V[~w._bodies.static, :2] += w.gravity / 60.0  # the step's travel is taken after gravity
+    bodies, shapes, _, _ = records_now(w, V, w._pipeline.pairs)
+    c = manifolds_of(w, bodies, shapes, w._pipeline.n_pairs)
+    return {"a": c.body_a, "b": c.body_b, "point": c.point, "normal": c.normal, "separation": c.separation,
+            "feature": c.feature, "key": c.key}  # fmt: skip
 
 
 def test_recycled_points_agree_with_the_narrowphase_on_a_resting_stack():
@@ -80,7 +28,7 @@ def test_recycled_points_agree_with_the_narrowphase_on_a_resting_stack():
     x, theta, V = w.x.copy(), w.theta.copy(), w.V.copy()
     fresh = narrowphase_now(w)
     w.step(1 / 60)
-    assert w._manifolds.recycled == 5  # every pair kept its points
+    assert w._pipeline.store.recycled == 5  # every pair kept its points
     c = w.contacts
     assert np.array_equal(np.sort(c.key), np.sort(fresh["key"]))  # the same features, so the same cache keys
     order = np.argsort(fresh["key"])
@@ -98,7 +46,7 @@ def test_recycling_off_finds_every_manifold_anew():
     w.contact_recycle_distance = 0.0
     for _ in range(30):
         w.step(1 / 60)
-    assert w._manifolds.recycled == 0
+    assert w._pipeline.store.recycled == 0
     fresh = narrowphase_now(w)
     w.step(1 / 60)
     # the step's contacts are the narrowphase's own at the same positions, bit for bit
@@ -114,11 +62,11 @@ def test_a_pair_that_moved_more_than_the_recycle_distance_is_collided_anew():
     box = w.add_box(position=(0.0, 1.0), half_extents=(0.5, 0.5))
     w.step(1 / 60)
     w.step(1 / 60)
-    assert w._manifolds.recycled == 1
+    assert w._pipeline.store.recycled == 1
     # slide it sideways by 6 cm (more than the 5 cm recycle distance), slowly enough not to count as fast
     box.position = (0.06, 1.0)
     w.step(1 / 60)
-    assert w._manifolds.recycled == 0
+    assert w._pipeline.store.recycled == 0
     fresh = narrowphase_now(w)
     np.testing.assert_allclose(np.sort(w.contacts.point[:, 0]), np.sort(fresh["point"][:, 0]), atol=1e-9)
 
@@ -149,7 +97,7 @@ def test_a_recycled_point_keeps_the_lever_arms_it_was_found_with():
     box.position = (0.01, 1.0)  # 1 cm across and 0.6 degrees round: within what is recycled
     box.angle = 0.01
     w.step(1 / 60)
-    assert w._manifolds.recycled == 1
+    assert w._pipeline.store.recycled == 1
     np.testing.assert_allclose(w.contacts.anchor, found, rtol=0, atol=1e-12)
     # while the separation follows the turn: the corner of the box that went down by 5 mm overlaps
     assert w.contacts.separation.min() < -0.004
@@ -203,31 +151,12 @@ def test_angle_difference_is_cos_and_sin_of_the_difference():
         assert s == pytest.approx(np.sin(ti - t0i), abs=1e-14)
 
 
-def test_update_geometry_in_writes_each_body_s_rotation():
+def test_update_geometry_writes_each_body_s_rotation():
     w = scenes.mixed_shapes(8)  # polygons and circles
     b = w._bodies
     w.bodies[3].angle = 0.7
-    n = b.n
-    rotation = np.full((n, 2), np.nan)  # every entry must be written
-    fits = update_geometry_in(
-        b.x,
-        b.theta,
-        b.kind,
-        b.radius,
-        b.vstart,
-        b.vcount,
-        b.local_v,
-        b.local_n,
-        b.V,
-        0.0,
-        0.0,
-        np.empty((b.n_verts, 2)),
-        np.empty((b.n_verts, 2)),
-        np.empty((n, 4)),
-        np.empty(n),
-        rotation,
-        np.empty((0, 4)),
-    )
+    bodies, shapes, geometry, fits = records_now(w, b.V, w._pipeline.pairs, dt=0.0)
+    rotation = geometry[0]
     assert not fits  # no fat boxes yet
     np.testing.assert_allclose(rotation, np.column_stack([np.cos(b.theta), np.sin(b.theta)]), rtol=0, atol=1e-15)
 
@@ -273,17 +202,17 @@ def test_a_new_store_of_the_live_manifolds_changes_nothing():
     for i in range(80):
         for t, w in enumerate(twins):
             if t == 1 and i > 0:
-                m = w._manifolds
-                before = m.live()
-                m._rebuild(len(m.key) + 1)  # a new store, with hardly any room: the next step makes its own
-                assert m.rows_used == len(m.key) and np.array_equal(m.row, np.arange(len(m.key)))
-                for a, b in zip(before, m.live()):
+                p = w._pipeline
+                before = p.store.live(*p.manifold_keys())
+                p.rebuild_store(w, p.manifolds + 1)  # a new store, with hardly any room: the next step makes its own
+                assert p.store.rows_used == p.manifolds and np.array_equal(p.manifold_keys()[1], np.arange(p.manifolds))
+                for a, b in zip(before, p.store.live(*p.manifold_keys())):
                     assert np.array_equal(a, b)
             w.step(1 / 60)
-    for a, b in zip(*(tw._manifolds.live() for tw in twins)):
+    for a, b in zip(*(tw._pipeline.store.live(*tw._pipeline.manifold_keys()) for tw in twins)):
         assert np.array_equal(a, b)
     assert np.array_equal(twins[0].x, twins[1].x) and np.array_equal(twins[0].V, twins[1].V)
-    assert twins[0]._manifolds.recycled > 0
+    assert twins[0]._pipeline.store.recycled > 0
 
 
 def test_the_store_stays_bounded_while_pairs_are_collided_anew():
@@ -293,14 +222,14 @@ def test_the_store_stays_bounded_while_pairs_are_collided_anew():
     sizes = set()
     for _ in range(200):
         w.step(1 / 60)
-        m = w._manifolds
-        assert m.rows_used <= len(m.pose) and m.points_used <= len(m.anchor)
-        sizes.add(len(m.pose))
-    assert max(sizes) <= max(64, 4 * w._n_pairs)
+        m = w._pipeline.store
+        assert m.rows_used <= len(m.found_pose) and m.points_used <= len(m.anchor)
+        sizes.add(len(m.found_pose))
+    assert max(sizes) <= max(64, 4 * w._pipeline.n_pairs)
 
 
 def test_room_is_a_row_and_two_points_per_new_manifold():
-    # the one test both the kernel (NEED_ROOM) and ManifoldCache.make_room ask: exactly enough is enough
+    # the one test both the kernel (NEED_ROOM) and Pipeline._make_room ask: exactly enough is enough
     assert has_room(10, 8, 20, 16, 2)  # 2 rows and 4 points free: room for 2 new manifolds
     assert not has_room(10, 9, 20, 16, 2)  # one row short
     assert not has_room(10, 8, 20, 17, 2)  # one point short

@@ -5,22 +5,7 @@ import pytest
 
 from phys2d import SoftStep, scenes
 from phys2d.collision.recycle import body_extent, body_extents, next_slot
-from phys2d.constraints.order import contacts_in_order
-
-
-def test_contacts_in_order_is_fancy_indexing():
-    rng = np.random.default_rng(3)
-    k = 17
-    order = rng.permutation(k).astype(np.int32)
-    body_a = rng.integers(0, 9, k).astype(np.int32)
-    body_b = rng.integers(0, 9, k).astype(np.int32)
-    point, normal = rng.normal(size=(k, 2)), rng.normal(size=(k, 2))
-    separation, restitution, anchor = rng.normal(size=k), rng.random(k), rng.normal(size=(k, 4))
-    got = contacts_in_order(order, body_a, body_b, point, normal, separation, restitution, anchor)
-    assert len(got) == 7
-    for g, field in zip(got, (body_a, body_b, point, normal, separation, restitution, anchor)):
-        assert g.dtype == field.dtype
-        assert np.array_equal(g, field[order])
+from tests.probe import records_now
 
 
 @pytest.mark.parametrize("ascending_queries", [True, False])
@@ -41,25 +26,26 @@ def test_body_extents_are_the_farthest_surface_points():
     (-0.5, -0.3), (0.5, -0.3), (0, 0.5) about its centroid (0, -1/30), hexagon r 0.4; static: 0."""
     w = scenes.mixed_shapes(8)
     b = w._bodies
-    got = body_extents(b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static)
+    shapes = records_now(w, w.V, w._pipeline.pairs)[1]
+    got = body_extents(shapes)
     triangle = np.hypot(0.5, -0.3 + 1.0 / 30.0)
     expected = [0.0] + [np.hypot(0.4, 0.3), 0.35, triangle, 0.4] * 2
     assert got == pytest.approx(expected, rel=1e-12)
     for i in range(b.n):
-        assert got[i] == body_extent(i, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.static)
+        assert got[i] == body_extent(i, shapes)
 
 
 def test_a_recycled_manifold_keeps_its_row_of_the_store():
     w = scenes.vertical_stack(3, SoftStep())
-    m = w._manifolds
+    p = w._pipeline
     for _ in range(3):
         w.step(1 / 60)
     for _ in range(4):
-        rows, used, store = m.row.copy(), m.points_used, m.anchor
+        rows, used, store = p.manifold_keys()[1].copy(), p.store.points_used, p.store.anchor
         w.step(1 / 60)
-        assert m.recycled == 3
-        assert np.array_equal(m.row, rows) and m.points_used == used  # nothing copied, nothing appended
-        assert m.anchor is store
+        assert p.store.recycled == 3
+        assert np.array_equal(p.manifold_keys()[1], rows) and p.store.points_used == used  # nothing copied or added
+        assert p.store.anchor is store
 
 
 def test_soft_step_reports_the_tick_s_impulse_in_rows_and_contacts():
@@ -187,45 +173,42 @@ def test_contact_rows_start_from_the_cache_by_key(responder, monkeypatch):
     """contact_rows' warm start against a dict: every contact row's lambda is the impulse cached
     under its key (0 for a key not cached), whatever the row buffer held; without warm starting 0."""
     import phys2d
-    import phys2d.world as world_module
+    import phys2d.pipeline.step as step_module
 
     make = {"pgs": lambda: phys2d.PGS(iterations=10, warm_start=True), "soft": lambda: SoftStep(substeps=4)}
     w = scenes.pyramid(4, responder=make[responder]())
     for _ in range(20):
         w.step(1 / 60)
     seen = {}
-    original = world_module.contact_rows
+    original = step_module.contact_rows
 
     def spy(*args):
         seen["args"] = args
         return original(*args)
 
-    monkeypatch.setattr(world_module, "contact_rows", spy)
+    monkeypatch.setattr(step_module, "contact_rows", spy)
     w.one_call_tick = False  # the staged step calls contact_rows from Python, where the spy sees it
     w.step(1 / 60)
     monkeypatch.undo()
-    args = list(seen["args"])
-    code = getattr(original, "py_func", original).__code__  # (plain Python under NUMBA_DISABLE_JIT=1)
-    names = code.co_varnames[: code.co_argcount]
-    at = {name: i for i, name in enumerate(names)}
-    keys, order = args[at["key"]], args[at["order"]]
+    bodies, shapes, _, found, rows, settings = seen["args"]
+    t = w._pipeline.buffers
+    k = len(w.contacts)
+    side = t.sides[w._pipeline.side]  # the side the step wrote: what contact_rows read and wrote
+    keys, order, hit = side.key[:k], side.order[:k], side.hit[:k]
     rng = np.random.default_rng(2)
     kept = keys[rng.random(keys.shape[0]) < 0.6]
     stale = np.array([keys.max() + 1, keys.max() + 7], np.int64)  # keys gone since last tick
     cache_keys = np.sort(np.concatenate([kept, stale]))
     cache_lambda_n, cache_lambda_t = rng.random(cache_keys.shape[0]), rng.normal(size=cache_keys.shape[0])
-    by_key = {int(k): (n, t) for k, n, t in zip(cache_keys, cache_lambda_n, cache_lambda_t)}
-    args[at["cache_keys"]], args[at["cache_pushed"]] = cache_keys, np.zeros(cache_keys.shape[0], np.bool_)
-    args[at["cache_lambda_n"]], args[at["cache_lambda_t"]] = cache_lambda_n, cache_lambda_t
-    lam, hit = args[at["lam"]], args[at["hit"]]
-    normal_row, friction_row = args[at["normal_row"]], args[at["friction_row"]]
+    by_key = {int(c): (n, t) for c, n, t in zip(cache_keys, cache_lambda_n, cache_lambda_t)}
+    cache = (cache_keys, cache_lambda_n, cache_lambda_t, np.zeros(cache_keys.shape[0], np.bool_))
+    lam, normal_row, friction_row = t.rows.lam, t.rows.normal_row[:k], t.rows.friction_row[:k]
     for warm in (True, False):
-        args[at["warm_start"]] = warm
         lam[:] = np.nan  # what the buffer held must not leak into the start
-        _, hits = original(*args)
+        _, hits = original(bodies, shapes, cache, found, rows, settings._replace(warm_start=warm))
         expected = [by_key.get(int(keys[c]), (0.0, 0.0)) if warm else (0.0, 0.0) for c in order]
         assert np.array_equal(lam[normal_row], [n for n, _ in expected])
         assert np.array_equal(lam[friction_row], [t for _, t in expected])
-        found = np.array([warm and int(k) in by_key for k in keys])
-        assert np.array_equal(hit, found)
-        assert hits == found.sum() == (len(kept) if warm else 0)
+        found_keys = np.array([warm and int(c) in by_key for c in keys])
+        assert np.array_equal(hit, found_keys)
+        assert hits == found_keys.sum() == (len(kept) if warm else 0)

@@ -1,4 +1,4 @@
-"""The one-call tick (phys2d.tick) against the staged step: a second method of the same pipeline.
+"""The one-call tick (phys2d.pipeline.stages.tick) against the staged step: a second method of the same pipeline.
 
 ``World.step`` runs PGS (impulse form) and SoftStep in one kernel call; with
 ``one_call_tick = False`` it calls each stage's kernel from Python instead. Both paths
@@ -18,7 +18,9 @@ from numba import config
 
 import phys2d
 from phys2d import scenes
-from phys2d.tick import compiled_for, pgs_tick, tick_for
+from phys2d.pipeline import step as step_module
+from phys2d.pipeline.step import compiled_for, tick_for
+from phys2d.pipeline.tick import tick
 from tests.strategies import build, dts, fingerprint, responders, violent_scenes
 
 RESPONDERS = {
@@ -185,35 +187,34 @@ def test_later_steps_call_the_compiled_tick_without_dispatch():
     w = scenes.pyramid(3)
     spec = tick_for(w.responder)
     w.step(1 / 60)
-    kernel = w._ready[3]
+    kernel = w._pipeline._compiled[2]
+    assert spec is not None
     if config.DISABLE_JIT:
-        assert kernel is spec.kernel
+        assert kernel is tick
     else:
-        assert any(kernel is compiled.entry_point for compiled in spec.kernel.overloads.values())
+        assert any(kernel is compiled.entry_point for compiled in tick.overloads.values())
     before = fingerprint(w)
     w.step(1 / 60)
-    assert w._ready[3] is kernel and fingerprint(w) != before  # it ran, and moved the pile
+    assert w._pipeline._compiled[2] is kernel and fingerprint(w) != before  # it ran, and moved the pile
 
 
 def test_the_compiled_tick_is_looked_up_once_though_the_broadphase_sweeps(monkeypatch):
     """A swinging chain leaves its fat boxes, and the world sweeps, step after step: each sweep
     makes the world look its buffers and state over, but the tick's compiled code is kept for
-    the spec and the state's type (looking it up types every argument: ~0.3 ms a step)."""
-    import phys2d.world as world_module
-
+    the spec and the arguments' types (looking it up types every argument: ~0.3 ms a step)."""
     looked_up = []
 
     def counting(kernel, args):
         looked_up.append(kernel)
         return compiled_for(kernel, args)
 
-    monkeypatch.setattr(world_module, "compiled_for", counting)
+    monkeypatch.setattr(step_module, "compiled_for", counting)
     w = scenes.heavy_chain(responder=phys2d.PGS())
     swept = []
-    sweep = w._sweep
-    monkeypatch.setattr(w, "_sweep", lambda aabb: swept.append(1) or sweep(aabb))
+    sweep = w._pipeline._sweep
+    monkeypatch.setattr(w._pipeline, "_sweep", lambda world: swept.append(1) or sweep(world))
     for _ in range(60):
-        w._sweep_again = True  # as when bodies or joints change: the world sweeps between the tick's calls
+        w._pipeline.sweep_again = True  # as when bodies or joints change: the world sweeps between the tick's calls
         w.step(1 / 60)
     assert len(swept) == 60  # the path under test
     assert len(looked_up) == 1
@@ -224,13 +225,17 @@ def test_the_tick_sweeps_for_the_pairs_itself_when_a_body_leaves_its_fat_box(mon
     to Python), and its pairs are those a brute-force test of every two fat boxes finds."""
     w = scenes.heavy_chain(responder=phys2d.SoftStep())
     swept, in_kernel = [], 0
-    sweep = w._sweep
-    monkeypatch.setattr(w, "_sweep", lambda aabb: swept.append(1) or sweep(aabb))
+    pipeline = w._pipeline
+    sweep = pipeline._sweep
+    monkeypatch.setattr(pipeline, "_sweep", lambda world: swept.append(1) or sweep(world))
     for _ in range(60):
-        fat_before, python_sweeps = w._fat.copy(), len(swept)
+        fat_before = pipeline.geometry[5].copy() if pipeline.geometry else None
+        python_sweeps = len(swept)
         w.step(1 / 60)
-        aabb, fat, static = w._geometry_buffers()[2], w._fat, w._bodies.static
-        in_kernel += len(swept) == python_sweeps and not np.array_equal(fat, fat_before)  # fat boxes anew
+        aabb, fat, static = pipeline.geometry[2], pipeline.geometry[5], w._bodies.static
+        in_kernel += len(swept) == python_sweeps and (
+            fat_before is None or not np.array_equal(fat, fat_before)
+        )  # fat boxes anew
         assert np.all(fat[:, :2] <= aabb[:, :2]) and np.all(fat[:, 2:] >= aabb[:, 2:])  # the pairs hold
         want = [
             (a, b)
@@ -240,13 +245,13 @@ def test_the_tick_sweeps_for_the_pairs_itself_when_a_body_leaves_its_fat_box(mon
             and ((a << 32) | b) not in set(w._excluded.tolist())
             and fat[a, 0] <= fat[b, 2] and fat[b, 0] <= fat[a, 2] and fat[a, 1] <= fat[b, 3] and fat[b, 1] <= fat[a, 3]
         ]  # fmt: skip
-        assert [tuple(p) for p in w._pairs[: w._n_pairs].tolist()] == want
+        assert [tuple(p) for p in pipeline.pairs[: pipeline.n_pairs].tolist()] == want
     assert in_kernel >= 30 and len(swept) <= 10  # (the world sweeps when the pairs outgrow its buffers)
 
 
 def test_compiled_for_falls_back_to_the_dispatcher_for_types_it_has_no_code_for():
     args = ("not a tick state", 0.5)
-    assert compiled_for(pgs_tick, args) is pgs_tick
+    assert compiled_for(tick, args) is tick
 
 
 def test_one_call_tick_takes_only_a_bool():

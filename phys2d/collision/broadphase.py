@@ -19,11 +19,11 @@ from ..shapes import CIRCLE
 from .sort import lower_bound, stable_argsort
 
 
-@njit(cache=True, inline="always")
-def update_geometry(
-    x, theta, kind, radius, vstart, vcount, local_v, local_n, V, dt, margin, world_v, world_n, aabb, travel, rotation
-):
-    """World-frame vertices and edge normals of every polygon, every body's AABB and rotation.
+@njit(cache=True)
+def update_geometry(bodies, shapes, dt, margin):
+    """World-frame vertices and edge normals of every polygon, every body's AABB and rotation;
+    returns whether every tight box still lies inside its fat box (``fits_inside``: last step's
+    pairs still hold).
 
     travel[b] = dt (|v| + |omega| r_max) is how far (m) any point of body b can move
     within the step (r_max: the farthest point from its centre). aabb[b] = (min x,
@@ -31,14 +31,23 @@ def update_geometry(
     it could reach this step (speculative contacts). rotation[b] = (cos theta_b, sin theta_b):
     computed once here, and the contact recycling uses them too.
     """
+    x, theta, V = bodies.x, bodies.theta, bodies.V
+    vstart, vcount, local_v, local_n = shapes.vstart, shapes.vcount, shapes.local_v, shapes.local_n
+    world_v, world_n, aabb, travel, rotation = (
+        shapes.world_v,
+        shapes.world_n,
+        shapes.aabb,
+        shapes.travel,
+        shapes.rotation,
+    )
     for b in range(x.shape[0]):
         px, py = x[b, 0], x[b, 1]
         c, s = np.cos(theta[b]), np.sin(theta[b])
         rotation[b, 0] = c
         rotation[b, 1] = s
         speed = np.sqrt(V[b, 0] * V[b, 0] + V[b, 1] * V[b, 1])
-        if kind[b] == CIRCLE:
-            r = radius[b]
+        if shapes.kind[b] == CIRCLE:
+            r = shapes.radius[b]
             travel[b] = dt * (speed + abs(V[b, 2]) * r)
             grow = r + margin + travel[b]
             aabb[b, 0] = px - grow
@@ -66,6 +75,7 @@ def update_geometry(
         aabb[b, 1] = lo_y - grow
         aabb[b, 2] = hi_x + grow
         aabb[b, 3] = hi_y + grow
+    return fits_inside(aabb, shapes.fat)
 
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions
@@ -90,51 +100,6 @@ def fits_inside(aabb, fat):
     return True
 
 
-@njit(cache=True)
-def update_geometry_in(
-    x,
-    theta,
-    kind,
-    radius,
-    vstart,
-    vcount,
-    local_v,
-    local_n,
-    V,
-    dt,
-    margin,
-    world_v,
-    world_n,
-    aabb,
-    travel,
-    rotation,
-    fat,
-):
-    """``update_geometry`` (``rotation``: every body's (cos theta, sin theta), shape (n, 2), for the
-    contact recycling); returns whether every tight box still lies inside its fat box
-    (``fits_inside``: True when last step's pairs still hold). The caller owns every output
-    buffer: a kernel that returns an array costs about 1 us more per call."""
-    update_geometry(
-        x,
-        theta,
-        kind,
-        radius,
-        vstart,
-        vcount,
-        local_v,
-        local_n,
-        V,
-        dt,
-        margin,
-        world_v,
-        world_n,
-        aabb,
-        travel,
-        rotation,
-    )
-    return fits_inside(aabb, fat)
-
-
 @njit(cache=True, inline="always")
 def _excluded(excluded, a, b):
     """Binary search of the sorted pair keys a * 2^32 + b (a < b) of joined bodies."""
@@ -144,11 +109,11 @@ def _excluded(excluded, a, b):
 
 
 @njit(cache=True)
-def find_pairs(aabb, fat, static, excluded, pairs):
-    """The broadphase anew: ``fatten`` the tight boxes into ``fat``, then ``sweep_and_prune``
-    them (its count, or minus the room needed when ``pairs`` is too small)."""
-    fatten(aabb, fat)
-    return sweep_and_prune(fat, static, excluded, pairs)
+def find_pairs(shapes):
+    """The broadphase anew: ``fatten`` the tight boxes into the fat ones, then ``sweep_and_prune``
+    them into ``shapes.pairs`` (their count, or minus the room needed when it is too small)."""
+    fatten(shapes.aabb, shapes.fat)
+    return sweep_and_prune(shapes.fat, shapes.static, shapes.excluded, shapes.pairs)
 
 
 @njit(cache=True)

@@ -114,7 +114,7 @@ def describe_feature(feature: int, pair: str = "polygons") -> Feature:
 REFERENCE_FACE_TOL = 5e-4  # m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _max_separation(world_v, world_n, sa, na, sb, nb, margin):
     """Edge of polygon A whose outward normal separates B the most: (edge, separation m)."""
     best_edge = 0
@@ -135,7 +135,7 @@ def _max_separation(world_v, world_n, sa, na, sb, nb, margin):
     return best_edge, best
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     """Polygon-polygon manifold of polygons A (vertices sa..sa+na) and B.
 
@@ -208,7 +208,7 @@ def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     return none
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def collide_circle_polygon(world_v, world_n, s, n, cx, cy, r, margin):
     """Circle (centre c, radius r) against the polygon with vertices s..s+n.
 
@@ -253,7 +253,7 @@ def collide_circle_polygon(world_v, world_n, s, n, cx, cy, r, margin):
     return 1, nx, ny, cx - nx * (r + 0.5 * sep), cy - ny * (r + 0.5 * sep), sep, feature
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def collide_circles(xa, ya, ra, xb, yb, rb, margin):
     """Circle A against circle B: (count, nx, ny, px, py, sep, feature), normal from A to B."""
     dx, dy = xb - xa, yb - ya
@@ -268,9 +268,11 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
-def manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin):
-    """The manifold of bodies a and b, points up to ``margin`` (m) apart, normal from a to b:
-    (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2)."""
+def manifold(a, b, x, shapes, margin):
+    """The manifold of bodies a and b (at centres x), points up to ``margin`` (m) apart, normal
+    from a to b: (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2)."""
+    kind, radius, vstart, vcount = shapes.kind, shapes.radius, shapes.vstart, shapes.vcount
+    world_v, world_n = shapes.world_v, shapes.world_n
     if kind[a] != CIRCLE and kind[b] != CIRCLE:
         return collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
     if kind[a] == CIRCLE and kind[b] == CIRCLE:
@@ -285,107 +287,66 @@ def manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin):
     return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def pair_key(uid, a, b):
     """The key of pair (a, b): uid_a << 39 | uid_b << 16; a point's key adds its feature id."""
     return (uid[a] << 39) | (uid[b] << 16)
 
 
-@njit(cache=True, inline="always")
-def write_point(
-    k, a, b, px, py, nx, ny, sep, feature, key, mu, e, out_a, out_b, out_p, out_n, out_s, out_f, out_key, out_mu, out_e
-):
-    """Contact point k of the step's arrays."""
-    out_key[k] = key | feature
-    out_mu[k] = mu
-    out_e[k] = e
-    out_a[k] = a
-    out_b[k] = b
-    out_p[k, 0] = px
-    out_p[k, 1] = py
-    out_n[k, 0] = nx
-    out_n[k, 1] = ny
-    out_s[k] = sep
-    out_f[k] = feature
+@njit(cache=True)
+def write_point(out, k, a, b, found, pair):
+    """Contact point k of ``out`` (a ``ContactRecord``): found = (px, py, nx, ny, separation,
+    feature), pair = (key, mu, e) of bodies a and b."""
+    px, py, nx, ny, separation, feature = found
+    key, mu, e = pair
+    out.key[k] = key | feature
+    out.mu[k] = mu
+    out.e[k] = e
+    out.body_a[k] = a
+    out.body_b[k] = b
+    out.point[k, 0] = px
+    out.point[k, 1] = py
+    out.normal[k, 0] = nx
+    out.normal[k, 1] = ny
+    out.separation[k] = separation
+    out.feature[k] = feature
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
+def manifold_point(m, point):
+    """Point 0 or 1 of manifold m (``manifold``): (px, py, nx, ny, separation, feature)."""
+    if point == 0:
+        return m[3], m[4], m[1], m[2], m[5], m[6]
+    return m[7], m[8], m[1], m[2], m[9], m[10]
+
+
+@njit(cache=True)
 def pair_friction(friction, restitution, a, b):
     """The pair's friction sqrt(mu_a mu_b) and restitution max(e_a, e_b)."""
     return np.sqrt(friction[a]) * np.sqrt(friction[b]), max(restitution[a], restitution[b])  # no overflow
 
 
 @njit(cache=True)
-def collide_pairs(
-    pairs,
-    n_pairs,
-    x,
-    kind,
-    radius,
-    vstart,
-    vcount,
-    world_v,
-    world_n,
-    contact_margin,
-    travel,
-    uid,
-    friction,
-    restitution,
-    out_a,
-    out_b,
-    out_p,
-    out_n,
-    out_s,
-    out_f,
-    out_key,
-    out_mu,
-    out_e,
-    pair_start,
-):
-    """Manifolds of the first n_pairs candidate pairs; returns the number of points K.
+def collide_pairs(bodies, shapes, n_pairs, contact_margin, out):
+    """Manifolds of the first n_pairs candidate pairs (``shapes.pairs``) into ``out``; returns
+    the number of points K.
 
     Points up to contact_margin + travel[a] + travel[b] apart (m) are kept as
     speculative contacts: surfaces that are close, or that the bodies' motion could
     bring together within the step (``travel``, see broadphase). Each point also
     gets its contact key (uid_a << 39 | uid_b << 16 | feature), the pair's friction
-    sqrt(mu_a mu_b) and restitution max(e_a, e_b). The out arrays need room for
-    2 * n_pairs points; pair q's points are pair_start[q] up to pair_start[q + 1].
+    sqrt(mu_a mu_b) and restitution max(e_a, e_b). ``out`` needs room for 2 n_pairs
+    points; pair q's points are out.pair_start[q] up to out.pair_start[q + 1].
     """
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
+    travel = shapes.travel
     for q in range(n_pairs):
-        pair_start[q] = k
-        a, b = pairs[q, 0], pairs[q, 1]
-        m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, contact_margin + travel[a] + travel[b])
-        mu, e = pair_friction(friction, restitution, a, b)
-        key = pair_key(uid, a, b)
+        out.pair_start[q] = k
+        a, b = shapes.pairs[q, 0], shapes.pairs[q, 1]
+        m = manifold(a, b, bodies.x, shapes, contact_margin + travel[a] + travel[b])
+        pair = (pair_key(shapes.uid, a, b), *pair_friction(shapes.friction, shapes.restitution, a, b))
         for point in range(m[0]):  # one or two points
-            if point == 0:
-                px, py, sep, feature = m[3], m[4], m[5], m[6]
-            else:
-                px, py, sep, feature = m[7], m[8], m[9], m[10]
-            write_point(
-                k,
-                a,
-                b,
-                px,
-                py,
-                m[1],
-                m[2],
-                sep,
-                feature,
-                key,
-                mu,
-                e,
-                out_a,
-                out_b,
-                out_p,
-                out_n,
-                out_s,
-                out_f,
-                out_key,
-                out_mu,
-                out_e,
-            )
+            write_point(out, k, a, b, manifold_point(m, point), pair)
             k += 1
-    pair_start[n_pairs] = k
+    out.pair_start[n_pairs] = k
     return k

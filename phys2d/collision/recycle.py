@@ -21,7 +21,7 @@ that stays put costs no narrowphase. Nor any trigonometry: the turns since cachi
 (dtheta_rel is B's turn less A's) come from the bodies' rotations now, computed once
 a step with the world vertices, and then, by cos(t - t0) = cos t cos t0 + sin t sin t0
 and sin(t - t0) = sin t cos t0 - cos t sin t0.
-Nor any copying: a manifold is kept in a row of the cache's store (``ManifoldCache``),
+Nor any copying: a manifold is kept in a row of the store (``ManifoldStore``),
 and a recycled one stays in its row from step to step; new ones are appended.
 
 A responder with ``found_lever_arms`` (SoftStep) builds its rows with those arms as
@@ -45,37 +45,36 @@ rolling circle's point moves over its surface as it turns).
 
 from __future__ import annotations
 
-import operator
-
 import numpy as np
 from numba import njit
 
 from ..shapes import CIRCLE
-from .narrowphase import FLIP_BIT, manifold, pair_friction, pair_key, write_point
+from .narrowphase import FLIP_BIT, manifold, manifold_point, pair_friction, pair_key, write_point
 from .sort import lower_bound
 
 RECYCLE_MAX_TURN = 0.98  # cos of the largest turn (about 11.5 degrees) of either body since caching
 
 
 @njit(cache=True, inline="always")
-def body_extent(b, kind, radius, vstart, vcount, local_v, static):
+def body_extent(b, shapes):
     """The largest distance (m) from body b's centre to its surface; 0 for a static body."""
-    if static[b]:
+    if shapes.static[b]:
         return 0.0
-    if kind[b] == CIRCLE:
-        return radius[b]
+    if shapes.kind[b] == CIRCLE:
+        return shapes.radius[b]
     r2 = 0.0
-    for v in range(vstart[b], vstart[b] + vcount[b]):
+    local_v = shapes.local_v
+    for v in range(shapes.vstart[b], shapes.vstart[b] + shapes.vcount[b]):
         r2 = max(r2, local_v[v, 0] ** 2 + local_v[v, 1] ** 2)
     return np.sqrt(r2)
 
 
 @njit(cache=True, inline="always")
-def body_extents(kind, radius, vstart, vcount, local_v, static):
+def body_extents(shapes):
     """``body_extent`` of every body (m), once per step: a body is in several pairs."""
-    extent = np.empty(kind.shape[0])
-    for b in range(kind.shape[0]):
-        extent[b] = body_extent(b, kind, radius, vstart, vcount, local_v, static)
+    extent = np.empty(shapes.kind.shape[0])
+    for b in range(shapes.kind.shape[0]):
+        extent[b] = body_extent(b, shapes)
     return extent
 
 
@@ -119,9 +118,10 @@ def may_recycle(row, a, b, x, rotation, extent, found_pose, turn, recycle_distan
 
 
 @njit(cache=True)
-def recycled_point(point, a, b, x, turn, anchor, normal, base_separation, feature):
-    """(px, py, separation) of a cached point now: its anchors turned with their bodies
+def recycled_point(point, a, b, x, turn, store):
+    """(px, py, separation) of the store's point now: its anchors turned with their bodies
     (``turn``: ``turn_since_cached``)."""
+    anchor, normal, base_separation, feature = store.anchor, store.normal, store.separation, store.feature
     ca, sa, cb, sb = turn
     r_ax = ca * anchor[point, 0] - sa * anchor[point, 1]
     r_ay = sa * anchor[point, 0] + ca * anchor[point, 1]
@@ -151,141 +151,91 @@ def next_slot(cached_key, key, m):
 
 
 @njit(cache=True)
-def recycle_manifold(
-    k,
-    row,
-    a,
-    b,
-    x,
-    turn,
-    margin,
-    key,
-    mu,
-    e,
-    span,
-    anchor,
-    normal,
-    separation,
-    feature,
-    out_a,
-    out_b,
-    out_p,
-    out_n,
-    out_s,
-    out_f,
-    out_key,
-    out_mu,
-    out_e,
-    out_r,
-):
-    """Write the points of cached manifold ``row``, moved with their bodies (``recycled_point``), from
-    point k on; returns the next k, or -1 if one of them lies beyond ``margin`` (m) of its partner:
-    the narrowphase would drop it, so the pair is collided anew (over what was written)."""
-    for point in range(span[row, 0], span[row, 1]):
-        px, py, sep = recycled_point(point, a, b, x, turn, anchor, normal, separation, feature)
+def recycle_manifold(store, row, out, k, pair, x, turn, margin):
+    """Write the points of cached manifold ``row`` of the store into ``out``, moved with their
+    bodies (``recycled_point``), from point k on; returns the next k, or -1 if one of them lies
+    beyond ``margin`` (m) of its partner: the narrowphase would drop it, so the pair is collided
+    anew (over what was written). pair = (a, b, key, mu, e)."""
+    a, b, key, mu, e = pair
+    anchor, normal = store.anchor, store.normal
+    for point in range(store.span[row, 0], store.span[row, 1]):
+        px, py, sep = recycled_point(point, a, b, x, turn, store)
         if sep > margin:
             return -1
-        write_point(
-            k,
-            a,
-            b,
-            px,
-            py,
-            normal[point, 0],
-            normal[point, 1],
-            sep,
-            np.int64(feature[point]),  # as the narrowphase's: one write_point
-            key,
-            mu,
-            e,
-            out_a,
-            out_b,
-            out_p,
-            out_n,
-            out_s,
-            out_f,
-            out_key,
-            out_mu,
-            out_e,
-        )
+        feature = np.int64(store.feature[point])  # as the narrowphase's: one write_point
+        write_point(out, k, a, b, (px, py, normal[point, 0], normal[point, 1], sep, feature), (key, mu, e))
         for i in range(4):
-            out_r[k, i] = anchor[point, i]  # the lever arms it was found with, unturned
+            out.anchor[k, i] = anchor[point, i]  # the lever arms it was found with, unturned
         k += 1
     return k
 
 
 @njit(cache=True)
-def collide_recycling(
-    pairs,
-    n_pairs,
-    x,
-    rotation,
-    kind,
-    radius,
-    vstart,
-    vcount,
-    local_v,
-    static,
-    world_v,
-    world_n,
-    contact_margin,
-    travel,
-    uid,
-    friction,
-    restitution,
-    recycle_distance,
-    cached_key,
-    cached_row,
-    found_pose,
-    found_rotation,
-    span,
-    anchor,
-    normal,
-    separation,
-    feature,
-    rows_used,
-    points_used,
-    out_a,
-    out_b,
-    out_p,
-    out_n,
-    out_s,
-    out_f,
-    out_key,
-    out_mu,
-    out_e,
-    out_r,
-    pair_start,
-    new_key,
-    new_row,
-):
+def store_manifold(store, row, points_used, out, k, m, pair, x, rotation):
+    """Manifold m (``manifold``) of pair (a, b, key, mu, e), found now: its points into ``out``
+    from point k on and into the store from points_used on, with their lever arms r_a, r_b
+    (m) at the positions x now, and the pair's pose into the store's ``row``. Returns the
+    next k and the next free point of the store."""
+    a, b, key, mu, e = pair
+    p = points_used
+    for point in range(m[0]):
+        found = manifold_point(m, point)
+        px, py, nx, ny, sep, f = found
+        write_point(out, k, a, b, found, (key, mu, e))
+        store.anchor[p, 0] = out.anchor[k, 0] = px - x[a, 0]
+        store.anchor[p, 1] = out.anchor[k, 1] = py - x[a, 1]
+        store.anchor[p, 2] = out.anchor[k, 2] = px - x[b, 0]
+        store.anchor[p, 3] = out.anchor[k, 3] = py - x[b, 1]
+        store.normal[p, 0] = nx
+        store.normal[p, 1] = ny
+        store.separation[p] = sep
+        store.feature[p] = f
+        k += 1
+        p += 1
+    store.found_pose[row, 0], store.found_pose[row, 1] = relative_position(a, b, x, rotation)
+    for i in range(2):
+        store.found_rotation[row, i] = rotation[a, i]
+        store.found_rotation[row, 2 + i] = rotation[b, i]
+    store.span[row, 0] = points_used
+    store.span[row, 1] = p
+    return k, p
+
+
+@njit(cache=True)
+def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
-    rotation: each body's (cos theta, sin theta) now (``update_geometry``). cached_key: last
-    step's manifolds' pair keys, ascending; cached_row: each one's row of the manifold store,
-    whose rows hold found_pose (B's centre in A's frame, m), found_rotation (both bodies'
-    (cos, sin)) and span (its points: span[r, 0] up to span[r, 1] of anchor, normal,
+    counts = (n_pairs, n_cached, rows_used, points_used); margins = (contact_margin,
+    recycle_distance) in m. ``cached`` is last step's ContactRecord: its first n_cached
+    manifold_key (ascending) and manifold_row name the cached manifolds and their rows of the
+    store, whose rows hold found_pose (B's centre in A's frame, m), found_rotation (both
+    bodies' (cos, sin)) and span (its points: span[r, 0] up to span[r, 1] of anchor, normal,
     separation, feature), as the manifold was found. A recycled manifold keeps its row, not
     copied; a new one is appended after rows_used and points_used (room for n_pairs rows and
-    2 n_pairs points). new_key, new_row: this step's manifolds, to cache. out_r: each point's
-    lever arms (r_a, r_b) for the rows, as its manifold was found.
+    2 n_pairs points). ``out`` gets the step's points (and their lever arms as found, anchor),
+    pair_start, and the step's manifolds' keys and rows (manifold_key, manifold_row).
 
-    Returns (points K, manifolds cached, recycled, rows_used, points_used, whether new_key ascends).
+    Returns (points K, manifolds cached, recycled, rows_used, points_used, whether the
+    manifolds' keys ascend).
     """
+    n_pairs, n_cached, rows_used, points_used = counts
+    contact_margin, recycle_distance = margins
+    x, rotation, travel, pairs = bodies.x, shapes.rotation, shapes.travel, shapes.pairs
+    cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
+    new_key, new_row = out.manifold_key, out.manifold_row
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
     n_recycled = 0
     ascends = True
-    n_cached = cached_key.shape[0]
     look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
-    extent = body_extents(kind, radius, vstart, vcount, local_v, static) if recycle_distance > 0.0 else np.zeros(0)
+    extent = body_extents(shapes) if recycle_distance > 0.0 else np.zeros(0)
     for q in range(n_pairs):
-        pair_start[q] = k
+        out.pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
-        key = pair_key(uid, a, b)
-        mu, e = pair_friction(friction, restitution, a, b)
+        key = pair_key(shapes.uid, a, b)
+        pair = (a, b, key, *pair_friction(shapes.friction, shapes.restitution, a, b))
         slot = -1
-        polygons = kind[a] != CIRCLE and kind[b] != CIRCLE  # a circle rolls: its point moves over it
+        polygons = shapes.kind[a] != CIRCLE and shapes.kind[b] != CIRCLE  # a circle rolls: its point moves
         if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
             look = next_slot(cached_key, key, look)
             if look < n_cached and cached_key[look] == key:
@@ -294,98 +244,26 @@ def collide_recycling(
         recycled = -1
         row = cached_row[slot] if slot >= 0 else -1
         if slot >= 0:
-            turned = turn_since_cached(row, a, b, rotation, found_rotation)
-            if may_recycle(row, a, b, x, rotation, extent, found_pose, turned, recycle_distance):
-                recycled = recycle_manifold(
-                    k,
-                    row,
-                    a,
-                    b,
-                    x,
-                    turned,
-                    margin,
-                    key,
-                    mu,
-                    e,
-                    span,
-                    anchor,
-                    normal,
-                    separation,
-                    feature,
-                    out_a,
-                    out_b,
-                    out_p,
-                    out_n,
-                    out_s,
-                    out_f,
-                    out_key,
-                    out_mu,
-                    out_e,
-                    out_r,
-                )
+            turned = turn_since_cached(row, a, b, rotation, store.found_rotation)
+            if may_recycle(row, a, b, x, rotation, extent, store.found_pose, turned, recycle_distance):
+                recycled = recycle_manifold(store, row, out, k, pair, x, turned, margin)
         if recycled >= 0:
             n_recycled += 1
             k = recycled
         else:
             row = rows_used  # a new row of the store, its points after points_used
-            m = manifold(a, b, x, kind, radius, vstart, vcount, world_v, world_n, margin)
+            m = manifold(a, b, x, shapes, margin)
             if m[0] == 0:
                 continue
-            p = points_used
-            for point in range(m[0]):
-                if point == 0:
-                    px, py, sep, f = m[3], m[4], m[5], m[6]
-                else:
-                    px, py, sep, f = m[7], m[8], m[9], m[10]
-                write_point(
-                    k,
-                    a,
-                    b,
-                    px,
-                    py,
-                    m[1],
-                    m[2],
-                    sep,
-                    f,
-                    key,
-                    mu,
-                    e,
-                    out_a,
-                    out_b,
-                    out_p,
-                    out_n,
-                    out_s,
-                    out_f,
-                    out_key,
-                    out_mu,
-                    out_e,
-                )
-                anchor[p, 0] = out_r[k, 0] = px - x[a, 0]
-                anchor[p, 1] = out_r[k, 1] = py - x[a, 1]
-                anchor[p, 2] = out_r[k, 2] = px - x[b, 0]
-                anchor[p, 3] = out_r[k, 3] = py - x[b, 1]
-                normal[p, 0] = m[1]
-                normal[p, 1] = m[2]
-                separation[p] = sep
-                feature[p] = f
-                k += 1
-                p += 1
-            found_pose[row, 0], found_pose[row, 1] = relative_position(a, b, x, rotation)
-            found_rotation[row, 0] = rotation[a, 0]
-            found_rotation[row, 1] = rotation[a, 1]
-            found_rotation[row, 2] = rotation[b, 0]
-            found_rotation[row, 3] = rotation[b, 1]
-            span[row, 0] = points_used
-            span[row, 1] = p
+            k, points_used = store_manifold(store, row, points_used, out, k, m, pair, x, rotation)
             rows_used += 1
-            points_used = p
         # a pair with points: cache its manifold
         if n_new > 0 and key <= new_key[n_new - 1]:
             ascends = False
         new_key[n_new] = key
         new_row[n_new] = row
         n_new += 1
-    pair_start[n_pairs] = k
+    out.pair_start[n_pairs] = k
     return k, n_new, n_recycled, rows_used, points_used, ascends
 
 
@@ -397,7 +275,7 @@ def has_room(n_rows, rows_used, n_points, points_used, n_pairs):
 
 
 @njit(cache=True)
-def compact(cached_row, found_pose, found_rotation, span, anchor, normal, separation, feature, rows):
+def compact(cached_row, store, rows):
     """The store's live rows (cached_row's, in its order) and their points copied into a new store of
     ``rows`` rows and 2 rows points: (found_pose, found_rotation, span, anchor, normal, separation,
     feature, points used). Slot s's row becomes s."""
@@ -410,41 +288,37 @@ def compact(cached_row, found_pose, found_rotation, span, anchor, normal, separa
     new_separation = np.zeros(2 * rows)
     new_feature = np.zeros(2 * rows, np.int32)
     p = 0
-    for s in range(n):  # element by element: a row assigned whole compiles a shape check and its message (~3 s)
+    for s in range(n):  # element by element: a row assigned whole compiles a shape check and its message
         r = cached_row[s]
-        new_pose[s, 0], new_pose[s, 1] = found_pose[r, 0], found_pose[r, 1]
+        new_pose[s, 0], new_pose[s, 1] = store.found_pose[r, 0], store.found_pose[r, 1]
         for i in range(4):
-            new_rotation[s, i] = found_rotation[r, i]
+            new_rotation[s, i] = store.found_rotation[r, i]
         new_span[s, 0] = p
-        for point in range(span[r, 0], span[r, 1]):
+        for point in range(store.span[r, 0], store.span[r, 1]):
             for i in range(4):
-                new_anchor[p, i] = anchor[point, i]
-            new_normal[p, 0], new_normal[p, 1] = normal[point, 0], normal[point, 1]
-            new_separation[p] = separation[point]
-            new_feature[p] = feature[point]
+                new_anchor[p, i] = store.anchor[point, i]
+            new_normal[p, 0], new_normal[p, 1] = store.normal[point, 0], store.normal[point, 1]
+            new_separation[p] = store.separation[point]
+            new_feature[p] = store.feature[point]
             p += 1
         new_span[s, 1] = p
     return new_pose, new_rotation, new_span, new_anchor, new_normal, new_separation, new_feature, p
 
 
-class ManifoldCache:
-    """Last step's manifolds, kept for recycling (the world owns one).
-
-    key: the manifolds' pair keys, ascending; row: each one's row of the store. The store
-    (pose, rotation, span: rows; anchor, normal, separation, feature: points) is written
-    only after rows_used and points_used: a manifold recycled from step to step stays in
-    its row, and a step that is undone leaves the rows it had.
-    """
+class ManifoldStore:
+    """The manifold store (a ``ManifoldRecord``'s arrays): the manifolds found in earlier steps,
+    kept for recycling. Each row holds a manifold's pose and its span of points; the step's
+    manifolds name their rows (``ContactRecord.manifold_row``). A step writes only after
+    rows_used and points_used, so a manifold recycled from step to step stays in its row,
+    and a step that is undone leaves the rows it had."""
 
     def __init__(self) -> None:
         self.clear()
 
     def clear(self) -> None:
-        """Forget every manifold: the next step collides every pair anew."""
-        self.key = np.zeros(0, np.int64)
-        self.row = np.zeros(0, np.int64)
-        self.pose = np.zeros((0, 2))  # B's centre in A's frame when found (m)
-        self.rotation = np.zeros((0, 4))  # (cos, sin) of A's and of B's angle when found
+        """An empty store."""
+        self.found_pose = np.zeros((0, 2))  # B's centre in A's frame when found (m)
+        self.found_rotation = np.zeros((0, 4))  # (cos, sin) of A's and of B's angle when found
         self.span = np.zeros((0, 2), np.int64)  # a row's points: span[r, 0] up to span[r, 1]
         self.anchor = np.zeros((0, 4))
         self.normal = np.zeros((0, 2))
@@ -453,48 +327,37 @@ class ManifoldCache:
         self.rows_used = 0
         self.points_used = 0
         self.recycled = 0  # manifolds recycled in the last step
-        self._store_changed()
 
-    _STATE = (
-        "key",
-        "row",
-        "pose",
-        "rotation",
-        "span",
-        "anchor",
-        "normal",
-        "separation",
-        "feature",
-        "rows_used",
-        "points_used",
-        "recycled",
-    )
+    def has_room(self, n_pairs: int) -> bool:
+        """Whether n_pairs new manifolds (2 n_pairs points) fit after the rows and points used."""
+        return has_room(self.found_pose.shape[0], self.rows_used, self.anchor.shape[0], self.points_used, n_pairs)
 
-    def state(self) -> tuple:
-        """What ``restore`` needs to undo a step: the attributes of ``_STATE``, in its order
-        (``collide`` replaces key and row, and writes the store only after rows_used and points_used)."""
-        return _read_state(self)
+    def rebuild(self, cached_row: np.ndarray, rows: int, record: object) -> None:
+        """A new store of ``rows`` rows (2 rows points) holding the live manifolds only (cached_row's,
+        over the ``ManifoldRecord`` ``record`` of this store), slot s in row s."""
+        if cached_row.shape[0] == 0:  # nothing to keep (the first step): an empty store, no copying
+            self.clear()
+            arrays = (
+                np.zeros((rows, 2)), np.zeros((rows, 4)), np.zeros((rows, 2), np.int64), np.zeros((2 * rows, 4)),
+                np.zeros((2 * rows, 2)), np.zeros(2 * rows), np.zeros(2 * rows, np.int32),
+            )  # fmt: skip
+        else:
+            *arrays, self.points_used = compact(cached_row, record, rows)
+        (
+            self.found_pose, self.found_rotation, self.span, self.anchor, self.normal, self.separation, self.feature
+        ) = arrays  # fmt: skip
+        self.rows_used = cached_row.shape[0]
 
-    def restore(self, state: tuple) -> None:
-        for name, value in zip(self._STATE, state):
-            setattr(self, name, value)
-        self._store_changed()
-
-    def _store_changed(self) -> None:
-        """The store's arrays as the one-call tick takes them (``phys2d.tick``)."""
-        self.store = (self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature)
-
-    def live(self) -> tuple:
-        """The cached manifolds as arrays, slot by slot (what two equal caches share bit for bit):
-        keys, then the rows' pose, rotation and point counts, then the points' anchor, normal,
-        separation and feature."""
-        rows = self.row
-        points = np.concatenate([np.arange(*self.span[r]) for r in rows]) if rows.size else np.zeros(0, np.int64)
-        counts = self.span[rows, 1] - self.span[rows, 0]
+    def live(self, key: np.ndarray, row: np.ndarray) -> tuple:
+        """The cached manifolds (keys ``key`` in rows ``row``) as arrays, slot by slot (what two equal
+        caches share bit for bit): keys, then the rows' pose, rotation and point counts, then the
+        points' anchor, normal, separation and feature."""
+        points = np.concatenate([np.arange(*self.span[r]) for r in row]) if row.size else np.zeros(0, np.int64)
+        counts = self.span[row, 1] - self.span[row, 0]
         return (
-            self.key,
-            self.pose[rows],
-            self.rotation[rows],
+            key,
+            self.found_pose[row],
+            self.found_rotation[row],
             counts,
             self.anchor[points],
             self.normal[points],
@@ -502,85 +365,3 @@ class ManifoldCache:
             self.feature[points],
             self.recycled,
         )
-
-    def make_room(self, n_pairs: int) -> None:
-        """Room in the store for n_pairs new manifolds (2 n_pairs points): if there is not, a new
-        store of the live rows only, with room for them twice over and for the new ones."""
-        if has_room(self.pose.shape[0], self.rows_used, self.anchor.shape[0], self.points_used, n_pairs):
-            return
-        self._rebuild(max(64, 2 * (self.key.shape[0] + n_pairs)))
-
-    def _rebuild(self, rows: int) -> None:
-        """A new store of ``rows`` rows (2 rows points) holding the live manifolds only, in slot order."""
-        n = self.key.shape[0]
-        *store, points_used = compact(
-            self.row, self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature, rows
-        )
-        self.pose, self.rotation, self.span, self.anchor, self.normal, self.separation, self.feature = store
-        self._store_changed()
-        self.row = np.arange(n, dtype=np.int64)
-        self.rows_used, self.points_used = n, points_used
-
-    def collide(
-        self,
-        pairs,
-        n_pairs,
-        bodies,
-        rotation,
-        world_v,
-        world_n,
-        contact_margin,
-        travel,
-        recycle_distance,
-        out,
-        pair_start,
-    ) -> int:
-        """The step's contact points into ``out`` (as ``collide_pairs``); returns K.
-        rotation: each body's (cos theta, sin theta), as ``update_geometry_in`` returns it."""
-        b = bodies
-        self.make_room(n_pairs)
-        new_key = np.empty(n_pairs, np.int64)
-        new_row = np.empty(n_pairs, np.int64)
-        k, n_new, self.recycled, self.rows_used, self.points_used, ascends = collide_recycling(  # type: ignore[call-arg]
-            pairs,
-            n_pairs,
-            b.x,
-            rotation,
-            b.kind,
-            b.radius,
-            b.vstart,
-            b.vcount,
-            b.local_v,
-            b.static,
-            world_v,
-            world_n,
-            contact_margin,
-            travel,
-            b.uid,
-            b.friction,
-            b.restitution,
-            recycle_distance,
-            self.key,
-            self.row,
-            self.pose,
-            self.rotation,
-            self.span,
-            self.anchor,
-            self.normal,
-            self.separation,
-            self.feature,
-            self.rows_used,
-            self.points_used,
-            *out,
-            pair_start,
-            new_key,
-            new_row,
-        )
-        self.key, self.row = new_key[:n_new], new_row[:n_new]
-        if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
-            by_key = np.argsort(self.key, kind="stable")
-            self.key, self.row = self.key[by_key], self.row[by_key]
-        return k
-
-
-_read_state = operator.attrgetter(*ManifoldCache._STATE)  # one C call for the whole tuple, once a step

@@ -67,24 +67,3 @@ def solve_order(pair_order, pair_start):
             order[q + i] = c + i
         q += n
     return order[:q]
-
-
-@njit(cache=True)
-def contacts_in_order(order, body_a, body_b, point, normal, separation, restitution, anchor):
-    """The contacts in solve order for a colour-ordered responder that does not gather what it
-    reads itself (``Responder.contacts_in_row_order``; SoftStep does): field[order], one pass for
-    all seven fields (body_a, body_b, point, normal, separation, restitution, anchor)."""
-    k = order.shape[0]
-    out_a, out_b = np.empty(k, body_a.dtype), np.empty(k, body_b.dtype)
-    out_p, out_n = np.empty((k, 2)), np.empty((k, 2))
-    out_s, out_e = np.empty(k), np.empty(k)
-    out_r = np.empty((k, 4))
-    for q in range(k):
-        c = order[q]
-        out_a[q], out_b[q] = body_a[c], body_b[c]
-        out_p[q, 0], out_p[q, 1] = point[c, 0], point[c, 1]
-        out_n[q, 0], out_n[q, 1] = normal[c, 0], normal[c, 1]
-        out_s[q], out_e[q] = separation[c], restitution[c]
-        for i in range(4):
-            out_r[q, i] = anchor[c, i]
-    return out_a, out_b, out_p, out_n, out_s, out_e, out_r

@@ -40,6 +40,8 @@ order.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -118,21 +120,6 @@ class Rows:
         "lam",
     )
 
-    @property
-    def i(self) -> np.ndarray:
-        """The older name of ``body_a``."""
-        return self.body_a
-
-    @property
-    def j(self) -> np.ndarray:
-        """The older name of ``body_b``."""
-        return self.body_b
-
-    @property
-    def A_diag(self) -> np.ndarray:
-        """The older name of ``A_kk``."""
-        return self.A_kk
-
     def __len__(self) -> int:
         return int(self.lam.shape[0])
 
@@ -159,38 +146,15 @@ class Rows:
         """lambda of the joint rows, in joint order (a copy)."""
         return self.lam[self.first_joint_row :].copy()
 
-    def head(self, n_rows: int) -> Rows:
-        """The first n_rows rows as views (no copy), with lambda reset to 0 and no contacts mapped."""
-        rows = object.__new__(Rows)
-        for name in self._ARRAYS:
-            setattr(rows, name, getattr(self, name)[:n_rows])
-        rows.lam[:] = 0.0
-        rows.map_contacts(np.zeros(0, np.int32))
+    @classmethod
+    def view(cls, buffer: Rows, order: np.ndarray, n_rows: int) -> Rows:
+        """The first n_rows rows of ``buffer`` as views (no copy), for the contacts visited in
+        ``order`` (row pair q is contact order[q]) and then the joints."""
+        rows = object.__new__(cls)
+        for name in cls._ARRAYS:
+            setattr(rows, name, getattr(buffer, name)[:n_rows])
+        rows.map_contacts(order, (buffer.normal_row, buffer.friction_row, 0))
         return rows
-
-
-class RowBuffer:
-    """Row storage reused from step to step, so a step allocates no row arrays."""
-
-    def __init__(self) -> None:
-        self._rows = Rows(0)
-        self._head = self._rows.head(0)
-        self._map = contact_row_map(0)
-
-    def take(self, order: np.ndarray, n_joint_rows: int) -> Rows:
-        """Rows for the contacts visited in ``order`` and then the joints (the same views as
-        last step when the row count holds). Every entry is left as it was: ``contact_rows``
-        writes all of a contact's, lambda included, and the world the joints'."""
-        k = len(order)
-        if k > len(self._map[0]):  # the row map, made once for as many contacts as seen
-            self._map = contact_row_map(max(k, 2 * len(self._map[0])))
-        n_rows = contact_row_count(k) + n_joint_rows
-        if n_rows > len(self._rows):
-            self._rows = Rows(max(n_rows, 2 * len(self._rows)))
-        if n_rows != len(self._head):
-            self._head = self._rows.head(n_rows)
-        self._head.map_contacts(order, self._map)
-        return self._head
 
 
 @njit(cache=True, inline="always")
@@ -341,55 +305,22 @@ def manifold_sizes(body_a, body_b):
     return sizes
 
 
+class RowSettings(NamedTuple):
+    """How the contact rows are built: the step, and the responder's settings."""
+
+    dt: float  # s
+    g: float  # |gravity|, m/s^2 (the lecture's friction bound)
+    beta: float  # Baumgarte push factor
+    slop: float  # m
+    push_max: float  # m/s
+    restitution_threshold: float  # m/s
+    friction_model: int  # FRICTION_COULOMB or FRICTION_LECTURE
+    found_arms: bool  # lever arms as each manifold was found (else p - x now)
+    warm_start: bool  # lambda starts from the cache
+
+
 @njit(cache=True)
-def contact_rows(
-    order,
-    normal_row,
-    friction_row,
-    body_a,
-    body_b,
-    point,
-    anchor,
-    found_arms,
-    normal,
-    separation,
-    mu,
-    e,
-    x,
-    V1,
-    V,
-    M_inv,
-    dt,
-    beta,
-    slop,
-    push_max,
-    restitution_threshold,
-    friction_model,
-    gravity,
-    warm_start,
-    cache_keys,
-    cache_lambda_n,
-    cache_lambda_t,
-    cache_pushed,
-    key,
-    uid,
-    static,
-    out_a,
-    out_b,
-    J,
-    JM,
-    A_kk,
-    xi,
-    push,
-    bounce,
-    impact,
-    lo,
-    hi,
-    bound_row,
-    out_mu,
-    lam,
-    hit,
-):
+def contact_rows(bodies, shapes, cache, found, rows, settings):
     """The normal and friction rows of contact point c = order[q] (docs/formulation.md), and
     their starting impulses.
 
@@ -414,17 +345,31 @@ def contact_rows(
 
     Returns the deepest overlap, max(0, -min C) (m), and the number of contacts warm started.
     """
-    order = as_uint32(order)  # unsigned, as the rest (``unsigned_indices``)
-    normal_row, friction_row, body_a, body_b = unsigned_indices(normal_row, friction_row, body_a, body_b)
-    cached = np.empty(order.shape[0], np.int64)
-    if warm_start:
-        hits = find_in_cache(cache_keys, cache_pushed, key, body_a, body_b, uid, static, cached, hit)
+    K = rows.normal_row.shape[0]
+    dt, beta, slop, push_max = settings.dt, settings.beta, settings.slop, settings.push_max
+    order = as_uint32(found.order[:K])  # unsigned, as the rest (``unsigned_indices``)
+    normal_row, friction_row, body_a, body_b = unsigned_indices(
+        rows.normal_row, rows.friction_row, found.body_a[:K], found.body_b[:K]
+    )
+    x, V1, V, M_inv = bodies.x, bodies.V1, bodies.V, bodies.M_inv
+    point, anchor, normal, separation = found.point, found.anchor, found.normal, found.separation
+    mu, e = found.mu, found.e
+    J, JM, A_kk, xi, push, bounce, impact = rows.J, rows.JM, rows.A_kk, rows.xi, rows.push, rows.bounce, rows.impact
+    lo, hi, bound_row, out_mu, lam = rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam
+    out_a, out_b = rows.body_a, rows.body_b
+    cached = np.empty(K, np.int64)
+    hit = found.hit[:K]
+    if settings.warm_start:
+        cache_keys, _, _, cache_pushed = cache
+        hits = find_in_cache(cache_keys, cache_pushed, found.key[:K], body_a, body_b, shapes.uid, shapes.static,
+                             cached, hit)  # fmt: skip
     else:
         cached[:] = -1
         hit[:] = False
         hits = 0
+    _, cache_lambda_n, cache_lambda_t, _ = cache
     deepest = 0.0
-    coulomb = friction_model == FRICTION_COULOMB
+    coulomb = settings.friction_model == FRICTION_COULOMB
     points_in_manifold = np.empty(0, np.int32) if coulomb else manifold_sizes(body_a, body_b)  # the lecture's bound
     beta_over_dt = beta / dt
     for q in range(order.shape[0]):
@@ -434,7 +379,7 @@ def contact_rows(
         C = separation[c]
         deepest = max(deepest, -C)
         nx, ny = normal[c, 0], normal[c, 1]
-        if found_arms:
+        if settings.found_arms:
             r_ax, r_ay, r_bx, r_by = anchor[c, 0], anchor[c, 1], anchor[c, 2], anchor[c, 3]
         else:
             r_ax, r_ay = point[c, 0] - x[a, 0], point[c, 1] - x[a, 1]
@@ -449,8 +394,9 @@ def contact_rows(
         vn_start, vn_forced = row_velocity(k, a, b, J, V1), row_velocity(k, a, b, J, V)
         vn = approach_at_impact(C, vn_start, vn_forced, dt)
         bounce_k = 0.0
-        impact[k] = C > MET and vn < -restitution_threshold
-        if vn < -restitution_threshold:
+        threshold = settings.restitution_threshold
+        impact[k] = C > MET and vn < -threshold
+        if vn < -threshold:
             target = bounce_target(e[c], vn, vn_forced - vn_start)
             if C > MET:
                 bounce_k = target  # it meets its partner within the step: bounce once it has moved there
@@ -482,7 +428,7 @@ def contact_rows(
             inv = M_inv_a[0] + M_inv_b[0]
             m_c = (1.0 / inv if inv > 0.0 else 0.0) / points_in_manifold[c]
             # fixed: it does not look at lambda_n, so it acts on speculative points too
-            bound = mu[c] * m_c * gravity * dt
+            bound = mu[c] * m_c * settings.g * dt
             bound_row[k] = -1
             lo[k] = -bound
             hi[k] = bound

@@ -165,3 +165,30 @@ def record_of_rows(rows: object) -> Any:
 def record_of_joints(joints: object, lam: object) -> Any:
     """A JointRecord over a ``constraints.joints.JointArrays`` and the joints' reactions ``lam``."""
     return new_joints((*arrays_of(joints, JOINT_FIELDS[:-1]), lam))
+
+
+STATE_FIELDS = ("bodies", "shapes", "store", "sides", "rows", "undo_x", "undo_theta", "residuals")
+StepState = _record(
+    "StepState",
+    STATE_FIELDS,
+    """Everything a tick's stages read and write, as one argument: the bodies, shapes and manifold
+    store, both sides of the contact buffers (a tuple of two ContactRecords), the row buffers
+    (a RowRecord at capacity), the positions to undo a failed step with, and the residual of
+    each sweep.""",
+)
+
+
+@njit(cache=True)
+def new_state(bodies, shapes, store, sides, rest):
+    """A StepState over the arrays of each record (tuples in the order of their ``*_FIELDS``;
+    sides: one per side; rest: the rows' arrays, then undo_x, undo_theta and residuals), and the
+    records it holds: (state, bodies, shapes, store, (side 0, side 1), rows)."""
+    row_arrays, undo_x, undo_theta, residuals = rest
+    records = (
+        BodyRecord(*bodies),
+        ShapeRecord(*shapes),
+        ManifoldRecord(*store),
+        (ContactRecord(*sides[0]), ContactRecord(*sides[1])),
+        RowRecord(*row_arrays),
+    )
+    return (StepState(*records, undo_x, undo_theta, residuals), *records)

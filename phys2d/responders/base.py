@@ -203,14 +203,14 @@ class Responder:
     found_lever_arms = False
 
     def __getstate__(self) -> dict:
-        """A copy (pickle, deepcopy) leaves out the world's note of its one-call tick (``phys2d.tick``)."""
+        """A copy (pickle, deepcopy) leaves out the world's note of its settings (``pipeline.step.spec_of``)."""
         state = self.__dict__.copy()
         state.pop("_tick_spec", None)
         return state
 
     def __setattr__(self, name: str, value: object) -> None:
         super().__setattr__(name, value)  # a Setting checks the value here
-        self.__dict__.pop("_tick_spec", None)  # the world reads the settings of its one-call tick again
+        self.__dict__.pop("_tick_spec", None)  # the world reads its settings again for the next step
 
     @property
     def name(self) -> str:

@@ -249,7 +249,7 @@ def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveRe
     starts = manifold_starts(ctx.body_a, ctx.body_b)
     n_pairs = starts.shape[0] - 1
     use = np.zeros(k, np.bool_)
-    colliding_points(ctx.separation, r.normal_row, r.i, r.j, r.J, ctx.V, ctx.dt, use)
+    colliding_points(ctx.separation, r.normal_row, r.body_a, r.body_b, r.J, ctx.V, ctx.dt, use)
     Jn, JMn, Jt, JMt = (np.zeros((n_pairs, 6)) for _ in range(4))
     An, At = np.zeros(n_pairs), np.zeros(n_pairs)
     pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
@@ -260,8 +260,8 @@ def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveRe
         ctx.separation,
         r.normal_row,
         r.friction_row,
-        r.i,
-        r.j,
+        r.body_a,
+        r.body_b,
         r.J,
         ctx.M_inv,
         Jn,

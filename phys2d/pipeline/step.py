@@ -1,0 +1,494 @@
+"""The pipeline of one tick: the buffers it owns, and the step that runs its stages.
+
+``World.step`` hands a step to its ``Pipeline``, which runs the stages of
+``phys2d.pipeline.stages`` in one of two ways, with the same results bit for bit:
+
+    in one call    a responder whose solve is a kernel (PGS in impulse form, SoftStep) gets
+                   one compiled call: ``pgs_tick`` or ``soft_tick`` run the stages in order
+    stage by stage Python calls each stage's kernel in turn, and the responder's ``respond``
+                   in between: the way to time the stages, watch them in a debugger, or plug
+                   in a responder of your own (``World(one_call_tick=False)`` forces it)
+
+Python's part either way: the sweep after the bodies or joints changed, growing the buffers
+(the kernel stops and says so), the undo of a step that failed, and the report.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from ..collision.recycle import ManifoldStore, collide_recycling
+from ..constraints.joints import start_joint_rows
+from ..constraints.order import colour_pairs
+from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
+from ..contacts import Contacts, impulses_to_contacts_and_cache
+from ..integrate import first_too_fast, integrate_positions
+from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepReport
+from ..responders.pgs import PGS
+from ..responders.soft_step import SoftStep
+from . import records
+from .stages import (
+    NEED_ROOM,
+    NEED_SWEEP,
+    TOO_FAST,
+    Counts,
+    StepSettings,
+    begin,
+    head_of_rows,
+    order_contacts,
+    sweep,
+)
+from .tick import tick
+
+if TYPE_CHECKING:
+    from ..world import World
+
+
+class SimulationError(RuntimeError):
+    """A step produced velocities past the world's limits; the world was left as before it."""
+
+
+class TickSpec(NamedTuple):
+    """What a step needs of its responder, read once and kept on the responder until one of its
+    settings changes (``Responder.__setattr__`` drops it)."""
+
+    one_call: bool  # its solve is a kernel: ``stages.tick`` runs the whole step in one call
+    pgs: Any  # PGS's settings for the tick (``PGSSettings``), or None
+    soft: Any  # the soft step's (``SoftSettings``), or None
+    n_residuals: int  # sweeps (or sub-steps) it may make
+    rows: tuple  # beta, slop, push_max, restitution_threshold, friction_model, found_lever_arms, warm_start
+    name: str
+    counts: str
+    colour_order: bool
+
+
+def spec_of(responder: Responder) -> TickSpec:
+    """What a step needs of ``responder`` (``TickSpec``), kept on it until a setting changes."""
+    spec = responder.__dict__.get("_tick_spec")
+    if spec is None:
+        spec = responder.__dict__["_tick_spec"] = _tick_spec(responder)
+    return spec
+
+
+def tick_for(responder: Responder) -> TickSpec | None:
+    """The responder's spec when its steps run in one call, else None: a responder of another
+    kind, PGS in matrix form, or one whose ``respond`` is its own (stage by stage)."""
+    spec = spec_of(responder)
+    return spec if spec.one_call else None
+
+
+def _tick_spec(r: Responder) -> TickSpec:
+    rows = (r.beta, r.slop, r.push_max, r.restitution_threshold, r.friction_model, r.found_lever_arms, r.warm_start)
+    staged = TickSpec(False, None, None, 0, rows, r.name, r.counts, bool(r.colour_order))
+    if "respond" in r.__dict__:  # replaced on the instance (a test's spy, say): call it, stage by stage
+        return staged
+    if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
+        tol = -1.0 if r.tolerance is None else r.tolerance
+        pgs = (r.iterations, tol, True if r.block else None, r.split)
+        return staged._replace(one_call=True, pgs=pgs, n_residuals=r.iterations)
+    if isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
+        soft = (
+            r.substeps, r.relax, r.contact_hertz, r.damping_ratio, r.push_max, r.joint_hertz, r.joint_damping_ratio,
+            r.direct_joints, r.restitution_threshold, r.block
+        )  # fmt: skip
+        return staged._replace(one_call=True, soft=soft, n_residuals=r.substeps)
+    return staged
+
+
+def compiled_for(kernel: Callable, args: tuple) -> Callable:
+    """The machine code ``kernel`` compiled for the types of ``args``, callable without numba's
+    dispatch (which works out every argument's type on every call), or ``kernel`` itself when
+    there is none (not compiled for them, or NUMBA_DISABLE_JIT)."""
+    overloads = getattr(kernel, "overloads", None)
+    if overloads is None:  # NUMBA_DISABLE_JIT: the plain function
+        return kernel
+    compiled = overloads.get(tuple(kernel.typeof_pyval(a) for a in args))  # type: ignore[attr-defined]
+    return kernel if compiled is None else compiled.entry_point
+
+
+# -- the buffers -----------------------------------------------------------------------------
+class ContactBuffers:
+    """One side of the contact buffers: the fields of a ``ContactRecord``, sized for ``pairs``
+    broadphase pairs (2 points each)."""
+
+    def __init__(self, pairs: int) -> None:
+        cap = 2 * pairs
+        self.body_a, self.body_b = np.zeros(cap, np.int32), np.zeros(cap, np.int32)
+        self.point, self.normal, self.anchor = np.zeros((cap, 2)), np.zeros((cap, 2)), np.zeros((cap, 4))
+        self.separation, self.mu, self.e = np.zeros(cap), np.zeros(cap), np.zeros(cap)
+        self.feature, self.key = np.zeros(cap, np.int32), np.zeros(cap, np.int64)
+        self.lambda_n, self.lambda_t, self.hit = np.zeros(cap), np.zeros(cap), np.zeros(cap, np.bool_)
+        self.order = np.zeros(cap + 2, np.int32)  # two spare slots: ``solve_order``
+        self.pair_start = np.zeros(pairs + 1, np.int64)
+        self.cache_lambda_n, self.cache_lambda_t = np.zeros(cap), np.zeros(cap)
+        self.cache_pushed = np.zeros(cap, np.bool_)
+        self.manifold_key, self.manifold_row = np.zeros(pairs, np.int64), np.zeros(pairs, np.int64)
+
+    def contacts(self, k: int) -> Contacts:
+        """A copy of its first K contacts, as the world hands them out."""
+        return Contacts(
+            body_a=self.body_a[:k].copy(), body_b=self.body_b[:k].copy(), point=self.point[:k].copy(),
+            anchor=self.anchor[:k].copy(), normal=self.normal[:k].copy(), separation=self.separation[:k].copy(),
+            lambda_n=self.lambda_n[:k].copy(), lambda_t=self.lambda_t[:k].copy(), feature=self.feature[:k].copy(),
+            key=self.key[:k].copy(), warm_started=self.hit[:k].copy(), friction=self.mu[:k].copy(),
+            restitution=self.e[:k].copy(),
+        )  # fmt: skip
+
+
+class Buffers:
+    """What a step writes, sized for ``pairs`` broadphase pairs and ``joint_rows`` joint rows:
+    both sides of the contacts, the rows, and the pairs' colour order."""
+
+    def __init__(self, pairs: int, joint_rows: int) -> None:
+        self.pairs, self.joint_rows = pairs, joint_rows
+        self.sides = (ContactBuffers(pairs), ContactBuffers(pairs))
+        self.rows = Rows(4 * pairs + joint_rows)
+        self.rows.normal_row, self.rows.friction_row, _ = contact_row_map(2 * pairs)
+        self.pair_order = np.zeros(pairs, np.int32)
+
+    def holds(self, pairs: int, joint_rows: int) -> bool:
+        """Whether these buffers have room for ``pairs`` pairs and ``joint_rows`` joint rows."""
+        return pairs <= self.pairs and joint_rows <= self.joint_rows
+
+
+# -- the pipeline -----------------------------------------------------------------------------
+class Pipeline:
+    """The buffers of a world's steps and the step that fills them (``step``).
+
+    It reads the world's bodies, joints and settings, and keeps what one step hands to the
+    next: the broadphase's pairs, the manifold store, the contact cache (the side of the
+    buffers the last good step wrote) and the joints' reactions.
+    """
+
+    def __init__(self) -> None:
+        self.store = ManifoldStore()
+        self.buffers = Buffers(0, 0)
+        self.side = 0  # the side of the buffers the last good step wrote
+        self.manifolds = 0  # the manifolds it cached (side's manifold_key, manifold_row)
+        self.cached = 0  # its contacts (side's key and cache_*: the cache)
+        self.pairs = np.zeros((64, 2), np.int32)
+        self.n_pairs = 0
+        self.coloured = False  # pair_order holds the colour order of these pairs
+        self.sweep_again = True  # the bodies or joints changed: the pairs must be found anew
+        self.geometry: tuple = ()  # world_v, world_n, aabb, travel, rotation, fat
+        self.undo = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 3)))  # x, theta, V1 to undo a failed step
+        self.residuals = np.zeros(16)
+        self._state: Any = None  # the StepState over all of the above, made anew when one is replaced
+        self._records: list = []  # the records it holds: bodies, shapes, store, sides, rows
+        self._state_over: tuple = ()
+        self._compiled: tuple = (None, None, None)  # (spec, argument types, machine code) of the last call
+        self._ready: tuple | None = None  # (spec, dt, step settings, row settings, joints) of the last step
+
+    def __getstate__(self) -> dict:
+        """A copy (pickle, deepcopy) leaves out the records: numba structrefs, made anew when needed."""
+        state = self.__dict__.copy()
+        state.update(_state=None, _records=[], _state_over=(), _compiled=(None, None, None), _ready=None)
+        return state
+
+    # -- what the world changes -------------------------------------------------------------
+    def bodies_changed(self) -> None:
+        """Bodies or joints were added or removed: sweep anew before the next step."""
+        self.sweep_again = True
+
+    def forget_manifolds(self) -> None:
+        """Collide every pair anew (the contact margin changed: the points were found with the old)."""
+        self.store.clear()
+        self.manifolds = 0
+        self.sweep_again = True
+
+    def manifold_keys(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cached manifolds' keys (ascending) and their rows of the store."""
+        c = self.buffers.sides[self.side]
+        return c.manifold_key[: self.manifolds], c.manifold_row[: self.manifolds]
+
+    def cache(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The contact cache: keys (ascending), lambda_n and lambda_t (N s) of the last step's contacts."""
+        c, k = self.buffers.sides[self.side], self.cached
+        return c.key[:k], c.cache_lambda_n[:k], c.cache_lambda_t[:k]
+
+    # -- the records --------------------------------------------------------------------------
+    def _geometry(self, world: World) -> tuple:
+        """World vertices, edge normals, AABBs, travel, rotations and fat boxes: kept while the bodies are."""
+        b = world._bodies
+        g = self.geometry
+        if not g or g[0].shape[0] != b.n_verts or g[2].shape[0] != b.n:
+            n = b.n
+            g = np.empty((b.n_verts, 2)), np.empty((b.n_verts, 2)), np.empty((n, 4)), np.empty(n), np.empty((n, 2))
+            self.geometry = g = (*g, np.zeros((n, 4)))
+        return g
+
+    def state(self, world: World) -> Any:
+        """The ``StepState`` over the world's arrays and these buffers, and the records it holds
+        (``bodies_record``, ``shapes_record``, ...): made anew when one of the arrays was replaced."""
+        b, t, store = world._bodies, self.buffers, self.store
+        if self.undo[1].shape[0] != b.n:
+            self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
+        g = self._geometry(world)
+        over = (b.x, g, self.pairs, t, store.found_pose, store.anchor, world._excluded, self.residuals, self.undo)
+        if len(over) != len(self._state_over) or any(a is not o for a, o in zip(over, self._state_over)):
+            world_v, world_n, aabb, travel, rotation, fat = g
+            shapes = (
+                b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
+                rotation, world_v, world_n, aabb, fat, travel, self.pairs, t.pair_order, world._excluded,
+            )  # fmt: skip
+            self._state, *self._records = records.new_state(
+                (b.x, b.theta, b.V, b.M_inv, self.undo[2]),
+                shapes,
+                records.arrays_of(store, records.MANIFOLD_FIELDS),
+                tuple(records.arrays_of(c, records.CONTACT_FIELDS) for c in t.sides),
+                (records.arrays_of(t.rows, records.ROW_FIELDS), self.undo[0], self.undo[1], self.residuals),
+            )
+            self._state_over = over
+        return self._state
+
+    @property
+    def bodies_record(self) -> Any:
+        return self._records[0]
+
+    @property
+    def shapes_record(self) -> Any:
+        return self._records[1]
+
+    @property
+    def store_record(self) -> Any:
+        return self._records[2]
+
+    @property
+    def side_records(self) -> tuple:
+        return self._records[3]
+
+    @property
+    def rows_record(self) -> Any:
+        return self._records[4]
+
+    def _room(self, world: World, n_residuals: int) -> None:
+        """Buffers with room for this step's pairs, joint rows and sweeps: grown when short, with
+        the last step's caches copied into the new ones."""
+        t = self.buffers
+        n_joint_rows = world._joint_lam.shape[0]
+        pairs = max(self.n_pairs, self.manifolds, (self.cached + 1) // 2)
+        if not t.holds(pairs, n_joint_rows):
+            self.buffers = Buffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
+            old, new = t.sides[self.side], self.buffers.sides[self.side]
+            m, k = self.manifolds, self.cached
+            new.manifold_key[:m], new.manifold_row[:m] = old.manifold_key[:m], old.manifold_row[:m]
+            for name in ("key", "cache_lambda_n", "cache_lambda_t", "cache_pushed"):
+                getattr(new, name)[:k] = getattr(old, name)[:k]
+            self.coloured = False
+        if self.residuals.shape[0] < n_residuals:
+            self.residuals = np.zeros(n_residuals)
+
+    def _colour(self, world: World) -> None:
+        """The pairs in colour order, in the buffers (for a responder that visits them by colour)."""
+        if not self.coloured:
+            order = colour_pairs(self.pairs, self.n_pairs, world._bodies.static, world._bodies.n)
+            self.buffers.pair_order[: self.n_pairs] = order
+            self.coloured = True
+
+    def _sweep(self, world: World) -> None:
+        """The broadphase's pairs anew (``stages.sweep``), the pair buffer grown when short. The
+        one-call tick sweeps itself while its buffers have room."""
+        self.state(world)
+        n_pairs = sweep(self.shapes_record, False)
+        if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
+            self.pairs = np.zeros((2 * -n_pairs, 2), np.int32)
+            self.state(world)
+            n_pairs = sweep(self.shapes_record, False)
+        self.n_pairs, self.sweep_again, self.coloured = n_pairs, False, False
+
+    def _make_room(self, world: World) -> None:
+        """Room in the manifold store for a new manifold per pair: a new store of the live rows
+        only, with room for them twice over and for the new ones, when there is not."""
+        if not self.store.has_room(self.n_pairs):
+            self.rebuild_store(world, max(64, 2 * (self.manifolds + self.n_pairs)))
+
+    def rebuild_store(self, world: World, rows: int) -> None:
+        """A new manifold store of ``rows`` rows (2 rows points) holding the cached manifolds only."""
+        _, row = self.manifold_keys()
+        self.state(world)
+        self.store.rebuild(row, rows, self.store_record)
+        row[:] = np.arange(self.manifolds)  # slot s's manifold is now in row s
+
+    def _counts(self, colour_order: bool) -> Counts:
+        store = self.store
+        return Counts(
+            self.side, self.n_pairs, self.manifolds, self.cached, store.rows_used, store.points_used, colour_order,
+            self.sweep_again,
+        )  # fmt: skip
+
+    # -- a step ---------------------------------------------------------------------------------
+    def settings_changed(self) -> None:
+        """The world's gravity, margins, limits or joints changed: the next step reads them again."""
+        self._ready = None
+
+    def step(self, world: World, dt: float, one_call: bool) -> StepReport:
+        """One tick of ``world``: in one call when the responder has one and ``one_call``, else
+        stage by stage. Returns the report; a step that fails leaves the world as it was."""
+        responder = world._responder
+        spec = spec_of(responder)
+        ready = self._ready
+        if ready is None or ready[0] is not spec or ready[1] != dt:  # what the step reads of the world, anew
+            step = StepSettings(
+                world._gravity, world._gravity_norm, dt, world._contact_margin, world._contact_recycle_distance,
+                world._max_speed,
+            )  # fmt: skip
+            joints = records.record_of_joints(world._joint_arrays, world._joint_lam) if world._joints else None
+            self._ready = ready = (spec, dt, step, RowSettings(dt, world._gravity_norm, *spec.rows), joints)
+        _, _, step, row_settings, joints = ready
+        self.began = False  # set once the undo buffers hold the state before the step
+        try:
+            if spec.one_call and one_call:
+                done = self._in_one_call(world, spec, step, joints, row_settings)
+            else:
+                done = self._in_stages(world, responder, step, joints, row_settings)
+        except BaseException:
+            if self.began:
+                world._bodies.restore(self.undo)
+            raise
+        return self._commit(world, spec, done, dt)
+
+    def _in_one_call(self, world: World, spec: TickSpec, step: StepSettings, joints: Any, row_settings: Any) -> tuple:
+        """The tick as one kernel call (``stages.tick``; two when Python must sweep or make room first)."""
+        stage, colour_order = 0, spec.colour_order
+        while True:
+            self._room(world, spec.n_residuals)
+            if colour_order and not self.sweep_again:
+                self._colour(world)
+            s = self.state(world)
+            args = (s, joints, stage, self._counts(colour_order), step, row_settings, spec.pgs, spec.soft)
+            types_now = (getattr(s, "_numba_type_", None), joints is None)
+            spec_was, types_was, code = self._compiled
+            kernel = code if spec_was is spec and types_was == types_now else tick
+            self.began = True
+            result = kernel(*args)
+            if kernel is tick:  # the next steps call its machine code for these types directly
+                self._compiled = (spec, types_now, compiled_for(tick, args))
+            if result[-1] >= 0:  # the kernel swept: its pairs (and their colouring) are the world's
+                self.n_pairs, self.coloured = result[-1], colour_order
+            if result[0] == NEED_SWEEP:
+                self._sweep(world)
+            elif result[0] == NEED_ROOM:
+                self._make_room(world)
+            else:
+                break
+            stage = 1  # forces and geometry are done: go on from the contacts
+        if result[0] == TOO_FAST:
+            raise_too_fast(world)
+        _, k, n_new, recycled, rows_used, points_used, hits, deepest, count, _ = result
+        return k, n_new, recycled, rows_used, points_used, hits, deepest, count, self.residuals[:count].copy(), None
+
+    def _in_stages(self, world: World, responder: Responder, step: StepSettings, joints: Any, settings: Any) -> tuple:
+        """The stages one call each, as ``stages.tick`` calls them, with the responder's ``respond``
+        in the place of its solve."""
+        colour_order = bool(responder.colour_order)
+        self._room(world, 0)
+        s = self.state(world)
+        self.began = True
+        fits = begin(s, step.gravity, step.dt, step.contact_margin)
+        if self.sweep_again or not fits:  # something left its fat box: sweep again
+            self._sweep(world)
+            self._room(world, 0)
+        self._make_room(world)
+        if colour_order:
+            self._colour(world)
+        s = self.state(world)
+        # collision -> contacts
+        store, t = self.store, self.buffers
+        old = t.sides[self.side]
+        now = (self.n_pairs, self.manifolds, store.rows_used, store.points_used)
+        margins = (step.contact_margin, step.recycle_distance)
+        old_record, new_record = self.side_records[self.side], self.side_records[1 - self.side]
+        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(
+            self.bodies_record, self.shapes_record, self.store_record, old_record, new_record, now, margins
+        )
+        order_contacts(self.shapes_record, new_record, self.n_pairs, (k, n_new, ascends), colour_order)
+        # contacts and cache -> constraint rows
+        n = 2 * k + world._joint_lam.shape[0]
+        rows = head_of_rows(self.rows_record, k, n)
+        kc = self.cached
+        cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
+        deepest, hits = contact_rows(self.bodies_record, self.shapes_record, cache, new_record, rows, settings)
+        if joints is not None:
+            start_joint_rows(joints, 2 * k, self.bodies_record, step.dt, settings.beta, settings.warm_start, rows)
+        # rows -> responder -> integration
+        result = responder.respond(self._context(world, responder, k, step))
+        if not isinstance(result, SolveResult):
+            raise TypeError(
+                f"{type(responder).__name__}.respond must return a phys2d SolveResult(iterations, residuals, "
+                f"integrated=...), got {type(result).__name__}"
+            )
+        b = world._bodies
+        if not result.integrated:
+            integrate_positions(b.x, b.theta, b.V, step.dt)
+        # the limits, then the impulses per contact and the cache the next step starts from
+        if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:
+            raise_too_fast(world)
+        impulses_to_contacts_and_cache(rows, new_record, k)
+        residuals = np.asarray(result.residuals, float)
+        return k, n_new, recycled, rows_used, points_used, hits, deepest, result.iterations, residuals, result
+
+    def _context(self, world: World, responder: Responder, k: int, step: StepSettings) -> StepContext:
+        """What a responder sees: the rows, and the contacts in row order (contact q of ctx is
+        contact order[q]), or as found for a responder that gathers what it reads itself."""
+        b, t = world._bodies, self.buffers
+        c = t.sides[1 - self.side]
+        order = c.order[:k]
+        rows = Rows.view(t.rows, order, 2 * k + world._joint_lam.shape[0])
+        fields = (c.body_a, c.body_b, c.point, c.normal, c.separation, c.e, c.anchor)
+        if responder.colour_order and responder.contacts_in_row_order:  # the fields it reads, in row order
+            fields = tuple(f[order] for f in fields)
+        else:
+            fields = tuple(f[:k] for f in fields)
+        body_a, body_b, point, normal, separation, restitution, anchor = fields
+        return StepContext(
+            step.dt, b.x, b.theta, b.V, self.undo[2], b.M_inv, rows, k, body_a, body_b, point, normal, separation,
+            restitution, gravity=world._gravity, joints=world._joint_arrays, anchor=anchor,
+        )  # fmt: skip
+
+    def _commit(self, world: World, spec: TickSpec, done: tuple, dt: float) -> StepReport:
+        """A step that succeeded: its side of the buffers becomes the cache, and the report."""
+        k, n_new, recycled, rows_used, points_used, hits, deepest, count, residuals, result = done
+        store = self.store
+        store.recycled, store.rows_used, store.points_used = recycled, rows_used, points_used
+        self.side = w = 1 - self.side
+        self.manifolds, self.cached = n_new, k
+        t = self.buffers
+        c = t.sides[w]
+        world._contacts_from(t.sides[w], k)
+        joint_impulses = EMPTY
+        if world._joints:
+            world._store_joint_impulses(2 * k, t.rows.lam)
+            joint_impulses = world._joint_lam.copy()
+        return StepReport(
+            spec.name, dt, count, residuals, deepest, k, hits, joint_impulses,
+            None if result is None else result.system, c.order[:k].copy(), spec.counts,
+        )  # fmt: skip
+
+
+def raise_too_fast(world: World) -> None:
+    """Raise SimulationError naming the bodies past the world's max_speed or not finite."""
+    b = world._bodies
+    V, max_speed = b.V, world._max_speed
+    if first_too_fast(V, b.x, b.theta, max_speed) < 0:
+        return
+    speed = np.hypot(V[:, 0], V[:, 1])
+    bad = ~(
+        np.isfinite(speed)
+        & (speed <= max_speed)
+        & np.isfinite(V[:, 2])
+        & (np.abs(V[:, 2]) <= max_speed)
+        & np.isfinite(b.x).all(axis=1)
+        & np.isfinite(b.theta)
+    )
+    idx = np.flatnonzero(bad)
+    shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
+    raise SimulationError(
+        f"step would leave bodies [{shown}] faster than max_speed={max_speed:g} "
+        "(m/s or rad/s) or with a non-finite state; the world was left as it was before the step"
+    )
+
+
+__all__ = ["Pipeline", "SimulationError", "TickSpec", "tick_for"]
