@@ -1,7 +1,7 @@
 """Where a phys2d step spends its time: the one-call step, the staged step, and its stages.
 
     python benchmarks/stages.py [--scenes S ...] [--repeats N] [--steps N] [--settle N]
-    python benchmarks/stages.py --quick               # a short run: 2 repeats of 10 steps
+    python benchmarks/stages.py --quick               # a short run: 3 repeats of 10 steps
     python benchmarks/stages.py --markdown > out.md   # the tables for STAGES.md
 
 Per scene (``phys2d.scenes``, named as in benchmarks/engines.py) and responder (``PGS()``, ``SoftStep()``),
@@ -75,8 +75,7 @@ class Clock:
     """Time per label of the wrapped calls, outermost calls only."""
 
     def __init__(self) -> None:
-        self.ns, self.calls = defaultdict[str, int](int), defaultdict[str, int](int)
-        self.busy = False
+        self.ns, self.calls, self.busy = defaultdict[str, int](int), defaultdict[str, int](int), False
 
     def wrap(self, label: str, fn: Callable) -> Callable:
         def timed(*args: Any, **kwargs: Any) -> Any:
@@ -218,14 +217,14 @@ def git_rev() -> str:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
-    p.add_argument("--repeats", type=int, help="repeats (default 7, --quick 2)")
-    p.add_argument("--steps", type=int, help="steps per repeat (default 100, --quick 10)")
+    p.add_argument("--repeats", type=int, help="repeats (default 15, --quick 3)")
+    p.add_argument("--steps", type=int, help="steps per repeat (default 40, --quick 10)")
     p.add_argument("--settle", type=int, help="steps before timing (default 180, --quick 30)")
     p.add_argument("--quick", action="store_true", help="a short run, to see that it works")
     p.add_argument("--markdown", action="store_true", help="print the tables for STAGES.md")
     args = p.parse_args(argv)
-    args.repeats = args.repeats or (2 if args.quick else 7)
-    args.steps = args.steps or (10 if args.quick else 100)
+    args.repeats = args.repeats or (3 if args.quick else 15)
+    args.steps = args.steps or (10 if args.quick else 40)
     args.settle = args.settle if args.settle is not None else (30 if args.quick else 180)
     load0, started = os.getloadavg()[0], datetime.datetime.now(datetime.timezone.utc)
     warm_up()
@@ -238,9 +237,10 @@ def main(argv: list[str] | None = None) -> int:
     head = (
         f"## Preliminary: {git_rev()}, {started:%Y-%m-%d %H:%M} UTC, load average {load0:.2f} -> "
         f"{os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)\n\n`{command}`: {args.repeats} repeats of {args.steps} "
-        f"steps after {args.settle} settle steps; medians, µs per step. Timer: {costs[0]:.0f} ns taken off each timed "
-        f"call, {costs[1]:.0f} ns (a wrapper's cost) off the timed step per call. Preliminary figures from a shared, "
-        "loaded machine; the ratios, taken within each repeat, carry over better than the times."
+        f"steps after {args.settle} settle steps; µs per step, each figure its own median over the repeats (the parts "
+        f"need not add up). Timer: {costs[0]:.0f} ns taken off each timed call, {costs[1]:.0f} ns (a wrapper's cost) "
+        "off the timed step per call. Preliminary: a shared, loaded machine; the ratios, taken within each repeat, "
+        "carry over better than the times."
     )
     print(markdown(results, head) if args.markdown else head.replace("## ", "").replace("`", ""))
     return 0
