@@ -55,6 +55,7 @@ import engines  # noqa: E402
 
 import phys2d  # noqa: E402
 from phys2d import scenes  # noqa: E402
+from phys2d.pipeline.records import ROW_FIELDS, arrays_of, new_rows  # noqa: E402
 from phys2d.responders.pgs import apply_impulses, per_unit_A, sweep  # noqa: E402
 
 SCENES = {"pyramid_20": 20, "pyramid_40": 40}
@@ -121,11 +122,15 @@ def ten_sweeps(rows, lam0, V0, visit, bodies=None):
     # unsigned indices, as pgs_step hands them to sweep (numba leaves out its negative-index fix-up)
     visit, body_a, body_b = visit.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32)
     lam, V = lam0.copy(), (V0 if bodies is None else bodies[2]).copy()
-    apply_impulses(body_a, body_b, r.JM, lam, V)
-    J_hat, xi_hat = per_unit_A(r.J, r.xi, r.A_kk)
+    fields = dict(zip(ROW_FIELDS, arrays_of(r, ROW_FIELDS)))
+    fields.update(normal_row=r.normal_row.astype(np.uint32), friction_row=r.friction_row.astype(np.uint32))
+    fields.update(body_a=body_a, body_b=body_b, lam=lam)
+    rec = new_rows(tuple(fields.values()))
+    apply_impulses(rec, V)
+    hat = per_unit_A(rec)
     t = time.perf_counter()
     for _ in range(10):
-        sweep(visit, body_a, body_b, J_hat, r.JM, r.A_kk, xi_hat, r.lo, r.hi, r.bound_row, r.mu, lam, V)
+        sweep(visit, hat, V)
     return time.perf_counter() - t, lam, V
 
 

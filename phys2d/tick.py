@@ -335,21 +335,22 @@ def end_tick(s, side, k, max_speed):
 
 
 @njit(cache=True)
-def pgs_tick(s, stage, side, found, cached, world, row_settings, max_speed, iterations, tolerance, block, split):
+def pgs_tick(s, stage, side, found, cached, world, row_settings, max_speed, settings):
     """One tick under ``PGS`` (impulse form): ``contacts_and_rows``, ``pgs_step``, ``end_tick``.
-    Returns (status, K, manifolds, recycled, rows_used, points_used, warm-started contacts,
-    deepest overlap m, sweeps, the pairs' count when it swept them, else -1)."""
+    settings: ``PGSSettings``. Returns (status, K, manifolds, recycled, rows_used, points_used,
+    warm-started contacts, deepest overlap m, sweeps, the pairs' count when it swept them, else -1)."""
     status, k, n_new, recycled, rows_used, points_used, hits, deepest, swept = contacts_and_rows(
         s, stage, side, found, cached, world, row_settings
     )
     if status != OK:
         return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0, swept
     w, n = 1 - side, 2 * k + s.joint_lam.shape[0]
-    sweeps = pgs_step(
-        s.normal_row[:k], s.friction_row[:k], 2 * k, s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n],
-        s.xi[:n], s.push[:n], s.bounce[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n],
-        s.x, s.theta, s.V, s.separation[w][:k], world[2], iterations, tolerance, block, split, s.residuals,
+    bodies = BodyRecord(s.x, s.theta, s.V, s.M_inv, s.V1)
+    rows = RowRecord(
+        s.normal_row[:k], s.friction_row[:k], s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n],
+        s.push[:n], s.bounce[:n], s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n],
     )  # fmt: skip
+    sweeps = pgs_step(bodies, rows, s.separation[w][:k], world[2], settings, s.residuals)
     status = end_tick(s, side, k, max_speed)
     return status, k, n_new, recycled, rows_used, points_used, hits, deepest, sweeps, swept
 
@@ -428,8 +429,7 @@ def _tick_spec(r: Responder) -> TickSpec | None:
     kernel: Callable
     settings: tuple
     if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
-        tol = -1.0 if r.tolerance is None else r.tolerance
-        kernel, settings, n = pgs_tick, (r.iterations, tol, True if r.block else None, r.split), r.iterations
+        kernel, settings, n = pgs_tick, (r.settings,), r.iterations
     elif isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
         soft = (
             r.substeps, r.relax, r.contact_hertz, r.damping_ratio, r.push_max, r.joint_hertz, r.joint_damping_ratio,
