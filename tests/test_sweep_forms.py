@@ -67,7 +67,7 @@ def test_rows_per_unit_A_give_the_lecture_s_sweep():
     apply_impulses(new_rows((*arrays_of(r, ROW_FIELDS[:-1]), lam_b)), V_b)
     visit = np.arange(len(lam_a), dtype=r.normal_row.dtype)
     for _ in range(5):
-        sweep(visit, hat, V_a)
+        sweep(hat, V_a, visit)
         lecture_sweep(r, lam_b, V_b)
     scale = 1.0 + np.abs(lam_b).max()
     assert np.abs(lam_a).max() > 0.0  # a pile under load: the comparison is not of zeros

@@ -38,7 +38,6 @@ from ..constraints.rows import (
     pair_velocity,
     row_velocity,
     store_pair_velocity,
-    unsigned_indices,
 )
 from ..integrate import integrate_positions
 from ..pipeline.records import RowRecord, new_bodies, record_of_rows
@@ -66,21 +65,15 @@ def apply_impulses(rows, V):
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
 
-@njit(cache=True, inline="always")
-def bounds(k, lo, hi, bound_row, mu, lam):
-    """(low, high) of lambda_k: the Coulomb cone +-mu lambda_n of its normal row, or fixed."""
-    if bound_row[k] >= 0:
-        top = mu[k] * lam[bound_row[k]]
-        return -top, top
-    return lo[k], hi[k]
-
-
 @njit(cache=True)
-def sweep(visit, rows, V):
-    """One projected Gauss-Seidel sweep over the rows ``visit``, one row at a time (the
-    lecture's loop); returns the largest velocity correction |delta lambda_k| A_kk (m/s).
+def sweep(rows, V, visit):
+    """One projected Gauss-Seidel sweep, the lecture's loop, over the rows ``visit`` in turn;
+    returns the largest velocity correction |delta lambda_k| A_kk (m/s).
 
-    ``rows`` come divided by A_kk (``per_unit_A``: their J is J_hat, their xi is xi_hat).
+    ``rows`` are per unit A_kk (``per_unit_A``): their J and xi are J_hat_k = J_k / A_kk and
+    xi_hat_k = xi_k / A_kk, so delta = (xi_k - J_k V) / A_kk is xi_hat_k - J_hat_k V. V_ab is the
+    part of V that the row's two bodies a, b hold, (v_a, omega_a, v_b, omega_b), written back
+    into V when the rows turn to another pair (docs/formulation.md, "Impulse form").
     """
     body_a, body_b, J_hat, JM, A_kk, xi_hat = rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi
     lo, hi, bound_row, mu, lam = rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam
@@ -88,24 +81,24 @@ def sweep(visit, rows, V):
     if visit.shape[0] == 0:
         return worst
     a_held, b_held = body_a[visit[0]], body_b[visit[0]]
-    V_ab = pair_velocity(a_held, b_held, V)  # the held pair's velocities
-    for q in range(visit.shape[0]):
-        k = visit[q]
+    V_ab = pair_velocity(a_held, b_held, V)
+    for k in visit:
         if A_kk[k] <= 0.0:
             continue  # both bodies static: nothing can move
-        low, high = bounds(k, lo, hi, bound_row, mu, lam)
-        old = lam[k]
-        if high == 0.0 and old == 0.0:
-            continue  # friction of a point that does not push: its cone [0, 0] is met already
         a, b = body_a[k], body_b[k]
-        if a != a_held or b != b_held:  # another pair: put the last one's velocities back
+        if a != a_held or b != b_held:  # another pair of bodies
             store_pair_velocity(a_held, b_held, V_ab, V)
             a_held, b_held, V_ab = a, b, pair_velocity(a, b, V)
-        # lambda_k + (xi_k - J_k V) / A_kk, clamped: clamp the accumulated impulse, not delta;
-        # as bounds on delta (low - lambda_k, high - lambda_k), which wait on no row before
-        delta = min(max(xi_hat[k] - pair_row_velocity(k, J_hat, V_ab), low - old), high - old)
-        V_ab = pair_row_impulse(k, JM, delta, V_ab)
-        lam[k] = min(max(old + delta, low), high)  # the same up to rounding, and never past a bound
+        delta = xi_hat[k] - pair_row_velocity(k, J_hat, V_ab)  # (xi_k - J_k V) / A_kk
+        if bound_row[k] >= 0:  # friction: the Coulomb cone +-mu lambda_n of its normal row
+            high = mu[k] * lam[bound_row[k]]
+            low = -high
+        else:
+            low, high = lo[k], hi[k]
+        new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
+        delta = new - lam[k]
+        lam[k] = new
+        V_ab = pair_row_impulse(k, JM, delta, V_ab)  # V += M^-1 J_k^T delta
         worst = max(worst, abs(delta) * A_kk[k])
     store_pair_velocity(a_held, b_held, V_ab, V)
     return worst
@@ -142,12 +135,12 @@ def solve_normal_pair(n1, n2, rows, V):
 
 
 @njit(cache=True)
-def block_sweep(rows, rows_hat, joint_rows, V):
+def block_sweep(rows, rows_hat, V, joint_rows):
     """One block Gauss-Seidel sweep (Box2D's block solver): a two-point manifold's normal
     rows together (``solve_normal_pair``, on ``rows``), then its friction rows; other contacts
-    and the joint rows ``joint_rows`` row by row (``sweep``, on ``rows_hat``: ``per_unit_A``).
-    Returns the largest |delta lambda_k| A_kk (m/s). With no friction rows (``rows.friction_row``
-    empty) only the normal rows are swept."""
+    and the joint rows ``joint_rows`` row by row (``sweep``, on ``rows_hat``, the same rows per
+    unit A_kk). Returns the largest |delta lambda_k| A_kk (m/s). With no friction rows
+    (``rows.friction_row`` empty) only the normal rows are swept."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     worst = 0.0
     n_contacts = normal_row.shape[0]
@@ -163,29 +156,27 @@ def block_sweep(rows, rows_hat, joint_rows, V):
                 worst = max(worst, err)
                 together = 2
         if together == 1:
-            worst = max(worst, sweep(normal_row[q : q + 1], rows_hat, V))
+            worst = max(worst, sweep(rows_hat, V, normal_row[q : q + 1]))
         if not frictionless:
-            worst = max(worst, sweep(friction_row[q : q + together], rows_hat, V))
+            worst = max(worst, sweep(rows_hat, V, friction_row[q : q + together]))
         q += together
-    return max(worst, sweep(joint_rows, rows_hat, V))
+    return max(worst, sweep(rows_hat, V, joint_rows))
 
 
 @njit(cache=True, inline="always")
 def with_target(rows, xi, lam, friction_row):
-    """The rows as the sweeps take them: solved for the target xi from the impulses lam, with
-    the friction rows ``friction_row`` (none for the push pass), and their row map and bodies
-    as uint32 (``unsigned_indices``)."""
-    normal_row, friction_row, body_a, body_b = unsigned_indices(rows.normal_row, friction_row, rows.body_a, rows.body_b)
+    """The rows solved for the target xi from the impulses lam, with the friction rows
+    ``friction_row`` (none for the push pass)."""
     return RowRecord(
-        normal_row, friction_row, body_a, body_b, rows.J, rows.JM, rows.A_kk, xi, rows.push, rows.bounce,
-        rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, lam,
+        rows.normal_row, friction_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, xi, rows.push,
+        rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, lam,
     )  # fmt: skip
 
 
 @njit(cache=True)
 def per_unit_A(rows):
-    """The rows with every row and its target divided by its A_kk (0 where A_kk = 0): J_hat
-    and xi_hat in the fields J and xi, once per step, for ``sweep``."""
+    """The rows per unit A_kk, for ``sweep``: the same rows with J_hat_k = J_k / A_kk in J and
+    xi_hat_k = xi_k / A_kk in xi (0 where A_kk = 0)."""
     J, xi = rows.J, rows.xi
     inv_A_kk = inverse_diagonal(rows.A_kk)
     J_hat = np.empty_like(J)
@@ -211,9 +202,9 @@ def pgs_solve(rows, V, iterations, tolerance, residuals, block):
     joint_rows = all_rows[2 * rows.normal_row.shape[0] :]
     for s in range(iterations):
         if block is not None:
-            residuals[s] = block_sweep(rows, rows_hat, joint_rows, V)
+            residuals[s] = block_sweep(rows, rows_hat, V, joint_rows)
         else:
-            residuals[s] = sweep(all_rows, rows_hat, V)
+            residuals[s] = sweep(rows_hat, V, all_rows)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -245,9 +236,9 @@ def push_out(rows, V_push, iterations, tolerance, block):
     push_hat = per_unit_A(push_rows)
     for s in range(iterations):
         if block is not None:
-            worst = block_sweep(push_rows, push_hat, none, V_push)
+            worst = block_sweep(push_rows, push_hat, V_push, none)
         else:
-            worst = sweep(push_rows.normal_row, push_hat, V_push)
+            worst = sweep(push_hat, V_push, push_rows.normal_row)
         if worst <= tolerance:
             return s + 1
     return iterations
