@@ -55,6 +55,7 @@ import engines  # noqa: E402
 
 import phys2d  # noqa: E402
 from phys2d import scenes  # noqa: E402
+from phys2d.pipeline.records import ROW_FIELDS, arrays_of, new_rows  # noqa: E402
 from phys2d.responders.pgs import apply_impulses, per_unit_A, sweep  # noqa: E402
 
 SCENES = {"pyramid_20": 20, "pyramid_40": 40}
@@ -118,14 +119,16 @@ def ten_sweeps(rows, lam0, V0, visit, bodies=None):
     ``bodies``: (body_a, body_b, V0) to use instead of the rows' own."""
     r = rows
     body_a, body_b = (r.body_a, r.body_b) if bodies is None else bodies[:2]
-    # unsigned indices, as pgs_step hands them to sweep (numba leaves out its negative-index fix-up)
-    visit, body_a, body_b = visit.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32)
     lam, V = lam0.copy(), (V0 if bodies is None else bodies[2]).copy()
-    apply_impulses(body_a, body_b, r.JM, lam, V)
-    J_hat, xi_hat = per_unit_A(r.J, r.xi, r.A_kk)
+    fields = dict(zip(ROW_FIELDS, arrays_of(r, ROW_FIELDS)))
+    fields.update(body_a=body_a, body_b=body_b, lam=lam)
+    rec = new_rows(tuple(fields.values()))
+    visit = visit.astype(r.normal_row.dtype)  # as pgs_solve visits them
+    apply_impulses(rec, V)
+    hat = per_unit_A(rec)
     t = time.perf_counter()
     for _ in range(10):
-        sweep(visit, body_a, body_b, J_hat, r.JM, r.A_kk, xi_hat, r.lo, r.hi, r.bound_row, r.mu, lam, V)
+        sweep(hat, V, visit)
     return time.perf_counter() - t, lam, V
 
 
@@ -186,6 +189,16 @@ def report(results: list[dict], header: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def kept_sections(path: Path) -> str:
+    """The sections written by hand after the table (from the first '## ' heading on), which a
+    new run keeps."""
+    if not path.exists():
+        return ""
+    text = path.read_text()
+    at = text.find("\n## ")
+    return "" if at < 0 else text[at:]
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--repeats", type=int, default=None, help="repeats (default 31, quick 3)")
@@ -212,7 +225,7 @@ def main() -> None:
     text = report(results, header)
     print(text)
     if not args.quick:
-        args.out.write_text(text)
+        args.out.write_text(text + kept_sections(args.out))
 
 
 if __name__ == "__main__":

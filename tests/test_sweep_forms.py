@@ -7,10 +7,12 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
+from numba import njit
 
 import phys2d
 from phys2d import scenes
 from phys2d.constraints.rows import apply_row_impulse, row_velocity
+from phys2d.pipeline.records import ROW_FIELDS, arrays_of, new_rows
 from phys2d.responders.pgs import apply_impulses, lcp2, per_unit_A, sweep
 
 
@@ -52,18 +54,20 @@ def lecture_sweep(r, lam, V):
 
 def test_rows_per_unit_A_give_the_lecture_s_sweep():
     r, lam0, V0 = rows_of_a_pile()
-    J_hat, xi_hat = per_unit_A(r.J, r.xi, r.A_kk)
+    lam_a, V_a = lam0.copy(), V0.copy()
+    lam_b, V_b = lam0.copy(), V0.copy()
+    rows_a = new_rows((*arrays_of(r, ROW_FIELDS[:-1]), lam_a))  # the rows, with lambda lam_a
+    hat = per_unit_A(rows_a)
+    J_hat, xi_hat = njit(lambda rows: (rows.J, rows.xi))(hat)  # (a record's fields are read in a kernel)
     live = r.A_kk > 0.0
     assert np.allclose(J_hat[live] * r.A_kk[live, None], r.J[live], rtol=1e-14, atol=0.0)
     assert np.allclose(xi_hat[live] * r.A_kk[live], r.xi[live], rtol=1e-14, atol=1e-300)
     assert not J_hat[~live].any() and not xi_hat[~live].any()
-    lam_a, V_a = lam0.copy(), V0.copy()
-    lam_b, V_b = lam0.copy(), V0.copy()
-    apply_impulses(r.body_a, r.body_b, r.JM, lam_a, V_a)
-    apply_impulses(r.body_a, r.body_b, r.JM, lam_b, V_b)
+    apply_impulses(rows_a, V_a)
+    apply_impulses(new_rows((*arrays_of(r, ROW_FIELDS[:-1]), lam_b)), V_b)
     visit = np.arange(len(lam_a), dtype=r.normal_row.dtype)
     for _ in range(5):
-        sweep(visit, r.body_a, r.body_b, J_hat, r.JM, r.A_kk, xi_hat, r.lo, r.hi, r.bound_row, r.mu, lam_a, V_a)
+        sweep(hat, V_a, visit)
         lecture_sweep(r, lam_b, V_b)
     scale = 1.0 + np.abs(lam_b).max()
     assert np.abs(lam_a).max() > 0.0  # a pile under load: the comparison is not of zeros

@@ -3,18 +3,7 @@
 import numpy as np
 from numba import njit
 
-from ..responders.pgs import pgs_step
 from ..responders.soft_step import soft_step_solve
-
-
-@njit(cache=True)
-def _pgs_shim(bodies, r, separation, dt, pgs, residuals):  # TEMPORARY: the old pgs_step
-    iterations, tolerance, block, split = pgs
-    return pgs_step(
-        r.normal_row, r.friction_row, 2 * r.normal_row.shape[0], r.body_a, r.body_b, r.J, r.JM, r.A_kk, r.xi, r.push,
-        r.bounce, r.lo, r.hi, r.bound_row, r.mu, r.lam, bodies.x, bodies.theta, bodies.V, separation, dt, iterations,
-        tolerance, block, split, residuals,
-    )  # fmt: skip
 
 
 @njit(cache=True)

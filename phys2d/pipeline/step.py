@@ -86,9 +86,7 @@ def _tick_spec(r: Responder) -> TickSpec:
     if "respond" in r.__dict__:  # replaced on the instance (a test's spy, say): call it, stage by stage
         return staged
     if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
-        tol = -1.0 if r.tolerance is None else r.tolerance
-        pgs = (r.iterations, tol, True if r.block else None, r.split)
-        return staged._replace(one_call=True, pgs=pgs, n_residuals=r.iterations)
+        return staged._replace(one_call=True, pgs=r.settings, n_residuals=r.iterations)
     if isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
         soft = (
             r.substeps, r.relax, r.contact_hertz, r.damping_ratio, r.push_max, r.joint_hertz, r.joint_damping_ratio,

@@ -16,7 +16,7 @@ from ..constraints.joints import start_joint_rows
 from ..constraints.rows import contact_rows
 from ..contacts import impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
-from ._shims import _pgs_shim as pgs_step
+from ..responders.pgs import pgs_step
 from ._shims import _soft_shim as soft_step_solve
 from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, order_contacts, sweep
 

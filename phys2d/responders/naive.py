@@ -43,11 +43,14 @@ The impulses of a pair are reported on its colliding points, shared equally
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 from ..integrate import integrate_positions
+from ..pipeline.records import record_of_rows
 from ..validation import Setting, non_negative_float
 from .base import Responder, SolveResult, StepContext
 
@@ -65,12 +68,13 @@ def manifold_starts(body_a: np.ndarray, body_b: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def colliding_points(separation, normal_row, i, j, J, V, dt, out):
+def colliding_points(rows, separation, V, dt, out):
     """out[c] = True where point c is a collision: overlapping, or closing its gap this step
     (to within MET: a path that ends exactly on the surface, as symmetric flights do, meets it)."""
+    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
     for c in range(separation.shape[0]):
         k = normal_row[c]
-        a, b = i[k], j[k]
+        a, b = body_a[k], body_b[k]
         vn = (
             J[k, 0] * V[a, 0]
             + J[k, 1] * V[a, 1]
@@ -80,6 +84,37 @@ def colliding_points(separation, normal_row, i, j, J, V, dt, out):
             + J[k, 5] * V[b, 2]
         )
         out[c] = separation[c] <= 0.0 or separation[c] + dt * vn <= MET
+
+
+class PairRows(NamedTuple):
+    """Each contact pair p's rows at P_0 (``pair_rows``) and what its impulses need."""
+
+    body_a: np.ndarray  # (P,) the pair's bodies
+    body_b: np.ndarray
+    J_n: np.ndarray  # (P, 6) the normal row at P_0, its M^-1 J^T and A_nn (0: no colliding point)
+    JM_n: np.ndarray
+    A_n: np.ndarray
+    J_t: np.ndarray  # (P, 6) the friction row at P_0, its M^-1 J^T and A_tt
+    JM_t: np.ndarray
+    A_t: np.ndarray
+    gap: np.ndarray  # (P,) m: > 0 when all its colliding points are still apart (the smallest gap)
+    e: np.ndarray  # (P,) restitution
+    mu: np.ndarray  # (P,) friction coefficient
+    f_n: np.ndarray  # (P,) N s: the normal impulses applied, added up
+    f_t: np.ndarray  # (P,) N s: the friction impulses applied, added up
+
+    @classmethod
+    def zeros(cls, n_pairs: int, e: np.ndarray, mu: np.ndarray) -> PairRows:
+        """Rows of n_pairs pairs of restitution e and friction mu, all else 0."""
+
+        def rows() -> np.ndarray:
+            return np.zeros((n_pairs, 6))
+
+        def each() -> np.ndarray:
+            return np.zeros(n_pairs)
+
+        bodies = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
+        return cls(*bodies, rows(), rows(), each(), rows(), rows(), each(), each(), e, mu, each(), each())
 
 
 @njit(cache=True)
@@ -104,40 +139,47 @@ def _mean_row(start, end, row, use, J, M_inv, a, b, out_J, out_JM, p):
 
 
 @njit(cache=True)
-def pair_rows(starts, use, separation, normal_row, friction_row, i, j, J, M_inv, Jn, JMn, An, Jt, JMt, At, pa, pb, gap):
+def pair_rows(starts, use, separation, rows, M_inv, pairs):
     """Each pair's normal and friction row at P_0, the mean of its colliding points, and its
-    gap: the smallest separation of those points when all are still apart (m), else 0.
+    gap: the smallest separation of those points when all are still apart (m), else 0
+    (into ``pairs``, from the contact rows ``rows``).
 
     A pair without a colliding point gets A_n = 0 and is skipped by the passes.
     """
+    normal_row, friction_row, body_a, body_b, J = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, rows.J
+    gap = pairs.gap
     for p in range(starts.shape[0] - 1):
         start, end = starts[p], starts[p + 1]
-        a, b = i[normal_row[start]], j[normal_row[start]]
-        pa[p] = a
-        pb[p] = b
+        a, b = body_a[normal_row[start]], body_b[normal_row[start]]
+        pairs.body_a[p] = a
+        pairs.body_b[p] = b
         any_used = False
         for c in range(start, end):
             any_used = any_used or use[c]
         if not any_used:
-            An[p] = 0.0
-            At[p] = 0.0
+            pairs.A_n[p] = 0.0
+            pairs.A_t[p] = 0.0
             continue
         gap[p] = np.inf
         for c in range(start, end):
             if use[c]:
                 gap[p] = min(gap[p], separation[c] if separation[c] > MET else 0.0)  # touching within MET
-        An[p] = _mean_row(start, end, normal_row, use, J, M_inv, a, b, Jn, JMn, p)
-        At[p] = _mean_row(start, end, friction_row, use, J, M_inv, a, b, Jt, JMt, p)
+        pairs.A_n[p] = _mean_row(start, end, normal_row, use, J, M_inv, a, b, pairs.J_n, pairs.JM_n, p)
+        pairs.A_t[p] = _mean_row(start, end, friction_row, use, J, M_inv, a, b, pairs.J_t, pairs.JM_t, p)
 
 
 @njit(cache=True)
-def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, V, dt, f_n, f_t):
+def impulse_pass(pairs, V, dt):
     """One pass over the pairs: the lecture's impulse where they approach, then friction.
 
     A pair still apart by gap[p] > 0 only closes it: f = -(J_n V + gap/dt) / A_nn.
     Each increment stands on its own: f >= 0 and |f_t| <= mu f of this same pass.
     f_n, f_t add up what was applied (N s). Returns the largest |f| A (m/s) of the pass.
     """
+    pa, pb, Jn, JMn, An, Jt, JMt, At = (
+        pairs.body_a, pairs.body_b, pairs.J_n, pairs.JM_n, pairs.A_n, pairs.J_t, pairs.JM_t, pairs.A_t
+    )  # fmt: skip
+    gap, e, mu, f_n, f_t = pairs.gap, pairs.e, pairs.mu, pairs.f_n, pairs.f_t
     worst = 0.0
     for p in range(pa.shape[0]):
         if An[p] <= 0.0:
@@ -162,11 +204,14 @@ def impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, V, dt, f_n, f_t):
 
 
 @njit(cache=True)
-def bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, dt, f_n, V):
+def bounce_landed(pairs, vn_start, vn_forced, dt, V):
     """After the positions moved: bounce each pair that met its partner within the step (gap > 0,
     and it pushed or its gap closed to within MET) from its approach speed at impact,
     f = (bounce - J_n V) / A_nn when it is > 0. With
     the landing impulse this adds up to the lecture's -(1 + e) J_n V / A_nn (no external forces)."""
+    pa, pb, Jn, JMn, An, gap, e, f_n = (
+        pairs.body_a, pairs.body_b, pairs.J_n, pairs.JM_n, pairs.A_n, pairs.gap, pairs.e, pairs.f_n
+    )  # fmt: skip
     for p in range(pa.shape[0]):
         if An[p] <= 0.0 or gap[p] <= 0.0:
             continue
@@ -245,55 +290,42 @@ def pairwise_response(ctx: StepContext, passes: int, push_max: float) -> SolveRe
     """``passes`` impulse passes over the contact pairs, the push-apart, the positions, then the
     bounce of the pairs that met within the step (both naive takes)."""
     r = ctx.rows
+    rows = record_of_rows(r)
     k = ctx.n_contacts
     starts = manifold_starts(ctx.body_a, ctx.body_b)
     n_pairs = starts.shape[0] - 1
     use = np.zeros(k, np.bool_)
-    colliding_points(ctx.separation, r.normal_row, r.body_a, r.body_b, r.J, ctx.V, ctx.dt, use)
-    Jn, JMn, Jt, JMt = (np.zeros((n_pairs, 6)) for _ in range(4))
-    An, At = np.zeros(n_pairs), np.zeros(n_pairs)
-    pa, pb = np.zeros(n_pairs, np.int32), np.zeros(n_pairs, np.int32)
-    gap = np.zeros(n_pairs)
-    pair_rows(
-        starts,
-        use,
-        ctx.separation,
-        r.normal_row,
-        r.friction_row,
-        r.body_a,
-        r.body_b,
-        r.J,
-        ctx.M_inv,
-        Jn,
-        JMn,
-        An,
-        Jt,
-        JMt,
-        At,
-        pa,
-        pb,
-        gap,
-    )
-    vn_start, vn_forced = pair_velocities(pa, pb, Jn, ctx.V1), pair_velocities(pa, pb, Jn, ctx.V)
+    colliding_points(rows, ctx.separation, ctx.V, ctx.dt, use)
     first = starts[:-1]
     e = ctx.restitution[first] if k else np.zeros(0)
-    mu = r.mu[r.friction_row[first]] if k else np.zeros(0)
-    f_n, f_t = np.zeros(n_pairs), np.zeros(n_pairs)
+    pairs = PairRows.zeros(n_pairs, e, r.mu[r.friction_row[first]] if k else np.zeros(0))
+    pair_rows(starts, use, ctx.separation, rows, ctx.M_inv, pairs)
+    vn_start, vn_forced = pair_velocities(pairs, ctx.V1), pair_velocities(pairs, ctx.V)
     residuals = np.zeros(passes)
     for s in range(passes):
-        residuals[s] = impulse_pass(pa, pb, Jn, JMn, An, Jt, JMt, At, gap, e, mu, ctx.V, ctx.dt, f_n, f_t)
+        residuals[s] = impulse_pass(pairs, ctx.V, ctx.dt)
     push_apart(
-        starts, ctx.separation, ctx.normal, pa, pb, ctx.M_inv, ctx.x, PUSH_PASSES, PUSH_TOLERANCE, push_max * ctx.dt
+        starts,
+        ctx.separation,
+        ctx.normal,
+        pairs.body_a,
+        pairs.body_b,
+        ctx.M_inv,
+        ctx.x,
+        PUSH_PASSES,
+        PUSH_TOLERANCE,
+        push_max * ctx.dt,
     )
     integrate_positions(ctx.x, ctx.theta, ctx.V, ctx.dt)
-    bounce_landed(pa, pb, Jn, JMn, An, gap, e, vn_start, vn_forced, ctx.dt, f_n, ctx.V)
-    report_on_points(starts, use, r.normal_row, r.friction_row, f_n, f_t, r.lam)
+    bounce_landed(pairs, vn_start, vn_forced, ctx.dt, ctx.V)
+    report_on_points(starts, use, r.normal_row, r.friction_row, pairs.f_n, pairs.f_t, r.lam)
     return SolveResult(passes, residuals, integrated=True)
 
 
-def pair_velocities(pa: np.ndarray, pb: np.ndarray, Jn: np.ndarray, V: np.ndarray) -> np.ndarray:
+def pair_velocities(pairs: PairRows, V: np.ndarray) -> np.ndarray:
     """J_n V of each pair's row at P_0 (m/s)."""
-    return np.einsum("pc,pc->p", Jn[:, :3], V[pa]) + np.einsum("pc,pc->p", Jn[:, 3:], V[pb])
+    Jn = pairs.J_n
+    return np.einsum("pc,pc->p", Jn[:, :3], V[pairs.body_a]) + np.einsum("pc,pc->p", Jn[:, 3:], V[pairs.body_b])
 
 
 class NaiveImpulse(Responder):
@@ -319,4 +351,4 @@ class NaiveImpulse(Responder):
         return f"NaiveImpulse(push_max={self.push_max:g})"
 
 
-__all__ = ["NaiveImpulse", "pairwise_response"]
+__all__ = ["NaiveImpulse", "PairRows", "pairwise_response"]

@@ -24,6 +24,8 @@ with its arguments.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -36,9 +38,9 @@ from ..constraints.rows import (
     pair_velocity,
     row_velocity,
     store_pair_velocity,
-    unsigned_indices,
 )
 from ..integrate import integrate_positions
+from ..pipeline.records import RowRecord, new_bodies, record_of_rows
 from ..validation import (
     Setting,
     check_bool,
@@ -55,71 +57,62 @@ from .restitution import bouncing_contacts, restitution_pass
 
 
 @njit(cache=True)
-def apply_impulses(body_a, body_b, JM, lam, V):
+def apply_impulses(rows, V):
     """V += M^-1 J^T lambda: the warm start, one row at a time."""
+    body_a, body_b, JM, lam = rows.body_a, rows.body_b, rows.JM, rows.lam
     for k in range(lam.shape[0]):
         if lam[k] != 0.0:
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
 
-@njit(cache=True, inline="always")
-def bounds(k, lo, hi, bound_row, mu, lam):
-    """(low, high) of lambda_k: the Coulomb cone +-mu lambda_n of its normal row, or fixed."""
-    if bound_row[k] >= 0:
-        top = mu[k] * lam[bound_row[k]]
-        return -top, top
-    return lo[k], hi[k]
-
-
 @njit(cache=True)
-def sweep(visit, body_a, body_b, J_hat, JM, A_kk, xi_hat, lo, hi, bound_row, mu, lam, V):
-    """One projected Gauss-Seidel sweep over the rows ``visit``, one row at a time (the
-    lecture's loop); returns the largest velocity correction |delta lambda_k| A_kk (m/s).
+def sweep(rows, V, visit):
+    """One projected Gauss-Seidel sweep, the lecture's loop, over the rows ``visit`` in turn;
+    returns the largest velocity correction |delta lambda_k| A_kk (m/s).
 
-    J_k V is read off the current velocities, so it already holds every impulse applied
-    so far: sum_l A_kl lambda_l - b_k = J_k V - xi_k. The rows come divided by A_kk
-    (``per_unit_A``: J_hat = J_k / A_kk, xi_hat = xi_k / A_kk), so lambda_k + (xi_k - J_k V) / A_kk
-    is lambda_k + xi_hat_k - J_hat_k V: nothing but the clamp waits on the sum, which waits on
-    the last row's impulse (benchmarks/SWEEP_ORDER.md: 14.0 -> 13.0 ns a row on pyramid_40).
-    Clamping delta between the bounds less lambda_k takes one more step off that wait
-    (pyramid_20's rows: 12.2 -> 11.8 ns a row). A pair's rows follow one another (its contacts'
-    normal and friction rows), so the sweep holds the pair's velocities V_ab in hand from row
-    to row and writes them back when the pair changes: the next row no longer waits for V to be
-    stored and loaded again (pyramid_20, both sweeps in one process: 11.1-11.3 -> 8.2-9.5 ns a
-    row; the same sums in the same order, so the same results to the bit).
+    ``rows`` are per unit A_kk (``per_unit_A``): their J and xi are J_hat_k = J_k / A_kk and
+    xi_hat_k = xi_k / A_kk, so delta = (xi_k - J_k V) / A_kk is xi_hat_k - J_hat_k V. V_ab is the
+    part of V that the row's two bodies a, b hold, (v_a, omega_a, v_b, omega_b), written back
+    into V when the rows turn to another pair (docs/formulation.md, "Impulse form").
     """
+    body_a, body_b, J_hat, JM, A_kk, xi_hat = rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi
+    lo, hi, bound_row, mu, lam = rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam
     worst = 0.0
     if visit.shape[0] == 0:
         return worst
     a_held, b_held = body_a[visit[0]], body_b[visit[0]]
-    V_ab = pair_velocity(a_held, b_held, V)  # the held pair's velocities
-    for q in range(visit.shape[0]):
-        k = visit[q]
+    V_ab = pair_velocity(a_held, b_held, V)
+    for k in visit:
         if A_kk[k] <= 0.0:
             continue  # both bodies static: nothing can move
-        low, high = bounds(k, lo, hi, bound_row, mu, lam)
-        old = lam[k]
-        if high == 0.0 and old == 0.0:
-            continue  # friction of a point that does not push: its cone [0, 0] is met already
+        if bound_row[k] >= 0:  # friction: the Coulomb cone +-mu lambda_n of its normal row
+            high = mu[k] * lam[bound_row[k]]
+            low = -high
+        else:
+            low, high = lo[k], hi[k]
+        if high == 0.0 and lam[k] == 0.0:
+            continue  # friction of a point that does not push: its cone [0, 0] holds lambda_k = 0 already
         a, b = body_a[k], body_b[k]
-        if a != a_held or b != b_held:  # another pair: put the last one's velocities back
+        if a != a_held or b != b_held:  # another pair of bodies
             store_pair_velocity(a_held, b_held, V_ab, V)
             a_held, b_held, V_ab = a, b, pair_velocity(a, b, V)
-        # lambda_k + (xi_k - J_k V) / A_kk, clamped: clamp the accumulated impulse, not delta;
-        # as bounds on delta (low - lambda_k, high - lambda_k), which wait on no row before
-        delta = min(max(xi_hat[k] - pair_row_velocity(k, J_hat, V_ab), low - old), high - old)
-        V_ab = pair_row_impulse(k, JM, delta, V_ab)
-        lam[k] = min(max(old + delta, low), high)  # the same up to rounding, and never past a bound
+        delta = xi_hat[k] - pair_row_velocity(k, J_hat, V_ab)  # (xi_k - J_k V) / A_kk
+        new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
+        delta = new - lam[k]
+        lam[k] = new
+        V_ab = pair_row_impulse(k, JM, delta, V_ab)  # V += M^-1 J_k^T delta
         worst = max(worst, abs(delta) * A_kk[k])
     store_pair_velocity(a_held, b_held, V_ab, V)
     return worst
 
 
 @njit(cache=True, inline="always")
-def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
-    """Both normal rows of a two-point manifold at once, as an exact 2x2 LCP (lcp2);
+def solve_normal_pair(n1, n2, rows, V):
+    """Both normal rows n1, n2 of a two-point manifold at once, as an exact 2x2 LCP (lcp2);
     returns the largest |delta lambda| A_kk (m/s), or -1 when the pair is too
     ill-conditioned to solve as a block (nothing is changed then)."""
+    J, JM, A_kk, xi, lam = rows.J, rows.JM, rows.A_kk, rows.xi, rows.lam
+    a, b = rows.body_a[n1], rows.body_b[n1]
     K11, K22 = A_kk[n1], A_kk[n2]
     K12 = 0.0
     for c in range(6):
@@ -144,235 +137,148 @@ def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
 
 
 @njit(cache=True)
-def block_sweep(
-    normal_row, friction_row, joint_rows, body_a, body_b, J, J_hat, JM, A_kk, xi, xi_hat, lo, hi, bound_row, mu, lam, V
-):
+def block_sweep(rows, rows_hat, V, joint_rows):
     """One block Gauss-Seidel sweep (Box2D's block solver): a two-point manifold's normal
-    rows together (``solve_normal_pair``, on J and xi), then its friction rows; other contacts
-    and the joints row by row (``sweep``, on J_hat and xi_hat: ``per_unit_A``). Returns the
-    largest |delta lambda_k| A_kk (m/s). With no friction rows (``friction_row`` empty) only
-    the normal rows are swept."""
+    rows together (``solve_normal_pair``, on ``rows``), then its friction rows; other contacts
+    and the joint rows ``joint_rows`` row by row (``sweep``, on ``rows_hat``, the same rows per
+    unit A_kk). Returns the largest |delta lambda_k| A_kk (m/s). With no friction rows
+    (``rows.friction_row`` empty) only the normal rows are swept."""
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     worst = 0.0
     n_contacts = normal_row.shape[0]
     frictionless = friction_row.shape[0] == 0
-    rows = (body_a, body_b, J_hat, JM, A_kk, xi_hat, lo, hi, bound_row, mu, lam, V)  # what sweep takes after visit
     q = 0
     while q < n_contacts:
         n1 = normal_row[q]
         a, b = body_a[n1], body_b[n1]
         together = 1  # contacts taken in this turn
         if q + 1 < n_contacts and body_a[normal_row[q + 1]] == a and body_b[normal_row[q + 1]] == b:
-            err = solve_normal_pair(n1, normal_row[q + 1], a, b, J, JM, A_kk, xi, lam, V)
+            err = solve_normal_pair(n1, normal_row[q + 1], rows, V)
             if err >= 0.0:  # solved as a block: then the two friction rows
                 worst = max(worst, err)
                 together = 2
         if together == 1:
-            worst = max(worst, sweep(normal_row[q : q + 1], *rows))
+            worst = max(worst, sweep(rows_hat, V, normal_row[q : q + 1]))
         if not frictionless:
-            worst = max(worst, sweep(friction_row[q : q + together], *rows))
+            worst = max(worst, sweep(rows_hat, V, friction_row[q : q + together]))
         q += together
-    return max(worst, sweep(joint_rows, *rows))
+    return max(worst, sweep(rows_hat, V, joint_rows))
+
+
+@njit(cache=True, inline="always")
+def with_target(rows, xi, lam, friction_row):
+    """The rows solved for the target xi from the impulses lam, with the friction rows
+    ``friction_row`` (none for the push pass)."""
+    return RowRecord(
+        rows.normal_row, friction_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, xi, rows.push,
+        rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, lam,
+    )  # fmt: skip
 
 
 @njit(cache=True)
-def per_unit_A(J, xi, A_kk):
-    """(J_hat, xi_hat): every row and its target divided by its A_kk (0 where A_kk = 0), once
-    per step, for ``sweep``."""
-    inv_A_kk = inverse_diagonal(A_kk)
+def per_unit_A(rows):
+    """The rows per unit A_kk, for ``sweep``: the same rows with J_hat_k = J_k / A_kk in J and
+    xi_hat_k = xi_k / A_kk in xi (0 where A_kk = 0)."""
+    J, xi = rows.J, rows.xi
+    inv_A_kk = inverse_diagonal(rows.A_kk)
     J_hat = np.empty_like(J)
     xi_hat = np.empty_like(xi)
     for k in range(J.shape[0]):
         for c in range(6):
             J_hat[k, c] = J[k, c] * inv_A_kk[k]
         xi_hat[k] = xi[k] * inv_A_kk[k]
-    return J_hat, xi_hat
+    return RowRecord(
+        rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, J_hat, rows.JM, rows.A_kk, xi_hat, rows.push,
+        rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
+    )  # fmt: skip
 
 
-@njit(cache=True, inline="always")
-def pgs_solve(
-    normal_row,
-    friction_row,
-    first_joint_row,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    xi,
-    lo,
-    hi,
-    bound_row,
-    mu,
-    lam,
-    V,
-    iterations,
-    tolerance,
-    residuals,
-    block,
-):
-    """Warm start from ``lam``, then sweep all rows in solve order (rows are stored in it)
+@njit(cache=True)
+def pgs_solve(rows, V, iterations, tolerance, residuals, block):
+    """Warm start from rows.lam, then sweep all rows in solve order (rows are stored in it)
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
-    residuals[s] is sweep s's. ``block``: see ``pgs_step``."""
-    apply_impulses(body_a, body_b, JM, lam, V)
-    J_hat, xi_hat = per_unit_A(J, xi, A_kk)
-    all_rows = np.arange(lam.shape[0], dtype=normal_row.dtype)  # the row map's dtype: sweep compiles once
-    joint_rows = all_rows[first_joint_row:]
-    rows = (body_a, body_b, J_hat, JM, A_kk, xi_hat, lo, hi, bound_row, mu, lam, V)  # what sweep takes after visit
+    residuals[s] is sweep s's. ``block``: see ``PGSSettings``."""
+    apply_impulses(rows, V)
+    rows_hat = per_unit_A(rows)
+    all_rows = np.arange(rows.lam.shape[0], dtype=rows.normal_row.dtype)  # the row map's dtype: sweep compiles once
+    joint_rows = all_rows[2 * rows.normal_row.shape[0] :]
     for s in range(iterations):
         if block is not None:
-            residuals[s] = block_sweep(
-                normal_row, friction_row, joint_rows, body_a, body_b, J, J_hat, JM, A_kk, xi, xi_hat, lo, hi,
-                bound_row, mu, lam, V,
-            )  # fmt: skip
+            residuals[s] = block_sweep(rows, rows_hat, V, joint_rows)
         else:
-            residuals[s] = sweep(all_rows, *rows)
+            residuals[s] = sweep(rows_hat, V, all_rows)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
 
 
 @njit(cache=True)
-def pushes(normal_row, push):
+def pushes(rows):
     """Whether any contact point overlaps past slop (push_k > 0): else there is nothing to push out."""
-    for k in normal_row:
-        if push[k] > 0.0:
+    for k in rows.normal_row:
+        if rows.push[k] > 0.0:
             return True
     return False
 
 
 @njit(cache=True)
-def push_out(
-    normal_row, body_a, body_b, J, JM, A_kk, push, lo, hi, bound_row, mu, lam_push, V_push, iterations, tolerance, block
-):
+def push_out(rows, V_push, iterations, tolerance, block):
     """Split impulses: sweep the contact normal rows for pseudo-velocities V_push that reach
-    J_k V_push >= push_k (the capped Baumgarte push), lam_push >= 0, from V_push = 0.
+    J_k V_push >= push_k (the capped Baumgarte push), lambda_p >= 0, from V_push = 0.
 
     Positions then move with V + V_push, and V_push is dropped: the push removes overlap
     without ever becoming velocity, so a stack pushed out of a deep overlap is not thrown.
     Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
-    ``block``: see ``pgs_step``.
+    ``block``: see ``PGSSettings``.
     """
-    if not pushes(normal_row, push):
+    if not pushes(rows):
         return 0
-    J_hat, push_hat = per_unit_A(J, push, A_kk)
-    none = normal_row[:0]  # no friction rows, no joint rows: the normal rows only
+    none = rows.normal_row[:0]  # no friction rows, no joint rows: the normal rows only
+    push_rows = with_target(rows, rows.push, np.zeros(rows.lam.shape[0]), none)
+    push_hat = per_unit_A(push_rows)
     for s in range(iterations):
         if block is not None:
-            worst = block_sweep(
-                normal_row, none, none, body_a, body_b, J, J_hat, JM, A_kk, push, push_hat, lo, hi, bound_row, mu,
-                lam_push, V_push,
-            )  # fmt: skip
+            worst = block_sweep(push_rows, push_hat, V_push, none)
         else:
-            worst = sweep(
-                normal_row, body_a, body_b, J_hat, JM, A_kk, push_hat, lo, hi, bound_row, mu, lam_push, V_push
-            )
+            worst = sweep(push_hat, V_push, push_rows.normal_row)
         if worst <= tolerance:
             return s + 1
     return iterations
 
 
-@njit(cache=True)
-def pgs_step(
-    normal_row,
-    friction_row,
-    first_joint_row,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    xi,
-    push,
-    bounce,
-    lo,
-    hi,
-    bound_row,
-    mu,
-    lam,
-    x,
-    theta,
-    V,
-    separation,
-    dt,
-    iterations,
-    tolerance,
-    block,
-    split,
-    residuals,
-):
-    """``PGS.respond`` in one call: warm start and sweeps on V, the push pass (split) or
-    the push inside xi (not split), positions moved, then the restitution pass.
-    Returns the sweeps made on A lambda = b.
+class PGSSettings(NamedTuple):
+    """What ``pgs_step`` is told besides the rows: sweeps at most; the residual (m/s) that
+    stops them (-1.0: never); ``block``, True for Box2D's block sweep (``block_sweep``) or
+    None for the lecture's row-by-row sweep, not False: numba compiles a function once per
+    type of its arguments and settles ``block is None`` when it compiles, so a PGS compiles
+    only the sweep it uses (the block sweep takes seconds to compile); and ``split``, whether
+    the push goes through pseudo-velocities of its own (``push_out``) or into xi."""
 
-    ``block`` is True for Box2D's block sweep (``block_sweep``), None for the lecture's
-    row-by-row sweep. Not False: numba compiles a function once per type of its arguments,
-    and ``block is None`` is settled when it compiles, so a PGS compiles only the sweep it
-    uses (the block sweep takes seconds to compile).
-    """
-    normal_row, friction_row, body_a, body_b = unsigned_indices(normal_row, friction_row, body_a, body_b)
-    target = xi if split else xi + push  # the lecture: the push is part of the target
-    n = pgs_solve(
-        normal_row,
-        friction_row,
-        first_joint_row,
-        body_a,
-        body_b,
-        J,
-        JM,
-        A_kk,
-        target,
-        lo,
-        hi,
-        bound_row,
-        mu,
-        lam,
-        V,
-        iterations,
-        tolerance,
-        residuals,
-        block,
-    )
+    iterations: int
+    tolerance: float
+    block: bool | None
+    split: bool
+
+
+@njit(cache=True)
+def pgs_step(bodies, rows, separation, dt, settings, residuals):
+    """``PGS.respond`` in one call on the bodies' record and the step's rows: warm start and
+    sweeps on V, the push pass (split) or the push inside xi (not split), positions moved,
+    then the restitution pass. ``separation``: (K,) each contact's C (m) in row order;
+    ``residuals``: each sweep's. Returns the sweeps made on A lambda = b."""
+    iterations, tolerance, block, split = settings
+    V = bodies.V
+    target = rows.xi if split else rows.xi + rows.push  # the lecture: the push is part of the target
+    system = with_target(rows, target, rows.lam, rows.friction_row)
+    n = pgs_solve(system, V, iterations, tolerance, residuals, block)
     V_move = V
-    if split and pushes(normal_row, push):
+    if split and pushes(system):
         V_push = np.zeros_like(V)
-        push_out(
-            normal_row,
-            body_a,
-            body_b,
-            J,
-            JM,
-            A_kk,
-            push,
-            lo,
-            hi,
-            bound_row,
-            mu,
-            np.zeros(lam.shape[0]),
-            V_push,
-            iterations,
-            tolerance,
-            block,
-        )
+        push_out(system, V_push, iterations, tolerance, block)
         V_move = V + V_push  # what the positions move with; V_push is then dropped
-    bouncing = bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separation, V, dt)
-    integrate_positions(x, theta, V_move, dt)
-    restitution_pass(
-        normal_row,
-        friction_row,
-        bouncing,
-        body_a,
-        body_b,
-        J,
-        JM,
-        A_kk,
-        bounce,
-        bound_row,
-        mu,
-        lam,
-        V,
-        iterations,
-        tolerance,
-    )
+    bouncing = bouncing_contacts(system, separation, V, dt)
+    integrate_positions(bodies.x, bodies.theta, V_move, dt)
+    restitution_pass(system, bouncing, V, iterations, tolerance)
     return n
 
 
@@ -502,41 +408,20 @@ class PGS(Responder):
         _check_block_and_form(value, self._form)
         self._block = value
 
+    @property
+    def settings(self) -> PGSSettings:
+        """The settings ``pgs_step`` takes (tolerance -1.0 for None; block True or None)."""
+        tol = -1.0 if self.tolerance is None else self.tolerance
+        return PGSSettings(self.iterations, tol, True if self.block else None, self.split)
+
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
-        tol = -1.0 if self.tolerance is None else self.tolerance
         if self.form == "matrix":
             xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
-            return solve_matrix_form(ctx, xi, self.iterations, tol, self.split)
+            return solve_matrix_form(ctx, xi, self.iterations, self.settings.tolerance, self.split)
         residuals = np.zeros(self.iterations)
-        n = pgs_step(
-            r.normal_row,
-            r.friction_row,
-            r.first_joint_row,
-            r.body_a,
-            r.body_b,
-            r.J,
-            r.JM,
-            r.A_kk,
-            r.xi,
-            r.push,
-            r.bounce,
-            r.lo,
-            r.hi,
-            r.bound_row,
-            r.mu,
-            r.lam,
-            ctx.x,
-            ctx.theta,
-            ctx.V,
-            ctx.separation,
-            ctx.dt,
-            self.iterations,
-            tol,
-            True if self.block else None,  # a type of its own: see pgs_step
-            self.split,
-            residuals,
-        )
+        bodies = new_bodies((ctx.x, ctx.theta, ctx.V, ctx.M_inv, ctx.V1))
+        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, self.settings, residuals)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
@@ -548,4 +433,14 @@ class PGS(Responder):
         )
 
 
-__all__ = ["PGS", "apply_impulses", "block_sweep", "lcp2", "per_unit_A", "pgs_solve", "pgs_step", "sweep"]
+__all__ = [
+    "PGS",
+    "PGSSettings",
+    "apply_impulses",
+    "block_sweep",
+    "lcp2",
+    "per_unit_A",
+    "pgs_solve",
+    "pgs_step",
+    "sweep",
+]

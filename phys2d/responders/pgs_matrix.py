@@ -56,6 +56,11 @@ class SparseMatrix:
         self.shape = shape
 
     @property
+    def csr(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(indptr, indices, data): the matrix as the kernels take it."""
+        return self.indptr, self.indices, self.data
+
+    @property
     def nnz(self) -> int:
         """How many entries are stored."""
         return int(self.indptr[-1])
@@ -296,8 +301,9 @@ def assemble_A(body_a, body_b, J, M_inv):
 
 
 @njit(cache=True)
-def diagonal(indptr, indices, data, R):
-    """A_kk of a CSR matrix (0 where a row has no entry on the diagonal)."""
+def diagonal(A, R):
+    """A_kk of a CSR matrix A = (indptr, indices, data) (0 where a row has no entry on the diagonal)."""
+    indptr, indices, data = A
     out = np.zeros(R)
     for k in range(R):
         for e in range(indptr[k], indptr[k + 1]):
@@ -341,8 +347,10 @@ def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
 
 # -- the lecture's PGS on A x = b -----------------------------------------------------------
 @njit(cache=True)
-def pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x):
-    """One sweep of the lecture's pseudocode; returns the largest |delta_k| A_kk (m/s)."""
+def pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x):
+    """One sweep of the lecture's pseudocode on A = (indptr, indices, data) (CSR); returns the
+    largest |delta_k| A_kk (m/s)."""
+    indptr, indices, data = A
     worst = 0.0
     for k in range(x.shape[0]):
         if A_kk[k] <= 0.0:
@@ -364,10 +372,10 @@ def pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x):
 
 
 @njit(cache=True)
-def pgs_matrix_solve(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x, iterations, tolerance, residuals):
+def pgs_matrix_solve(A, A_kk, b, lo, hi, bound_row, mu, x, iterations, tolerance, residuals):
     """Sweep until the residual <= tolerance or out of sweeps; returns the sweeps made."""
     for s in range(iterations):
-        residuals[s] = pgs_matrix_sweep(indptr, indices, data, A_kk, b, lo, hi, bound_row, mu, x)
+        residuals[s] = pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -383,7 +391,7 @@ def final_bounds(bound_row, mu, x, lo, hi):
 
 
 @njit(cache=True)
-def push_matrix_solve(normal_row, indptr, indices, data, A_kk, push, x_push, iterations, tolerance):
+def push_matrix_solve(normal_row, A, A_kk, push, x_push, iterations, tolerance):
     """Split impulses in matrix form: A x_push >= push on the contact normal rows, x_push >= 0,
     complementary, swept from x_push = 0 (every other row's x_push stays 0). Returns the sweeps."""
     pushing = False
@@ -397,7 +405,7 @@ def push_matrix_solve(normal_row, indptr, indices, data, A_kk, push, x_push, ite
             k = normal_row[q]
             if A_kk[k] <= 0.0:
                 continue
-            new = max(x_push[k] + (push[k] - csr_row_dot(indptr, indices, data, k, x_push)) / A_kk[k], 0.0)
+            new = max(x_push[k] + (push[k] - csr_row_dot(A, k, x_push)) / A_kk[k], 0.0)
             worst = max(worst, abs(new - x_push[k]) * A_kk[k])
             x_push[k] = new
         if worst <= tolerance:
@@ -406,8 +414,9 @@ def push_matrix_solve(normal_row, indptr, indices, data, A_kk, push, x_push, ite
 
 
 @njit(cache=True, inline="always")
-def csr_row_dot(indptr, indices, data, k, x):
-    """sum_l A_kl x_l over the stored entries of row k."""
+def csr_row_dot(A, k, x):
+    """sum_l A_kl x_l over the stored entries of row k of A = (indptr, indices, data)."""
+    indptr, indices, data = A
     s = 0.0
     for e in range(indptr[k], indptr[k + 1]):
         s += data[e] * x[indices[e]]
@@ -421,31 +430,18 @@ def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, toleran
     r = ctx.rows
     system = assemble(ctx, xi)
     A = system.A
-    A_kk = diagonal(A.indptr, A.indices, A.data, A.shape[0])
+    A_kk = diagonal(A.csr, A.shape[0])
     residuals = np.zeros(iterations)
     n = pgs_matrix_solve(
-        A.indptr,
-        A.indices,
-        A.data,
-        A_kk,
-        system.b,
-        system.lo,
-        system.hi,
-        system.bound_row,
-        system.mu,
-        system.lam,
-        iterations,
-        tolerance,
+        A.csr, A_kk, system.b, system.lo, system.hi, system.bound_row, system.mu, system.lam, iterations, tolerance,
         residuals,
-    )
+    )  # fmt: skip
     final_bounds(system.bound_row, system.mu, system.lam, system.lo, system.hi)
     V2 = system.velocities()
     V_move = V2
     if split:
         system.push[:] = r.push
-        push_matrix_solve(
-            r.normal_row, A.indptr, A.indices, A.data, A_kk, system.push, system.lam_push, iterations, tolerance
-        )
+        push_matrix_solve(r.normal_row, A.csr, A_kk, system.push, system.lam_push, iterations, tolerance)
         V_move = V2 + system.M_inv * system.J.dot_transposed(system.lam_push)
     ctx.rows.lam[:] = system.lam
     ctx.V[:] = V2.reshape(ctx.V.shape)

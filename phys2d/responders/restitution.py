@@ -21,14 +21,19 @@ from numba import njit
 
 from ..constraints.rows import MET, apply_row_impulse, row_velocity
 from ..integrate import integrate_positions
+from ..pipeline.records import record_of_rows
 from .base import StepContext
 
 
 @njit(cache=True)
-def bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separation, V, dt):
+def bouncing_contacts(rows, separation, V, dt):
     """True for each contact with a bounce target that met its partner in this step's solve:
     it pushed, or its gap C closes with the solve's velocities (C + dt J V <= MET; this way
-    the answer does not hang on how a converged solve shared lambda among redundant rows)."""
+    the answer does not hang on how a converged solve shared lambda among redundant rows).
+    ``separation``: (K,) each contact's C (m), in row order."""
+    normal_row, body_a, body_b, J, A_kk, bounce, lam = (
+        rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.A_kk, rows.bounce, rows.lam
+    )  # fmt: skip
     out = np.zeros(normal_row.shape[0], np.bool_)
     for q in range(normal_row.shape[0]):
         k = normal_row[q]
@@ -38,29 +43,17 @@ def bouncing_contacts(normal_row, body_a, body_b, J, A_kk, bounce, lam, separati
 
 
 @njit(cache=True)
-def restitution_pass(
-    normal_row,
-    friction_row,
-    bouncing,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    bounce,
-    bound_row,
-    mu,
-    lam,
-    V,
-    iterations,
-    tolerance,
-):
+def restitution_pass(rows, bouncing, V, iterations, tolerance):
     """Restitution, once positions have moved: sweep the bouncing contacts' normal rows towards
     J_k V = bounce_k (lambda_n >= 0), keeping each one's Coulomb friction inside mu lambda_n.
 
     Only points that pushed bounce, so a point still apart at the end of the step never
     does: it turns round at the surface. Returns the sweeps made.
     """
+    normal_row, friction_row, body_a, body_b, J, JM, A_kk = (
+        rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk
+    )  # fmt: skip
+    bounce, bound_row, mu, lam = rows.bounce, rows.bound_row, rows.mu, rows.lam
     n_contacts = normal_row.shape[0]
     if not bouncing.any():
         return 0
@@ -89,25 +82,7 @@ def restitution_pass(
 def bounce_after_moving(ctx: StepContext, V_move: np.ndarray, iterations: int, tolerance: float) -> None:
     """Move the positions with V_move (m/s), then bounce the points that met their partner within
     the step (``restitution_pass`` on ctx.V and ctx.rows.lam; PGS in both forms)."""
-    r = ctx.rows
-    bouncing = bouncing_contacts(
-        r.normal_row, r.body_a, r.body_b, r.J, r.A_kk, r.bounce, r.lam, ctx.separation, ctx.V, ctx.dt
-    )
+    rows = record_of_rows(ctx.rows)
+    bouncing = bouncing_contacts(rows, ctx.separation, ctx.V, ctx.dt)
     integrate_positions(ctx.x, ctx.theta, V_move, ctx.dt)
-    restitution_pass(
-        r.normal_row,
-        r.friction_row,
-        bouncing,
-        r.body_a,
-        r.body_b,
-        r.J,
-        r.JM,
-        r.A_kk,
-        r.bounce,
-        r.bound_row,
-        r.mu,
-        r.lam,
-        ctx.V,
-        iterations,
-        tolerance,
-    )
+    restitution_pass(rows, bouncing, ctx.V, iterations, tolerance)
