@@ -355,26 +355,26 @@ def pgs_tick(s, stage, side, found, cached, world, row_settings, max_speed, iter
 
 
 @njit(cache=True)
-def soft_tick(s, stage, side, found, cached, world, row_settings, max_speed, settings, block):
+def soft_tick(s, stage, side, found, cached, world, row_settings, max_speed, settings):
     """One tick under ``SoftStep``: ``contacts_and_rows``, ``soft_step_solve``, ``end_tick``.
-    settings: (substeps, relax, contact_hertz, damping_ratio, push_max, joint_hertz,
-    joint_damping_ratio, direct_joints, restitution_threshold). Returns as ``pgs_tick``
-    (the count is sub-steps)."""
+    settings: a ``SoftSettings``. Returns as ``pgs_tick`` (the count is sub-steps)."""
     status, k, n_new, recycled, rows_used, points_used, hits, deepest, swept = contacts_and_rows(
         s, stage, side, found, cached, world, row_settings
     )
     if status != OK:
         return status, k, n_new, recycled, rows_used, points_used, hits, deepest, 0, swept
-    substeps, relax, contact_hertz, damping_ratio, push_max, joint_hertz, joint_zeta, direct, threshold = settings
     w, n = 1 - side, 2 * k + s.joint_lam.shape[0]
-    count = soft_step_solve(
+    bodies = BodyRecord(s.x, s.theta, s.V, s.M_inv, s.V1)
+    rows = RowRecord(
         s.normal_row[:k], s.friction_row[:k], s.row_a[:n], s.row_b[:n], s.J[:n], s.JM[:n], s.A_kk[:n], s.xi[:n],
-        s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.order[w][:k], s.separation[w][:k], s.e[w][:k],
-        s.anchor[w][:k], s.x, s.theta, s.M_inv, s.V, s.V1, world[2], substeps, relax, contact_hertz,
-        damping_ratio, push_max, joint_hertz, joint_zeta, direct, threshold, block, s.joint_kind, s.joint_i,
-        s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset, 2 * k, s.lam[:n],
-        s.residuals,
+        s.push[:n], s.bounce[:n], s.impact[:n], s.lo[:n], s.hi[:n], s.bound_row[:n], s.row_mu[:n], s.lam[:n],
     )  # fmt: skip
+    contacts = (s.order[w][:k], s.separation[w][:k], s.e[w][:k], s.anchor[w][:k])
+    joints = JointRecord(
+        s.joint_kind, s.joint_i, s.joint_j, s.joint_local_i, s.joint_local_j, s.joint_params, s.joint_row_offset,
+        s.joint_lam,
+    )  # fmt: skip
+    count = soft_step_solve(bodies, rows, contacts, joints, world[2], settings, s.residuals)
     status = end_tick(s, side, k, max_speed)
     return status, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept
 
@@ -431,11 +431,7 @@ def _tick_spec(r: Responder) -> TickSpec | None:
         tol = -1.0 if r.tolerance is None else r.tolerance
         kernel, settings, n = pgs_tick, (r.iterations, tol, True if r.block else None, r.split), r.iterations
     elif isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
-        soft = (
-            r.substeps, r.relax, r.contact_hertz, r.damping_ratio, r.push_max, r.joint_hertz, r.joint_damping_ratio,
-            r.direct_joints, r.restitution_threshold,
-        )  # fmt: skip
-        kernel, settings, n = soft_tick, (soft, r.block), r.substeps
+        kernel, settings, n = soft_tick, (r.settings(),), r.substeps
     else:
         return None
     row_settings = (
