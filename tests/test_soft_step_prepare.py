@@ -2,24 +2,27 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
 import phys2d
 from phys2d import scenes
+from phys2d.constraints.rows import Rows
+from phys2d.pipeline.records import record_of_rows
 from phys2d.responders.base import StepContext
-from phys2d.responders.soft_step import prepare_manifolds
+from phys2d.responders.soft_step import prepare_manifolds, unsigned_rows
 
 
-def rows_after(world: phys2d.World, responder: phys2d.SoftStep, steps: int) -> tuple[tuple, np.ndarray]:
-    """(normal_row, body_a, body_b, J, A_kk) as ``responder.respond`` saw them at the last of ``steps``
-    steps (copied before the solve), and the bodies' M^-1."""
-    seen: list[tuple] = []
+def rows_after(world: phys2d.World, responder: phys2d.SoftStep, steps: int) -> tuple[Rows, np.ndarray]:
+    """A copy of the rows ``responder.respond`` saw at the last of ``steps`` steps (taken before
+    the solve), and the bodies' M^-1."""
+    seen: list[Rows] = []
     respond = responder.respond
 
     def keep(ctx: StepContext):
-        rows = ctx.rows
-        seen.append((rows.normal_row.copy(), rows.body_a.copy(), rows.body_b.copy(), rows.J.copy(), rows.A_kk.copy()))
+        seen.append(copy.deepcopy(ctx.rows))
         return respond(ctx)
 
     responder.respond = keep  # type: ignore[method-assign]
@@ -32,13 +35,13 @@ def rows_after(world: phys2d.World, responder: phys2d.SoftStep, steps: int) -> t
 def test_manifolds_of_a_resting_stack(block):
     responder = phys2d.SoftStep(substeps=4, block=block)
     w = scenes.vertical_stack(3, responder)
-    (normal_row, body_a, body_b, J, A_kk), M_inv = rows_after(w, responder, 30)
+    rows, M_inv = rows_after(w, responder, 30)
+    normal_row, body_a, body_b, J, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.A_kk
     JM = np.zeros_like(J)
     JM[:, :3] = M_inv[body_a] * J[:, :3]  # M^-1 J^T row by row, from the bodies' masses
     JM[:, 3:] = M_inv[body_b] * J[:, 3:]
-    start, static_pair, K12, as_block, inv_det = prepare_manifolds(
-        normal_row.astype(np.uint32), body_a.astype(np.uint32), body_b.astype(np.uint32), J, JM, A_kk, M_inv, block
-    )
+    rows.JM = JM
+    start, static_pair, K12, as_block, inv_det = prepare_manifolds(unsigned_rows(record_of_rows(rows)), M_inv, block)
     # three boxes resting flat: each touches the one below (or the ground) at two corners
     assert start.tolist() == [0, 2, 4, 6]
     pairs = [{(body_a[normal_row[c]], body_b[normal_row[c]]) for c in range(start[m], start[m + 1])} for m in range(3)]

@@ -29,7 +29,7 @@ from ..integrate import first_too_fast, integrate_positions
 from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepReport
 from ..responders.pgs import PGS
 from ..responders.soft_step import SoftStep
-from . import records
+from . import ahead, records
 from .stages import (
     NEED_ROOM,
     NEED_SWEEP,
@@ -88,11 +88,7 @@ def _tick_spec(r: Responder) -> TickSpec:
     if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
         return staged._replace(one_call=True, pgs=r.settings, n_residuals=r.iterations)
     if isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
-        soft = (
-            r.substeps, r.relax, r.contact_hertz, r.damping_ratio, r.push_max, r.joint_hertz, r.joint_damping_ratio,
-            r.direct_joints, r.restitution_threshold, r.block
-        )  # fmt: skip
-        return staged._replace(one_call=True, soft=soft, n_residuals=r.substeps)
+        return staged._replace(one_call=True, soft=r.settings, n_residuals=r.substeps)
     return staged
 
 
@@ -176,24 +172,26 @@ class Pipeline:
         self.residuals = np.zeros(16)
         self._state: Any = None  # the StepState over all of the above, made anew when one is replaced
         self._records: list = []  # the records it holds: bodies, shapes, store, sides, rows
-        self._state_over: tuple = ()
+        self._state_over: Any = None  # the bodies' x it was made with (x is replaced when bodies are)
         self._compiled: tuple = (None, None, None)  # (spec, argument types, machine code) of the last call
         self._ready: tuple | None = None  # (spec, dt, step settings, row settings, joints) of the last step
 
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the records: numba structrefs, made anew when needed."""
         state = self.__dict__.copy()
-        state.update(_state=None, _records=[], _state_over=(), _compiled=(None, None, None), _ready=None)
+        state.update(_state=None, _records=[], _state_over=None, _compiled=(None, None, None), _ready=None)
         return state
 
     # -- what the world changes -------------------------------------------------------------
     def bodies_changed(self) -> None:
         """Bodies or joints were added or removed: sweep anew before the next step."""
         self.sweep_again = True
+        self._forget_state()
 
     def forget_manifolds(self) -> None:
         """Collide every pair anew (the contact margin changed: the points were found with the old)."""
         self.store.clear()
+        self._forget_state()
         self.manifolds = 0
         self.sweep_again = True
 
@@ -222,12 +220,10 @@ class Pipeline:
         """The ``StepState`` over the world's arrays and these buffers, and the records it holds
         (``bodies_record``, ``shapes_record``, ...): made anew when one of the arrays was replaced."""
         b, t, store = world._bodies, self.buffers, self.store
-        if self.undo[1].shape[0] != b.n:
-            self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
-        g = self._geometry(world)
-        over = (b.x, g, self.pairs, t, store.found_pose, store.anchor, world._excluded, self.residuals, self.undo)
-        if len(over) != len(self._state_over) or any(a is not o for a, o in zip(over, self._state_over)):
-            world_v, world_n, aabb, travel, rotation, fat = g
+        if self._state is None or self._state_over is not b.x:  # something was replaced (``_forget_state``)
+            if self.undo[1].shape[0] != b.n:
+                self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
+            world_v, world_n, aabb, travel, rotation, fat = self._geometry(world)
             shapes = (
                 b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
                 rotation, world_v, world_n, aabb, fat, travel, self.pairs, t.pair_order, world._excluded,
@@ -239,8 +235,12 @@ class Pipeline:
                 tuple(records.arrays_of(c, records.CONTACT_FIELDS) for c in t.sides),
                 (records.arrays_of(t.rows, records.ROW_FIELDS), self.undo[0], self.undo[1], self.residuals),
             )
-            self._state_over = over
+            self._state_over = b.x
         return self._state
+
+    def _forget_state(self) -> None:
+        """An array the state holds was replaced: make the records anew before the next kernel call."""
+        self._state = None
 
     @property
     def bodies_record(self) -> Any:
@@ -270,6 +270,7 @@ class Pipeline:
         pairs = max(self.n_pairs, self.manifolds, (self.cached + 1) // 2)
         if not t.holds(pairs, n_joint_rows):
             self.buffers = Buffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
+            self._forget_state()
             old, new = t.sides[self.side], self.buffers.sides[self.side]
             m, k = self.manifolds, self.cached
             new.manifold_key[:m], new.manifold_row[:m] = old.manifold_key[:m], old.manifold_row[:m]
@@ -278,6 +279,7 @@ class Pipeline:
             self.coloured = False
         if self.residuals.shape[0] < n_residuals:
             self.residuals = np.zeros(n_residuals)
+            self._forget_state()
 
     def _colour(self, world: World) -> None:
         """The pairs in colour order, in the buffers (for a responder that visits them by colour)."""
@@ -293,6 +295,7 @@ class Pipeline:
         n_pairs = sweep(self.shapes_record, False)
         if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
             self.pairs = np.zeros((2 * -n_pairs, 2), np.int32)
+            self._forget_state()
             self.state(world)
             n_pairs = sweep(self.shapes_record, False)
         self.n_pairs, self.sweep_again, self.coloured = n_pairs, False, False
@@ -308,6 +311,7 @@ class Pipeline:
         _, row = self.manifold_keys()
         self.state(world)
         self.store.rebuild(row, rows, self.store_record)
+        self._forget_state()
         row[:] = np.arange(self.manifolds)  # slot s's manifold is now in row s
 
     def _counts(self, colour_order: bool) -> Counts:
@@ -360,8 +364,12 @@ class Pipeline:
             types_now = (getattr(s, "_numba_type_", None), joints is None)
             spec_was, types_was, code = self._compiled
             kernel = code if spec_was is spec and types_was == types_now else tick
+            child = self._compile_ahead(world, args) if kernel is tick else None
             self.began = True
             result = kernel(*args)
+            if child is not None:  # the tick is compiled: the child's work is done or no longer needed
+                child.kill()
+                child.wait()
             if kernel is tick:  # the next steps call its machine code for these types directly
                 self._compiled = (spec, types_now, compiled_for(tick, args))
             if result[-1] >= 0:  # the kernel swept: its pairs (and their colouring) are the world's
@@ -377,6 +385,17 @@ class Pipeline:
             raise_too_fast(world)
         _, k, n_new, recycled, rows_used, points_used, hits, deepest, count, _ = result
         return k, n_new, recycled, rows_used, points_used, hits, deepest, count, self.residuals[:count].copy(), None
+
+    def _compile_ahead(self, world: World, args: tuple) -> Any:
+        """On a cold numba cache with a second core: start a child process compiling the tick from
+        its first stage down, and compile its stages here from the last one up (``pipeline.ahead``).
+        Returns the child (None when the cache is warm, or it cannot help)."""
+        if not ahead.wanted() or not ahead.cold(tick, args):
+            return None
+        child = ahead.start(world._responder, args[1] is not None)
+        if child is not None:
+            ahead.compile_from_the_end(self, args)
+        return child
 
     def _in_stages(self, world: World, responder: Responder, step: StepSettings, joints: Any, settings: Any) -> tuple:
         """The stages one call each, as ``stages.tick`` calls them, with the responder's ``respond``

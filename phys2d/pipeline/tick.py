@@ -17,7 +17,7 @@ from ..constraints.rows import contact_rows
 from ..contacts import impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
 from ..responders.pgs import pgs_step
-from ._shims import _soft_shim as soft_step_solve
+from ..responders.soft_step import soft_step_solve
 from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, order_contacts, sweep
 
 

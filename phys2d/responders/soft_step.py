@@ -46,12 +46,19 @@ separation C < 0,
 so the push is bounded and critically damped instead of proportional to 1/dt. A
 heavy body on a light one, or a tall stack, converges because each sub-step only
 has to correct a sub-step's worth of gravity.
+
+The kernels take records (``phys2d.pipeline.records``), a few arguments each: the bodies,
+the rows, the tick's contact points (``Points``) and the joints, which are None in a world
+without them, so that none of the joints' code is compiled there.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-from numba import njit
+from numba import config, njit, types
+from numba.experimental import structref
 
 from ..constraints.joints import JointArrays, joint_rows
 from ..constraints.rows import (
@@ -66,10 +73,55 @@ from ..constraints.rows import (
     store_pair_velocity,
     unsigned_indices,
 )
-from ..pipeline.records import BodyRecord, JointRecord, RowRecord
+from ..pipeline import records
+from ..pipeline.records import RowRecord
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .block import block_is_well_conditioned, inverse_diagonal, lcp2
+
+
+class SoftSettings(NamedTuple):
+    """A ``SoftStep``'s settings as its kernel reads them (see ``SoftStep``)."""
+
+    substeps: int
+    relax: bool
+    contact_hertz: float
+    damping_ratio: float
+    push_max: float
+    joint_hertz: float
+    joint_damping_ratio: float
+    direct_joints: bool
+    restitution_threshold: float
+    block: bool
+
+
+POINT_FIELDS = ("C0", "e", "r", "C", "vn", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
+_POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):
+    as found, its separation C0 (m), restitution e and lever arms r = (r_a, r_b) (m); within a
+    sub-step its separation C now (m) and J V before the sweep, vn (m/s); the points not yet met
+    (pending, in order) and, once met, their approach at impact (vn_impact, m/s, and dvn_impact,
+    the forces' share of the sub-step); landed: met its partner fast in this sub-step."""
+
+if config.DISABLE_JIT:  # type: ignore[attr-defined]  # plain Python: a plain object, as the records are
+
+    class Points:
+        __doc__ = _POINTS_DOC
+
+        def __init__(self, *arrays: np.ndarray) -> None:
+            for name, a in zip(POINT_FIELDS, arrays, strict=True):
+                setattr(self, name, a)
+
+else:
+
+    @structref.register
+    class PointsType(types.StructRef):
+        def preprocess_fields(self, fields):
+            return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+    class Points(structref.StructRefProxy):  # type: ignore[no-redef]
+        __doc__ = _POINTS_DOC
+
+    structref.define_proxy(Points, PointsType, POINT_FIELDS)
 
 
 @njit(cache=True)
@@ -112,21 +164,21 @@ def _push(s, h, use_bias, soft):
     return 0.0, 1.0, 0.0
 
 
-@njit(cache=True, inline="always")  # into solve, twice a sub-step: a call would cost its 17 arguments
-def soft_sweep(
-    manifolds, normal_row, friction_row, body_a, body_b, J, JM, A_kk, inv_A_kk, mu, C, lam, V, h, use_bias, soft_dyn,
-    soft_static,
-):  # fmt: skip
+@njit(cache=True)
+def soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
-    then the friction rows. C[c] is contact c's separation now (m); ``manifolds`` comes from
+    then the friction rows. C[c] is point c's separation now (m); ``manifolds`` comes from
     ``prepare_manifolds``; inv_A_kk = 1 / A_kk (``inverse_diagonal``: the sweeps multiply,
-    never divide).
+    never divide); springs: the soft push against a dynamic and a static partner (``_soft``).
 
     A two-point manifold marked as a block has its normal rows solved together (lcp2), each
     row scaled by its own softness (relax does so only while both points touch):
         K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
+    soft_dyn, soft_static = springs[0], springs[1]
     start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
     for m in range(start.shape[0] - 1):
@@ -185,32 +237,36 @@ def soft_sweep(
 
 
 @njit(cache=True)
-def _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C):
-    """Every point's separation at the positions now (m)."""
+def _separations(rows, points, moved):
+    """Every point's separation C at the positions now (m)."""
+    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
+    C0, r, C = points.C0, points.r, points.C
     for c in range(normal_row.shape[0]):
         k = normal_row[c]
-        sub_C[c] = _separation(c, k, body_a[k], body_b[k], C0, r, J, moved)
+        C[c] = _separation(c, k, body_a[k], body_b[k], C0, r, J, moved)
 
 
 @njit(cache=True)
-def _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn):
+def _note_approach(rows, points, n_pending, V):
     """Before a sweep: J V (m/s) of the points not yet met (pending[:n_pending])."""
+    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
+    pending, vn = points.pending, points.vn
     for q in range(n_pending):
         c = pending[q]
         k = normal_row[c]
-        sub_vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)
+        vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)
 
 
 @njit(cache=True)
-def _note_impacts(
-    pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, threshold, impacted, vn_impact,
-    dvn_impact, landed,
-):  # fmt: skip
+def _note_impacts(rows, points, n_pending, dv, h, threshold):
     """After a sweep: a point that pushed for the first time meets its partner in this
-    sub-step's motion (gap sub_C, J V sub_vn before a sub-step of forces dv): its approach
+    sub-step's motion (gap C, J V vn before a sub-step of forces dv): its approach
     at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
     landed[c]: it was still apart and met its partner faster than the threshold.
     Returns how many points are still to meet theirs (kept in order in pending)."""
+    normal_row, body_a, body_b, J, lam = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.lam
+    pending, C, vn, impacted, landed = points.pending, points.C, points.vn, points.impacted, points.landed
+    vn_impact, dvn_impact = points.vn_impact, points.dvn_impact
     n = 0
     for q in range(n_pending):
         c = pending[q]
@@ -218,9 +274,9 @@ def _note_impacts(
         if lam[k] > 0.0:
             impacted[c] = True
             dvn = row_velocity(k, body_a[k], body_b[k], J, dv)
-            vn_impact[c] = approach_at_impact(sub_C[c], sub_vn[c], sub_vn[c] + dvn, h)
+            vn_impact[c] = approach_at_impact(C[c], vn[c], vn[c] + dvn, h)
             dvn_impact[c] = dvn
-            landed[c] = sub_C[c] > MET and vn_impact[c] < -threshold
+            landed[c] = C[c] > MET and vn_impact[c] < -threshold
         else:
             pending[n] = c
             n += 1
@@ -230,6 +286,12 @@ def _note_impacts(
 # -- joints: rows rebuilt at every sub-step's positions ------------------------------------------
 DIRECT_JOINT_ROWS_MAX = 256  # more equality joint rows than this are swept, not factored
 PIVOT_TOL = 1e-9  # a pivot below this fraction of A_kk marks a redundant row: it is left out
+
+
+@njit(cache=True)
+def first_joint_row_of(rows):
+    """The first joint row: the joints' rows follow the K contacts' 2K."""
+    return 2 * rows.normal_row.shape[0]
 
 
 @njit(cache=True)
@@ -320,13 +382,15 @@ def _joint_bias(C, use_bias, soft):
 
 
 @njit(cache=True)
-def solve_joints(
-    first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_kk, lo, C, lam, V, h, use_bias, soft_joint, direct
-):
+def solve_joints(rows, system, V, h, use_bias, soft_joint):
     """The joint rows once: limit rows one by one (lambda >= 0, like a contact point whose
     separation is the gap to the stop), then the equality rows, together (``direct``:
     delta lambda = -A^-1 (J V + bias), exact for the joint block) or one by one with the
-    joint's softness. Returns the largest |delta lambda| A_kk (m/s)."""
+    joint's softness. ``system``: the joint rows' (eq, L, first, C, direct) (``joint_system``).
+    Returns the largest |delta lambda| A_kk (m/s)."""
+    first_joint_row, n_rows = first_joint_row_of(rows), rows.lam.shape[0]
+    body_a, body_b, J, JM, A_kk, lo, lam = rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.lo, rows.lam
+    eq, L, first, C, direct = system
     worst = 0.0
     for k in range(first_joint_row, n_rows):
         unbounded = lo[k] == -np.inf
@@ -365,45 +429,32 @@ def solve_joints(
 
 
 @njit(cache=True)
-def prepare_joints(
-    kind,
-    joint_a,
-    joint_b,
-    local_a,
-    local_b,
-    params,
-    row_offset,
-    first_joint_row,
-    x,
-    theta,
-    M_inv,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    xi,
-    lo,
-    hi,
-    bound_row,
-    mu,
-    C,
-    eq,
-    L,
-    first,
-    direct,
-):
-    """The joint rows at the bodies' positions now: J, A_kk and C; with ``direct`` the
-    factor of the equality rows' A."""
-    n_rows = body_a.shape[0]
-    joints = JointRecord(kind, joint_a, joint_b, local_a, local_b, params, row_offset, xi[:0])
-    rows = RowRecord(
-        body_a[:0], body_a[:0], body_a, body_b, J, JM, A_kk, xi, xi, xi, xi[:0] > 0.0, lo, hi, bound_row, mu, xi
-    )
-    joint_rows(joints, first_joint_row, BodyRecord(x, theta, M_inv, M_inv, M_inv), 1.0, 1.0, rows)
-    _joint_C(first_joint_row, n_rows, xi, C)
+def joint_system(joints, rows, direct_joints):
+    """What the joint rows keep over the tick: (eq, L, first, C, direct): eq the equality rows
+    (``_equality_rows``), L and first their factor (``factor_joint_rows``) when ``direct``
+    (``direct_joints`` and at most DIRECT_JOINT_ROWS_MAX of them), C each joint row's error.
+    Empty for a world without joints (joints None): then none of the joints' code is compiled."""
+    first_joint_row, n_rows = first_joint_row_of(rows), rows.lam.shape[0]
+    eq = np.zeros(0, np.int64)
+    if joints is not None:
+        eq = _equality_rows(first_joint_row, n_rows, rows.lo)
+    direct = direct_joints and 0 < eq.shape[0] <= DIRECT_JOINT_ROWS_MAX
+    L = np.zeros((eq.shape[0], eq.shape[0])) if direct else np.zeros((0, 0))
+    first = np.zeros(eq.shape[0], np.int64)
+    C = np.zeros(n_rows)
+    return eq, L, first, C, direct
+
+
+@njit(cache=True)
+def prepare_joints(joints, bodies, rows, system):
+    """The joint rows at the bodies' positions now (``joint_rows`` into ``rows``): J, A_kk
+    and their error C; with ``direct`` the factor of the equality rows' A."""
+    first_joint_row, n_rows = first_joint_row_of(rows), rows.lam.shape[0]
+    eq, L, first, C, direct = system
+    joint_rows(joints, first_joint_row, bodies, 1.0, 1.0, rows)  # beta = dt = 1: xi = -C
+    _joint_C(first_joint_row, n_rows, rows.xi, C)
     if direct:
-        factor_joint_rows(eq, body_a, body_b, J, JM, L, first)
+        factor_joint_rows(eq, rows.body_a, rows.body_b, rows.J, rows.JM, L, first)
 
 
 # -- the stages of a sub-step ---------------------------------------------------------------------
@@ -424,7 +475,18 @@ def gather_contacts(order, separation, restitution, anchor):
 
 
 @njit(cache=True)
-def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
+def prepare_points(found, n_contacts):
+    """The tick's ``Points`` of the step's contacts: C0, e and r gathered into row order
+    (``gather_contacts`` of found = (order, separation, e, anchor)), the rest to fill in."""
+    C0, e, r = gather_contacts(found[0], found[1], found[2], found[3])
+    return Points(
+        C0, e, r, np.zeros(n_contacts), np.zeros(n_contacts), np.arange(n_contacts, dtype=np.uint32),
+        np.zeros(n_contacts, np.bool_), np.zeros(n_contacts), np.zeros(n_contacts), np.zeros(n_contacts, np.bool_),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def prepare_manifolds(rows, M_inv, block):
     """What stays the same over the tick, per contact manifold in solve order (a manifold:
     one point, or two consecutive points on the same pair):
 
@@ -434,6 +496,7 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
         as_block     (M,)      ``block`` and its 2x2 K is well conditioned: solve them together
         inv_det      (M,)      1 / det K of a block (``lcp2``), 0 elsewhere
     """
+    normal_row, body_a, body_b, J, JM, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk
     n_contacts = normal_row.shape[0]
     start = np.empty(n_contacts + 1, np.uint32)
     n = 0
@@ -467,10 +530,12 @@ def prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block):
 
 
 @njit(cache=True)
-def warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row):
+def warm_start(manifolds, rows, V):
     """Apply last sub-step's impulses (N s) to V: a manifold's rows (normal, then friction, point
     by point) on its pair's velocities held in hand (``pair_velocity``), stored once; then the
     joint rows."""
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    JM, lam = rows.JM, rows.lam
     start = manifolds[0]
     for m in range(start.shape[0] - 1):
         k = normal_row[start[m]]
@@ -481,7 +546,7 @@ def warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, 
                 if lam[k] != 0.0:
                     V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
         store_pair_velocity(a, b, V_ab, V)
-    for k in range(first_joint_row, lam.shape[0]):
+    for k in range(first_joint_row_of(rows), lam.shape[0]):
         if lam[k] != 0.0:
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
@@ -492,9 +557,9 @@ SMALL_TURN = 1.0 / 32.0  # rad: a turn below this takes cos and sin from their T
 @njit(cache=True)
 def cos_sin(d):
     """(cos d, sin d) of a turn d (rad). Below SMALL_TURN by Taylor series to d^8 and d^7: the
-    terms left out are below 3e-18 of the result, so it is libm's to an ulp, at a few
-    multiplications where libm's pair costs tens of ns; a body turns far less than that
-    within a tick. Larger turns: np.cos, np.sin."""
+    terms left out are below 3e-18 of the result, so it is libm's to an ulp, in a few
+    multiplications instead of libm's two calls; a body turns far less than that within a
+    tick. Larger turns: np.cos, np.sin."""
     if abs(d) >= SMALL_TURN:
         return np.cos(d), np.sin(d)
     d2 = d * d
@@ -504,8 +569,31 @@ def cos_sin(d):
 
 
 @njit(cache=True)
-def integrate_positions(x, theta, V, h, x0, theta0, moved):
+def split_forces(bodies, substeps):
+    """dv = (V - V1) / substeps, a sub-step's share of the external forces that V holds over
+    V1 (m/s); V back to V1, where the tick began. (Loops: an array expression compiles a shape
+    check with its message.)"""
+    V, V1 = bodies.V, bodies.V1
+    dv = np.empty_like(V)
+    for b in range(V.shape[0]):
+        for c in range(3):
+            dv[b, c] = (V[b, c] - V1[b, c]) / substeps
+            V[b, c] = V1[b, c]
+    return dv
+
+
+@njit(cache=True)
+def integrate_velocities(V, dv):
+    """V += h M^-1 F_ext: a sub-step's share of the external forces, dv (m/s)."""
+    for b in range(V.shape[0]):
+        for c in range(3):
+            V[b, c] += dv[b, c]
+
+
+@njit(cache=True)
+def integrate_positions(bodies, h, x0, theta0, moved):
     """x += h v, theta += h omega; moved[b] = (dx, dy, cos dtheta, sin dtheta) since the tick began."""
+    x, theta, V = bodies.x, bodies.theta, bodies.V
     for b in range(x.shape[0]):
         x[b, 0] += h * V[b, 0]
         x[b, 1] += h * V[b, 1]
@@ -516,9 +604,10 @@ def integrate_positions(x, theta, V, h, x0, theta0, moved):
 
 
 @njit(cache=True)
-def store(normal_row, friction_row, lam, total, landed):
+def store(rows, total, points):
     """Add the sub-step's impulses to the tick's; an impact is an event, not a load: it is
     not warm started into the next sub-step."""
+    normal_row, friction_row, lam, landed = rows.normal_row, rows.friction_row, rows.lam, points.landed
     for k in range(lam.shape[0]):
         total[k] += lam[k]
     for c in range(normal_row.shape[0]):
@@ -529,11 +618,12 @@ def store(normal_row, friction_row, lam, total, landed):
 
 
 @njit(cache=True)
-def restitution(
-    normal_row, friction_row, body_a, body_b, J, JM, A_kk, mu, e, impacted, vn_impact, dvn_impact, threshold, total, V
-):
+def restitution(rows, points, threshold, total, V):
     """Bounce the points that met their partner fast (``constraints.rows.bounce_target``),
     keeping the tick's friction inside mu lambda_n."""
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    J, JM, A_kk, mu = rows.J, rows.JM, rows.A_kk, rows.mu
+    e, impacted, vn_impact, dvn_impact = points.e, points.impacted, points.vn_impact, points.dvn_impact
     for c in range(normal_row.shape[0]):
         k, kt = normal_row[c], friction_row[c]
         if e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0 or A_kk[k] <= 0.0:
@@ -552,277 +642,105 @@ def restitution(
             apply_row_impulse(kt, a, b, JM, d, V)
 
 
-@njit(cache=True, inline="always")  # a stage by name; inlined, its 25 arguments cost no call
-def solve(
-    first_joint_row,
-    n_rows,
-    eq,
-    L,
-    first,
-    direct,
-    normal_row,
-    friction_row,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    inv_A_kk,
-    lo,
-    mu,
-    manifolds,
-    C_joint,
-    sub_C,
-    lam,
-    V,
-    h,
-    use_bias,
-    soft_joint,
-    soft_dyn,
-    soft_static,
-):
+@njit(cache=True)
+def solve(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs, joints, system):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
-    last (they have the last word on overlap). Returns the largest velocity correction (m/s)."""
+    last (they have the last word on overlap). springs: (contacts with a dynamic partner, with
+    a static one, joints) (``_soft``). Returns the largest velocity correction (m/s)."""
     worst = 0.0
-    if n_rows > first_joint_row:  # (no call, and its 18 arguments, for a scene without joints)
-        worst = solve_joints(
-            first_joint_row, n_rows, eq, L, first, body_a, body_b, J, JM, A_kk, lo, C_joint, lam, V, h, use_bias,
-            soft_joint, direct,
-        )  # fmt: skip
-    worst = max(
-        worst,
-        soft_sweep(
-            manifolds, normal_row, friction_row, body_a, body_b, J, JM, A_kk, inv_A_kk, mu, sub_C, lam, V, h, use_bias,
-            soft_dyn, soft_static,
-        ),
-    )  # fmt: skip
-    return worst
+    if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
+        worst = solve_joints(rows, system, V, h, use_bias, springs[2])
+    return max(worst, soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs))
 
 
 @njit(cache=True)
-def soft_step_solve(
-    normal_row,
-    friction_row,
-    body_a,
-    body_b,
-    J,
-    JM,
-    A_kk,
-    xi,
-    lo,
-    hi,
-    bound_row,
-    mu,
-    order,
-    separation,
-    e_contact,
-    anchor,
-    x,
-    theta,
-    M_inv,
-    V,
-    V1,
-    dt,
-    substeps,
-    relax,
-    contact_hertz,
-    damping_ratio,
-    push_max,
-    joint_hertz,
-    joint_damping_ratio,
-    direct_joints,
-    restitution_threshold,
-    block,
-    joint_kind,
-    joint_a,
-    joint_b,
-    joint_local_a,
-    joint_local_b,
-    joint_params,
-    joint_row_offset,
-    first_joint_row,
-    lam,
-    residuals,
-):
+def unsigned_rows(rows):
+    """The rows with their row map and bodies as uint32 (``unsigned_indices``, for the sweeps'
+    loops): a record over the same arrays."""
+    normal_row, friction_row, body_a, body_b = unsigned_indices(
+        rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    )
+    return RowRecord(
+        normal_row, friction_row, body_a, body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.push, rows.bounce,
+        rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
     warm start, solve with bias, integrate positions, relax, store; then restitution.
 
-    The contacts' separation, restitution e_contact and anchor are the world's, in contact order:
-    row pair q is contact order[q] (``gather_contacts``).
+    bodies: a BodyRecord (V after the external forces, V1 before); rows: the step's rows, the
+    K contacts' first (row pair q is contact order[q]), then the joints' from row 2K;
+    found: (order, separation, e, anchor) of the K contacts, in contact order; joints: a
+    JointRecord, or None for a world without joints (then no joint code is compiled: numba
+    drops the ``joints is not None`` branches); settings: a ``SoftSettings``.
 
-    ``lam`` holds the cached impulse per tick going in and the impulse over the whole tick
+    ``rows.lam`` holds the cached impulse per tick going in and the impulse over the whole tick
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
-    sub-step out). Joint rows (from first_joint_row) are rebuilt at each sub-step's
-    positions. Returns the number of sweeps; residuals[s] (length ``substeps``) is sweep s's
-    residual (m/s): the caller's buffer, since a kernel that returns an array costs ~1 us a call.
+    sub-step out). Joint rows are rebuilt at each sub-step's positions. Returns the number of
+    sweeps; residuals[s] (length ``substeps``, the caller's buffer) is sweep s's residual (m/s).
     """
-    n_rows = lam.shape[0]
-    n_contacts = normal_row.shape[0]
+    x, theta, V = bodies.x, bodies.theta, bodies.V
+    substeps, relax, threshold = settings.substeps, settings.relax, settings.restitution_threshold
+    n_rows = rows.lam.shape[0]
+    n_contacts = rows.normal_row.shape[0]
     h = dt / substeps
-    hertz = min(contact_hertz, 0.25 / h)
-    soft_dyn = _soft(hertz, damping_ratio, h, push_max)
-    soft_static = _soft(2.0 * hertz, damping_ratio, h, push_max)
-    soft_joint = _soft(min(joint_hertz, 0.25 / h), joint_damping_ratio, h, np.inf)
+    hertz = min(settings.contact_hertz, 0.25 / h)
+    springs = (
+        _soft(hertz, settings.damping_ratio, h, settings.push_max),  # contacts between dynamic bodies
+        _soft(2.0 * hertz, settings.damping_ratio, h, settings.push_max),  # contacts with a static body
+        _soft(min(settings.joint_hertz, 0.25 / h), settings.joint_damping_ratio, h, np.inf),  # joints
+    )
     # prepare
-    joint_body_a, joint_body_b = body_a, body_b  # the joints' rows are rebuilt in these (same bodies, same memory)
-    normal_row, friction_row, body_a, body_b = unsigned_indices(normal_row, friction_row, body_a, body_b)
+    joint_rows_in = rows  # the joints' rows are rebuilt in these (same rows, same memory)
+    rows = unsigned_rows(rows)
+    lam = rows.lam
     for k in range(n_rows):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
-    manifolds = prepare_manifolds(normal_row, body_a, body_b, J, JM, A_kk, M_inv, block)
-    inv_A_kk = inverse_diagonal(A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
+    manifolds = prepare_manifolds(rows, bodies.M_inv, settings.block)
+    inv_A_kk = inverse_diagonal(rows.A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     moved[:, 2] = 1.0
-    # each point's separation, restitution and lever arms (r_a, r_b) as its manifold was found
-    # (those of its rows), in row order
-    C0, e, r = gather_contacts(order, separation, e_contact, anchor)
-    eq = _equality_rows(first_joint_row, n_rows, lo)
-    direct = direct_joints and 0 < eq.shape[0] <= DIRECT_JOINT_ROWS_MAX
-    L = np.zeros((eq.shape[0], eq.shape[0])) if direct else np.zeros((0, 0))
-    first = np.zeros(eq.shape[0], np.int64)
-    C_joint = np.zeros(n_rows)
-    # each point's approach at impact: taken in the sub-step where it first pushes
-    impacted = np.zeros(n_contacts, np.bool_)
-    vn_impact = np.zeros(n_contacts)
-    dvn_impact = np.zeros(n_contacts)
-    sub_C = np.zeros(n_contacts)
-    sub_vn = np.zeros(n_contacts)
-    landed = np.zeros(n_contacts, np.bool_)  # met its partner fast in this sub-step
-    dv = (V - V1) / substeps  # a sub-step's share of the external forces
-    V[:, :] = V1
-    pending = np.arange(n_contacts, dtype=np.uint32)  # the points not yet met: their approach is still to come
-    n_pending = n_contacts
+    points = prepare_points(found, n_contacts)
+    system = joint_system(joints, rows, settings.direct_joints)
+    dv = split_forces(bodies, substeps)
+    n_pending = n_contacts  # the points not yet met: their approach is still to come
     n_sweeps = 0
+    # bool(): typed bool, where literal True and False would each compile a solve of their own
+    with_bias, without_bias = bool(True), bool(False)  # noqa: UP018
     for i in range(substeps):
-        if n_rows > first_joint_row:
-            prepare_joints(
-                joint_kind,
-                joint_a,
-                joint_b,
-                joint_local_a,
-                joint_local_b,
-                joint_params,
-                joint_row_offset,
-                first_joint_row,
-                x,
-                theta,
-                M_inv,
-                joint_body_a,
-                joint_body_b,
-                J,
-                JM,
-                A_kk,
-                xi,
-                lo,
-                hi,
-                bound_row,
-                mu,
-                C_joint,
-                eq,
-                L,
-                first,
-                direct,
-            )
+        if joints is not None and n_rows > first_joint_row_of(rows):
+            prepare_joints(joints, bodies, joint_rows_in, system)
         if i == 0 or not relax:  # after a relax sweep the positions have not moved since its separations
-            _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C)
+            _separations(rows, points, moved)
         if n_pending > 0:  # (once every point has met its partner, nothing is left to note)
-            _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
-        V += dv  # integrate velocities
-        warm_start(manifolds, normal_row, friction_row, body_a, body_b, JM, lam, V, first_joint_row)
-        solve(  # with bias
-            first_joint_row,
-            n_rows,
-            eq,
-            L,
-            first,
-            direct,
-            normal_row,
-            friction_row,
-            body_a,
-            body_b,
-            J,
-            JM,
-            A_kk,
-            inv_A_kk,
-            lo,
-            mu,
-            manifolds,
-            C_joint,
-            sub_C,
-            lam,
-            V,
-            h,
-            True,
-            soft_joint,
-            soft_dyn,
-            soft_static,
-        )
+            _note_approach(rows, points, n_pending, V)
+        integrate_velocities(V, dv)
+        warm_start(manifolds, rows, V)
+        solve(rows, manifolds, inv_A_kk, points.C, V, h, with_bias, springs, joints, system)  # with bias
         if n_pending > 0:
-            n_pending = _note_impacts(
-                pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn, restitution_threshold,
-                impacted, vn_impact, dvn_impact, landed,
-            )  # fmt: skip
-        integrate_positions(x, theta, V, h, x0, theta0, moved)
+            n_pending = _note_impacts(rows, points, n_pending, dv, h, threshold)
+        integrate_positions(bodies, h, x0, theta0, moved)
         residuals[n_sweeps] = 0.0
         if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
-            _separations(normal_row, body_a, body_b, C0, r, J, moved, sub_C)
+            _separations(rows, points, moved)
             if n_pending > 0:
-                _note_approach(pending, n_pending, normal_row, body_a, body_b, J, V, sub_vn)
+                _note_approach(rows, points, n_pending, V)
             residuals[n_sweeps] = solve(  # relax: without bias
-                first_joint_row,
-                n_rows,
-                eq,
-                L,
-                first,
-                direct,
-                normal_row,
-                friction_row,
-                body_a,
-                body_b,
-                J,
-                JM,
-                A_kk,
-                inv_A_kk,
-                lo,
-                mu,
-                manifolds,
-                C_joint,
-                sub_C,
-                lam,
-                V,
-                h,
-                False,
-                soft_joint,
-                soft_dyn,
-                soft_static,
+                rows, manifolds, inv_A_kk, points.C, V, h, without_bias, springs, joints, system
             )
             if n_pending > 0:
-                n_pending = _note_impacts(
-                    pending, n_pending, normal_row, body_a, body_b, J, dv, h, lam, sub_C, sub_vn,
-                    restitution_threshold, impacted, vn_impact, dvn_impact, landed,
-                )  # fmt: skip
+                n_pending = _note_impacts(rows, points, n_pending, dv, h, threshold)
         n_sweeps += 1
-        store(normal_row, friction_row, lam, total, landed)
-    restitution(
-        normal_row,
-        friction_row,
-        body_a,
-        body_b,
-        J,
-        JM,
-        A_kk,
-        mu,
-        e,
-        impacted,
-        vn_impact,
-        dvn_impact,
-        restitution_threshold,
-        total,
-        V,
-    )
-    lam[:] = total
+        store(rows, total, points)
+    restitution(rows, points, threshold, total, V)
+    for k in range(n_rows):
+        lam[k] = total[k]
     return n_sweeps
 
 
@@ -898,54 +816,23 @@ class SoftStep(Responder):
         self.joint_damping_ratio = joint_damping_ratio
         self.direct_joints = direct_joints
 
+    @property
+    def settings(self) -> SoftSettings:
+        """The settings as ``soft_step_solve`` reads them."""
+        return SoftSettings(
+            self.substeps, self.relax, self.contact_hertz, self.damping_ratio, self.push_max, self.joint_hertz,
+            self.joint_damping_ratio, self.direct_joints, self.restitution_threshold, self.block,
+        )  # fmt: skip
+
     def respond(self, ctx: StepContext) -> SolveResult:
         rows = ctx.rows
-        ja = ctx.joints if isinstance(ctx.joints, JointArrays) else JointArrays([])
+        bodies = records.new_bodies((ctx.x, ctx.theta, ctx.V, ctx.M_inv, ctx.V1))
+        found = (rows.order, ctx.separation, ctx.restitution, ctx.anchor)
+        joints = None  # a world without joints compiles none of their code
+        if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
+            joints = records.record_of_joints(ctx.joints, rows.lam[rows.first_joint_row :])  # (lam: not read)
         residuals = np.zeros(self.substeps)
-        n = soft_step_solve(
-            rows.normal_row,
-            rows.friction_row,
-            rows.body_a,
-            rows.body_b,
-            rows.J,
-            rows.JM,
-            rows.A_kk,
-            rows.xi,
-            rows.lo,
-            rows.hi,
-            rows.bound_row,
-            rows.mu,
-            rows.order,
-            ctx.separation,
-            ctx.restitution,
-            ctx.anchor,
-            ctx.x,
-            ctx.theta,
-            ctx.M_inv,
-            ctx.V,
-            ctx.V1,
-            ctx.dt,
-            self.substeps,
-            self.relax,
-            self.contact_hertz,
-            self.damping_ratio,
-            self.push_max,
-            self.joint_hertz,
-            self.joint_damping_ratio,
-            self.direct_joints,
-            self.restitution_threshold,
-            self.block,
-            ja.kind,
-            ja.body_a,
-            ja.body_b,
-            ja.local_a,
-            ja.local_b,
-            ja.params,
-            ja.row_offset,
-            rows.first_joint_row,
-            rows.lam,
-            residuals,
-        )
+        n = soft_step_solve(bodies, records.record_of_rows(rows), found, joints, ctx.dt, self.settings, residuals)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
@@ -957,4 +844,4 @@ class SoftStep(Responder):
         )
 
 
-__all__ = ["SoftStep", "soft_step_solve"]
+__all__ = ["SoftSettings", "SoftStep", "soft_step_solve"]

@@ -1,0 +1,123 @@
+"""Compiling on two cores: the first step of a cold numba cache, about half as long.
+
+numba compiles one function at a time, on one core. The one-call tick (``pipeline.tick``)
+calls a dozen stage kernels, each compiled once and cached on disk. On a cold cache with a
+second core, ``start`` splits the work:
+
+    a child process   steps a small world of the same responder: numba compiles the tick
+                      from its first stage down, saving each kernel to the cache
+    this process      compiles the tick's stages from the last one up (``compile_from_the_end``),
+                      then the tick itself, which loads from the cache what the child saved
+
+Nothing changes in what runs: the same kernels, compiled for the same argument types, and a
+kernel that neither process has compiled yet is compiled by whichever needs it first. Set
+PHYS2D_COMPILE_AHEAD=0 to compile in one process.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+from typing import Any
+
+import numpy as np
+from numba import config, typeof
+
+
+def cold(kernel: Any, args: tuple) -> bool:
+    """Whether ``kernel`` has neither machine code nor a cached entry for the types of ``args``."""
+    if config.DISABLE_JIT or getattr(kernel, "overloads", None) is None:  # type: ignore[attr-defined]
+        return False
+    sig = tuple(kernel.typeof_pyval(a) for a in args)
+    if sig in kernel.overloads:
+        return False
+    try:
+        index = kernel._cache._cache_file._load_index()  # numba's cache index (numba internals)
+    except Exception:  # another numba, or no cache: assume warm and compile here, as numba does
+        return False
+    return not any(key[0] == sig for key in index)
+
+
+def wanted() -> bool:
+    """Whether to compile on two cores: a second core, and not turned off."""
+    return os.environ.get("PHYS2D_COMPILE_AHEAD", "1") != "0" and (os.cpu_count() or 1) >= 2
+
+
+def start(responder: Any, joints: bool) -> subprocess.Popen | None:
+    """The child process that steps a small world under ``responder`` (with a joint when
+    ``joints``), compiling the tick from its first stage down; None if it cannot start."""
+    try:
+        child = subprocess.Popen(
+            [sys.executable, "-m", "phys2d.pipeline.ahead"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env={**os.environ, "PHYS2D_COMPILE_AHEAD": "0"},
+        )
+        assert child.stdin is not None
+        child.stdin.write(pickle.dumps((responder, joints)))
+        child.stdin.close()
+    except (OSError, pickle.PicklingError):
+        return None
+    return child
+
+
+def compile_from_the_end(pipeline: Any, args: tuple) -> None:
+    """Compile the stages ``pipeline.tick.tick`` calls, from the last one up, for the types the
+    tick calls them with: ``args`` are the tick's own (state, joints, stage, counts, step,
+    row_settings, pgs, soft)."""
+    from ..collision.recycle import collide_recycling
+    from ..constraints.joints import start_joint_rows
+    from ..constraints.rows import contact_rows
+    from ..contacts import impulses_to_contacts_and_cache
+    from ..integrate import first_too_fast
+    from ..responders.pgs import pgs_step
+    from ..responders.soft_step import soft_step_solve
+    from .stages import head_of_rows, order_contacts
+
+    _, joints, _, counts, step, row_settings, pgs, soft = args
+    bodies, shapes, store, sides, rows = (typeof(r) for r in pipeline._records)
+    found = typeof(pipeline._records[3][0])
+    i64, f64, i32 = typeof(0), typeof(0.0), typeof(np.zeros(0, np.int32))
+    floats, residuals = typeof(np.zeros(0)), typeof(pipeline.residuals)
+    jobs: list[tuple[Any, tuple]] = [
+        (impulses_to_contacts_and_cache, (rows, found, i64)),
+        (first_too_fast, (bodies.field_dict["V"], bodies.field_dict["x"], floats, f64)),
+    ]
+    if pgs is not None:
+        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals)))
+    if soft is not None:
+        quad = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros((0, 4))))
+        jobs.append((soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals)))
+    if joints is not None:
+        jobs.append((start_joint_rows, (typeof(joints), i64, bodies, f64, f64, typeof(True), rows)))
+    cache = typeof((np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.bool_)))
+    jobs += [
+        (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings))),
+        (head_of_rows, (rows, i64, i64)),
+        (order_contacts, (shapes, found, i64, typeof((0, 0, True)), typeof(True))),
+        (collide_recycling, (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0)))),
+    ]
+    del sides, counts, step, i32
+    for kernel, sig in jobs:
+        kernel.compile(sig)
+
+
+def _child() -> None:
+    """Step a small world under the responder read from stdin (one step: every kernel it needs)."""
+    responder, joints = pickle.loads(sys.stdin.buffer.read())
+    from ..world import World
+
+    w = World(responder=responder)
+    w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)
+    a = w.add_box(position=(0.0, 0.5), half_extents=(0.5, 0.5))
+    b = w.add_circle(position=(2.0, 0.5), radius=0.5)
+    if joints:
+        w.add_distance_joint(a, b)
+    w.step(1 / 60)
+
+
+if __name__ == "__main__":
+    _child()

@@ -1,0 +1,102 @@
+"""Compiling on two cores (``phys2d.pipeline.ahead``): this process compiles the tick's stages
+from the last one up for exactly the types the tick calls them with (else it would compile
+code nothing runs), and the child steps a small world of the same responder."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+
+import pytest
+from numba import config
+
+import phys2d
+from phys2d import scenes
+from phys2d.collision.recycle import collide_recycling
+from phys2d.constraints.joints import start_joint_rows
+from phys2d.constraints.rows import contact_rows
+from phys2d.contacts import impulses_to_contacts_and_cache
+from phys2d.integrate import first_too_fast
+from phys2d.pipeline import ahead
+from phys2d.pipeline.stages import head_of_rows, order_contacts
+from phys2d.pipeline.step import spec_of
+from phys2d.pipeline.tick import tick
+from phys2d.responders.pgs import pgs_step
+from phys2d.responders.soft_step import soft_step_solve
+
+STAGES = (
+    collide_recycling, start_joint_rows, contact_rows, impulses_to_contacts_and_cache, first_too_fast, pgs_step,
+    soft_step_solve, head_of_rows, order_contacts,
+)  # fmt: skip
+
+
+def _tick_args(w: phys2d.World) -> tuple:
+    p = w._pipeline
+    spec = spec_of(w.responder)
+    _, _, step, row_settings, joints = p._ready
+    return (p.state(w), joints, 0, p._counts(spec.colour_order), step, row_settings, spec.pgs, spec.soft)
+
+
+SAME_TYPES = """
+import os, sys
+from numba.core import event
+from phys2d import scenes, PGS, SoftStep
+from phys2d.pipeline import ahead
+from phys2d.pipeline.step import spec_of
+
+compiled = []
+class Listener(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+    def on_end(self, ev):
+        pass
+event.register("numba:compile", Listener())
+for w in (scenes.pyramid(3, responder=PGS()), scenes.heavy_chain(responder=SoftStep())):
+    w.step(1 / 60)  # a cold cache: the tick and every stage it calls compile here, for the tick's types
+    p, spec = w._pipeline, spec_of(w.responder)
+    _, _, step, row_settings, joints = p._ready
+    args = (p.state(w), joints, 0, p._counts(spec.colour_order), step, row_settings, spec.pgs, spec.soft)
+    compiled.clear()
+    ahead.compile_from_the_end(p, args)
+    if compiled:
+        sys.exit("compiled again, for other types: " + ", ".join(compiled))
+"""
+
+
+@pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")
+def test_the_stages_are_compiled_for_the_types_the_tick_calls_them_with(tmp_path):
+    """In a fresh process and cache the tick compiles every stage it calls; compiling them again from
+    the last one up must then find each already compiled for its types (PGS, and SoftStep with joints)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PHYS2D_COMPILE_AHEAD": "0"}
+    child = subprocess.run([sys.executable, "-c", SAME_TYPES], env=env, capture_output=True, timeout=1200)
+    assert child.returncode == 0, child.stderr.decode()[-2000:]
+
+
+@pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")
+def test_a_warm_cache_is_not_cold_and_an_unknown_type_is():
+    w = scenes.pyramid(3)
+    w.step(1 / 60)
+    args = _tick_args(w)
+    assert not ahead.cold(tick, args)
+    assert ahead.cold(tick, (*args[:-2], None, None))  # a tick with no solve was never compiled
+
+
+@pytest.mark.parametrize("joints", [False, True])
+def test_the_child_steps_a_small_world_of_the_responder(joints):
+    child = subprocess.run(
+        [sys.executable, "-c", "import phys2d.pipeline.ahead as a; a._child(); print('stepped')"],
+        input=pickle.dumps((phys2d.SoftStep(substeps=2), joints)),
+        capture_output=True,
+        timeout=600,
+    )
+    assert child.returncode == 0, child.stderr.decode()
+    assert child.stdout.decode().strip() == "stepped"
+
+
+def test_it_is_wanted_unless_turned_off(monkeypatch):
+    monkeypatch.setenv("PHYS2D_COMPILE_AHEAD", "0")
+    assert not ahead.wanted()
+    monkeypatch.setenv("PHYS2D_COMPILE_AHEAD", "1")
+    assert ahead.wanted() == ((os.cpu_count() or 1) >= 2)
