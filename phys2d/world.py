@@ -39,6 +39,17 @@ from .validation import check_bool, finite_float, float_in, non_negative_float, 
 _J = TypeVar("_J", bound=Joint)
 
 
+def _read_only_view(field: str, doc: str) -> property:
+    """A property giving a read-only view of the body arrays' ``field``."""
+
+    def get(self: World) -> np.ndarray:
+        view = getattr(self._bodies, field).view()
+        view.flags.writeable = False
+        return view
+
+    return property(get, doc=doc)
+
+
 class World:
     """A 2D world of rigid bodies.
 
@@ -489,7 +500,7 @@ class World:
         if not self._contacts_sealed:
             if self._pending_contacts is not None:  # copied out of the pipeline's buffers now
                 buffers, k = self._pending_contacts
-                self._contacts = buffers.contacts(k)  # type: ignore[attr-defined]
+                self._contacts = buffers.contacts(k)
                 self._pending_contacts = None
             self._contacts.read_only()
             self._contacts_sealed = True
@@ -543,56 +554,23 @@ class World:
 
     # -- read-only views for observers (the recorder, tools): no copies, no writes ----------
     # Each is a read-only view of the world's arrays, valid until a body is added or removed.
-    def _read_only(self, a: np.ndarray) -> np.ndarray:
-        v = a.view()
-        v.flags.writeable = False
-        return v
-
-    @property
-    def body_uids(self) -> np.ndarray:
-        """(N,) int64 uid of each body: unique in the world's lifetime, kept through removals."""
-        return self._read_only(self._bodies.uid)
-
-    @property
-    def body_static(self) -> np.ndarray:
-        """(N,) bool, True for static bodies (M^-1 = 0)."""
-        return self._read_only(self._bodies.static)
-
-    @property
-    def body_kinds(self) -> np.ndarray:
-        """(N,) int32 shape kind of each body: ``phys2d.shapes.CIRCLE`` or ``POLYGON``."""
-        return self._read_only(self._bodies.kind)
-
-    @property
-    def body_radii(self) -> np.ndarray:
-        """(N,) float64 circle radius of each body, m (0 for polygons)."""
-        return self._read_only(self._bodies.radius)
-
-    @property
-    def body_masses(self) -> np.ndarray:
-        """(N,) float64 mass m of each body, kg (also for static bodies)."""
-        return self._read_only(self._bodies.mass)
-
-    @property
-    def body_inertias(self) -> np.ndarray:
-        """(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."""
-        return self._read_only(self._bodies.inertia)
-
-    @property
-    def vertex_start(self) -> np.ndarray:
-        """(N,) int32 first row of each body's polygon in ``local_vertices``."""
-        return self._read_only(self._bodies.vstart)
-
-    @property
-    def vertex_count(self) -> np.ndarray:
-        """(N,) int32 number of polygon vertices of each body (0 for circles)."""
-        return self._read_only(self._bodies.vcount)
-
-    @property
-    def local_vertices(self) -> np.ndarray:
-        """(V, 2) float64 every polygon vertex in its body's frame, m, counter-clockwise;
-        body i's are rows ``vertex_start[i] : vertex_start[i] + vertex_count[i]``."""
-        return self._read_only(self._bodies.local_v)
+    body_uids = _read_only_view(
+        "uid", "(N,) int64 uid of each body: unique in the world's lifetime, kept through removals."
+    )
+    body_static = _read_only_view("static", "(N,) bool, True for static bodies (M^-1 = 0).")
+    body_kinds = _read_only_view("kind", "(N,) int32 shape kind of each body: ``phys2d.shapes.CIRCLE`` or ``POLYGON``.")
+    body_radii = _read_only_view("radius", "(N,) float64 circle radius of each body, m (0 for polygons).")
+    body_masses = _read_only_view("mass", "(N,) float64 mass m of each body, kg (also for static bodies).")
+    body_inertias = _read_only_view(
+        "inertia", "(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."
+    )
+    vertex_start = _read_only_view("vstart", "(N,) int32 first row of each body's polygon in ``local_vertices``.")
+    vertex_count = _read_only_view("vcount", "(N,) int32 number of polygon vertices of each body (0 for circles).")
+    local_vertices = _read_only_view(
+        "local_v",
+        "(V, 2) float64 every polygon vertex in its body's frame, m, counter-clockwise; body i's are rows "
+        "``vertex_start[i] : vertex_start[i] + vertex_count[i]``.",
+    )
 
     def __repr__(self) -> str:
         n = self._bodies.n

@@ -129,12 +129,6 @@ def new_shapes(arrays):
 
 
 @njit(cache=True)
-def new_manifolds(arrays):
-    """A ManifoldRecord over ``arrays`` (MANIFOLD_FIELDS' order)."""
-    return ManifoldRecord(*arrays)
-
-
-@njit(cache=True)
 def new_contacts(arrays):
     """A ContactRecord over ``arrays`` (CONTACT_FIELDS' order)."""
     return ContactRecord(*arrays)

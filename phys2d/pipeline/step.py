@@ -454,12 +454,12 @@ class Pipeline:
         c = t.sides[1 - self.side]
         order = c.order[:k]
         rows = Rows.view(t.rows, order, 2 * k + world._joint_lam.shape[0])
-        fields = (c.body_a, c.body_b, c.point, c.normal, c.separation, c.e, c.anchor)
+        found: tuple[np.ndarray, ...] = (c.body_a, c.body_b, c.point, c.normal, c.separation, c.e, c.anchor)
         if responder.colour_order and responder.contacts_in_row_order:  # the fields it reads, in row order
-            fields = tuple(f[order] for f in fields)
+            found = tuple(f[order] for f in found)
         else:
-            fields = tuple(f[:k] for f in fields)
-        body_a, body_b, point, normal, separation, restitution, anchor = fields
+            found = tuple(f[:k] for f in found)
+        body_a, body_b, point, normal, separation, restitution, anchor = found
         return StepContext(
             step.dt, b.x, b.theta, b.V, self.undo[2], b.M_inv, rows, k, body_a, body_b, point, normal, separation,
             restitution, gravity=world._gravity, joints=world._joint_arrays, anchor=anchor,
