@@ -181,6 +181,10 @@ def plot_choice(args: argparse.Namespace):
     return None
 
 
+# seconds a first run compiles for, by responder (benchmarks/STARTUP.md: a quiet 2-core machine, a fresh cache)
+FIRST_RUN_SECONDS = {"pgs": 20, "soft-step": 30, "other": 30}
+
+
 def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None) -> None:
     """Step each world once; when numba compiles a kernel meanwhile (a first run: its disk cache
     is cold), say so in one line before it starts, so a quiet wait is not mistaken for a hang."""
@@ -189,13 +193,16 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
     out = sys.stderr if stream is None else stream
 
     class Notice(event.Listener):
-        said = False
+        said = 0.0  # when the first compile started (0: none yet)
 
         def on_start(self, ev: event.Event) -> None:
             if not Notice.said:
-                Notice.said = True
+                Notice.said = time.perf_counter()
+                names = sorted({getattr(getattr(w, "responder", None), "name", "other") for w in worlds})
+                about = max(FIRST_RUN_SECONDS.get(name, FIRST_RUN_SECONDS["other"]) for name in names)
                 print(
-                    "phys2d: compiling the numba kernels (first run only, about 10-60 s; cached after that) ...",
+                    f"phys2d: compiling the numba kernels for {', '.join(names)} (first run only: about {about} s "
+                    "on 2 cores; cached after that) ...",
                     file=out,
                     flush=True,
                 )
@@ -206,6 +213,8 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
     with event.install_listener("numba:compile", Notice()):
         for w in worlds:
             w.step(dt)
+    if Notice.said:
+        print(f"phys2d: compiled in {time.perf_counter() - Notice.said:.0f} s", file=out, flush=True)
     # importing numba and loading the kernels leave ~10^5 objects that live to the end of the process;
     # each full collection walks them all (~0.07 s), and the exit collects several times (~0.5 s of a
     # 2.5 s run): frozen, they are left out of the collections

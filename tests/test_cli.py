@@ -345,11 +345,15 @@ def test_a_first_step_that_compiles_gets_one_notice_and_a_cached_one_none():
         def step(self, dt: float) -> None:
             other(dt)
 
-    for expect in (1, 0):  # the first call compiles both functions; the second finds them compiled
+    for compiles in (True, False):  # the first call compiles both functions; the second finds them compiled
         stream = io.StringIO()
         cli.first_step([Compiling(), Compiling()], 1 / 60, stream=stream)
         lines = stream.getvalue().splitlines()
-        assert len(lines) == expect and all("compiling the numba kernels" in ln for ln in lines), lines
+        if compiles:  # one line before (with its estimate), one after (how long it took)
+            assert len(lines) == 2 and "compiling the numba kernels" in lines[0] and " s on 2 cores" in lines[0]
+            assert lines[1].startswith("phys2d: compiled in "), lines
+        else:
+            assert lines == []
 
 
 def test_the_eta_leaves_out_the_first_step(tmp_path, monkeypatch, capsys):
