@@ -681,7 +681,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
     ``rows.lam`` holds the cached impulse per tick going in and the impulse over the whole tick
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
     sub-step out). Joint rows are rebuilt at each sub-step's positions. Returns the number of
-    sweeps; residuals[s] (length ``substeps``, the caller's buffer) is sweep s's residual (m/s).
+    sub-steps; residuals[s] (length ``substeps``, the caller's buffer) is the largest correction
+    of sub-step s's relax sweep (m/s), 0 without one.
     """
     x, theta, V = bodies.x, bodies.theta, bodies.V
     substeps, relax, threshold = settings.substeps, settings.relax, settings.restitution_threshold
@@ -695,7 +696,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
         _soft(min(settings.joint_hertz, 0.25 / h), settings.joint_damping_ratio, h, np.inf),  # joints
     )
     # prepare
-    joint_rows_in = rows  # the joints' rows are rebuilt in these (same rows, same memory)
+    joint_rows_in = rows  # the joints' rows are rebuilt in these (signed, as joint_rows is compiled for)
     rows = unsigned_rows(rows)
     lam = rows.lam
     for k in range(n_rows):
