@@ -164,7 +164,7 @@ def _push(s, h, use_bias, soft):
     return 0.0, 1.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # into solve, its one caller: a call takes and drops a reference per array
 def soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
     then the friction rows. C[c] is point c's separation now (m); ``manifolds`` comes from
@@ -642,7 +642,7 @@ def restitution(rows, points, threshold, total, V):
             apply_row_impulse(kt, a, b, JM, d, V)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
 def solve(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs, joints, system):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). springs: (contacts with a dynamic partner, with
@@ -669,7 +669,8 @@ def unsigned_rows(rows):
 @njit(cache=True)
 def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
-    warm start, solve with bias, integrate positions, relax, store; then restitution.
+    warm start, solve with bias, integrate positions, relax (the same sweep without bias),
+    store; then restitution.
 
     bodies: a BodyRecord (V after the external forces, V1 before); rows: the step's rows, the
     K contacts' first (row pair q is contact order[q]), then the joints' from row 2K;
@@ -680,7 +681,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
     ``rows.lam`` holds the cached impulse per tick going in and the impulse over the whole tick
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
     sub-step out). Joint rows are rebuilt at each sub-step's positions. Returns the number of
-    sweeps; residuals[s] (length ``substeps``, the caller's buffer) is sweep s's residual (m/s).
+    sub-steps; residuals[s] (length ``substeps``, the caller's buffer) is the largest correction
+    of sub-step s's relax sweep (m/s), 0 without one.
     """
     x, theta, V = bodies.x, bodies.theta, bodies.V
     substeps, relax, threshold = settings.substeps, settings.relax, settings.restitution_threshold
@@ -694,7 +696,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
         _soft(min(settings.joint_hertz, 0.25 / h), settings.joint_damping_ratio, h, np.inf),  # joints
     )
     # prepare
-    joint_rows_in = rows  # the joints' rows are rebuilt in these (same rows, same memory)
+    joint_rows_in = rows  # the joints' rows are rebuilt in these (signed, as joint_rows is compiled for)
     rows = unsigned_rows(rows)
     lam = rows.lam
     for k in range(n_rows):
@@ -711,31 +713,24 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
     dv = split_forces(bodies, substeps)
     n_pending = n_contacts  # the points not yet met: their approach is still to come
     n_sweeps = 0
-    # bool(): typed bool, where literal True and False would each compile a solve of their own
-    with_bias, without_bias = bool(True), bool(False)  # noqa: UP018
     for i in range(substeps):
         if joints is not None and n_rows > first_joint_row_of(rows):
             prepare_joints(joints, bodies, joint_rows_in, system)
-        if i == 0 or not relax:  # after a relax sweep the positions have not moved since its separations
-            _separations(rows, points, moved)
-        if n_pending > 0:  # (once every point has met its partner, nothing is left to note)
-            _note_approach(rows, points, n_pending, V)
-        integrate_velocities(V, dv)
-        warm_start(manifolds, rows, V)
-        solve(rows, manifolds, inv_A_kk, points.C, V, h, with_bias, springs, joints, system)  # with bias
-        if n_pending > 0:
-            n_pending = _note_impacts(rows, points, n_pending, dv, h, threshold)
-        integrate_positions(bodies, h, x0, theta0, moved)
-        residuals[n_sweeps] = 0.0
-        if relax:  # it stops what would close a gap in the next sub-step's motion: that is an impact too
-            _separations(rows, points, moved)
-            if n_pending > 0:
+        for sweep in range(2 if relax else 1):  # with bias, then the relax sweep without
+            with_bias = sweep == 0
+            if not with_bias or i == 0 or not relax:  # (after a relax sweep the positions have not moved)
+                _separations(rows, points, moved)
+            if n_pending > 0:  # (once every point has met its partner, nothing is left to note)
                 _note_approach(rows, points, n_pending, V)
-            residuals[n_sweeps] = solve(  # relax: without bias
-                rows, manifolds, inv_A_kk, points.C, V, h, without_bias, springs, joints, system
-            )
-            if n_pending > 0:
+            if with_bias:
+                integrate_velocities(V, dv)
+                warm_start(manifolds, rows, V)
+            worst = solve(rows, manifolds, inv_A_kk, points.C, V, h, with_bias, springs, joints, system)
+            if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = _note_impacts(rows, points, n_pending, dv, h, threshold)
+            if with_bias:
+                integrate_positions(bodies, h, x0, theta0, moved)
+            residuals[n_sweeps] = 0.0 if with_bias else worst  # the relax sweep's, when there is one
         n_sweeps += 1
         store(rows, total, points)
     restitution(rows, points, threshold, total, V)
