@@ -182,7 +182,7 @@ def plot_choice(args: argparse.Namespace):
 
 
 # seconds a first run compiles for, by responder (benchmarks/STARTUP.md: a quiet 2-core machine, a fresh cache)
-FIRST_RUN_SECONDS = {"pgs": 20, "soft-step": 30, "other": 30}
+FIRST_RUN_SECONDS = {"pgs": 15, "soft-step": 20, "other": 25}
 
 
 def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None) -> None:

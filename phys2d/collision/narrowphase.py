@@ -253,7 +253,7 @@ def collide_circle_polygon(world_v, world_n, s, n, cx, cy, r, margin):
     return 1, nx, ny, cx - nx * (r + 0.5 * sep), cy - ny * (r + 0.5 * sep), sep, feature
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide_circles(xa, ya, ra, xb, yb, rb, margin):
     """Circle A against circle B: (count, nx, ny, px, py, sep, feature), normal from A to B."""
     dx, dy = xb - xa, yb - ya
@@ -287,13 +287,13 @@ def manifold(a, b, x, shapes, margin):
     return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pair_key(uid, a, b):
     """The key of pair (a, b): uid_a << 39 | uid_b << 16; a point's key adds its feature id."""
     return (uid[a] << 39) | (uid[b] << 16)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def write_point(out, k, a, b, found, pair):
     """Contact point k of ``out`` (a ``ContactRecord``): found = (px, py, nx, ny, separation,
     feature), pair = (key, mu, e) of bodies a and b."""
@@ -312,7 +312,7 @@ def write_point(out, k, a, b, found, pair):
     out.feature[k] = feature
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def manifold_point(m, point):
     """Point 0 or 1 of manifold m (``manifold``): (px, py, nx, ny, separation, feature)."""
     if point == 0:
@@ -320,7 +320,7 @@ def manifold_point(m, point):
     return m[7], m[8], m[1], m[2], m[9], m[10]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pair_friction(friction, restitution, a, b):
     """The pair's friction sqrt(mu_a mu_b) and restitution max(e_a, e_b)."""
     return np.sqrt(friction[a]) * np.sqrt(friction[b]), max(restitution[a], restitution[b])  # no overflow

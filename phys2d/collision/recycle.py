@@ -117,7 +117,7 @@ def may_recycle(row, a, b, x, rotation, extent, found_pose, turn, recycle_distan
     return np.sqrt(dx * dx + dy * dy) + reach * abs(sin_relative_turn) < recycle_distance
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def recycled_point(point, a, b, x, turn, store):
     """(px, py, separation) of the store's point now: its anchors turned with their bodies
     (``turn``: ``turn_since_cached``)."""
@@ -157,7 +157,7 @@ def recycle_manifold(store, row, out, k, pair, x, turn, margin):
     beyond ``margin`` (m) of its partner: the narrowphase would drop it, so the pair is collided
     anew (over what was written). pair = (a, b, key, mu, e)."""
     a, b, key, mu, e = pair
-    anchor, normal = store.anchor, store.normal
+    anchor, normal, out_anchor = store.anchor, store.normal, out.anchor
     for point in range(store.span[row, 0], store.span[row, 1]):
         px, py, sep = recycled_point(point, a, b, x, turn, store)
         if sep > margin:
@@ -165,7 +165,7 @@ def recycle_manifold(store, row, out, k, pair, x, turn, margin):
         feature = np.int64(store.feature[point])  # as the narrowphase's: one write_point
         write_point(out, k, a, b, (px, py, normal[point, 0], normal[point, 1], sep, feature), (key, mu, e))
         for i in range(4):
-            out.anchor[k, i] = anchor[point, i]  # the lever arms it was found with, unturned
+            out_anchor[k, i] = anchor[point, i]  # the lever arms it was found with, unturned
         k += 1
     return k
 
@@ -222,7 +222,9 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     contact_margin, recycle_distance = margins
     x, rotation, travel, pairs = bodies.x, shapes.rotation, shapes.travel, shapes.pairs
     cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
-    new_key, new_row = out.manifold_key, out.manifold_row
+    new_key, new_row, pair_start = out.manifold_key, out.manifold_row, out.pair_start
+    kind, uid, friction, restitution = shapes.kind, shapes.uid, shapes.friction, shapes.restitution
+    found_pose, found_rotation = store.found_pose, store.found_rotation
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
     n_recycled = 0
@@ -230,12 +232,12 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
     extent = body_extents(shapes) if recycle_distance > 0.0 else np.zeros(0)
     for q in range(n_pairs):
-        out.pair_start[q] = k
+        pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
-        key = pair_key(shapes.uid, a, b)
-        pair = (a, b, key, *pair_friction(shapes.friction, shapes.restitution, a, b))
+        key = pair_key(uid, a, b)
+        pair = (a, b, key, *pair_friction(friction, restitution, a, b))
         slot = -1
-        polygons = shapes.kind[a] != CIRCLE and shapes.kind[b] != CIRCLE  # a circle rolls: its point moves
+        polygons = kind[a] != CIRCLE and kind[b] != CIRCLE  # a circle rolls: its point moves
         if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
             look = next_slot(cached_key, key, look)
             if look < n_cached and cached_key[look] == key:
@@ -244,8 +246,8 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
         recycled = -1
         row = cached_row[slot] if slot >= 0 else -1
         if slot >= 0:
-            turned = turn_since_cached(row, a, b, rotation, store.found_rotation)
-            if may_recycle(row, a, b, x, rotation, extent, store.found_pose, turned, recycle_distance):
+            turned = turn_since_cached(row, a, b, rotation, found_rotation)
+            if may_recycle(row, a, b, x, rotation, extent, found_pose, turned, recycle_distance):
                 recycled = recycle_manifold(store, row, out, k, pair, x, turned, margin)
         if recycled >= 0:
             n_recycled += 1
@@ -263,7 +265,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
         new_key[n_new] = key
         new_row[n_new] = row
         n_new += 1
-    out.pair_start[n_pairs] = k
+    pair_start[n_pairs] = k
     return k, n_new, n_recycled, rows_used, points_used, ascends
 
 

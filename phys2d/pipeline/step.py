@@ -1,13 +1,14 @@
 """The pipeline of one tick: the buffers it owns, and the step that runs its stages.
 
-``World.step`` hands a step to its ``Pipeline``, which runs the stages of
-``phys2d.pipeline.stages`` in one of two ways, with the same results bit for bit:
+``World.step`` hands a step to its ``Pipeline``, which runs the stages in one of two ways,
+with the same results bit for bit:
 
     in one call    a responder whose solve is a kernel (PGS in impulse form, SoftStep) gets
-                   one compiled call: ``pgs_tick`` or ``soft_tick`` run the stages in order
-    stage by stage Python calls each stage's kernel in turn, and the responder's ``respond``
-                   in between: the way to time the stages, watch them in a debugger, or plug
-                   in a responder of your own (``World(one_call_tick=False)`` forces it)
+                   one compiled call: ``pipeline.tick.tick`` runs the stages in order
+    stage by stage Python calls the same stage kernels in turn (``_in_stages``), and the
+                   responder's ``respond`` in the place of the solve: the way to time the
+                   stages, watch them in a debugger, or plug in a responder of your own
+                   (``w.one_call_tick = False`` forces it)
 
 Python's part either way: the sweep after the bodies or joints changed, growing the buffers
 (the kernel stops and says so), the undo of a step that failed, and the report.
