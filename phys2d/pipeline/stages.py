@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..collision.broadphase import fatten, sweep_and_prune, update_geometry
+from ..collision.broadphase import find_pairs, update_geometry
 from ..collision.sort import stable_argsort
 from ..constraints.order import colour_pairs, solve_order
 from ..integrate import apply_external_forces
@@ -85,11 +85,10 @@ def begin(s, gravity, dt, margin):
 
 @njit(cache=True)
 def sweep(shapes, colour_order):
-    """The broadphase's pairs anew (``fatten`` the tight boxes, ``sweep_and_prune`` the fat ones),
-    coloured (``pair_order``) when the responder visits them by colour. Returns their count, or
-    minus the room needed when they would not fit the pair buffer: then Python grows it."""
-    fatten(shapes.aabb, shapes.fat)
-    n_pairs = sweep_and_prune(shapes.fat, shapes.static, shapes.excluded, shapes.pairs)
+    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), coloured (``pair_order``)
+    when the responder visits them by colour. Returns their count, or minus the room needed when
+    they would not fit the pair buffer: then Python grows it."""
+    n_pairs = find_pairs(shapes)
     if colour_order and 0 <= n_pairs <= shapes.pair_order.shape[0]:
         coloured = colour_pairs(shapes.pairs, n_pairs, shapes.static, shapes.kind.shape[0])
         for p in range(n_pairs):
