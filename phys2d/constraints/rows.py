@@ -66,8 +66,8 @@ def as_uint32(a):
 @njit(cache=True, inline="always")
 def unsigned_indices(normal_row, friction_row, body_a, body_b):
     """The row map and the bodies as uint32 (``as_uint32``), for a kernel's loops: numba then
-    leaves out its fix-up for negative indices on every array access (a PGS sweep of
-    pyramid_20's rows: 15.3 -> 12.4 ns a row; contact_rows on its 1180 contacts: 84-88 -> 44-67 us)."""
+    leaves out its fix-up for negative indices on every array access (benchmarks/README.md has
+    what that saves)."""
     return as_uint32(normal_row), as_uint32(friction_row), as_uint32(body_a), as_uint32(body_b)
 
 
