@@ -66,8 +66,8 @@ def as_uint32(a):
 @njit(cache=True, inline="always")
 def unsigned_indices(normal_row, friction_row, body_a, body_b):
     """The row map and the bodies as uint32 (``as_uint32``), for a kernel's loops: numba then
-    leaves out its fix-up for negative indices on every array access (benchmarks/README.md has
-    what that saves)."""
+    leaves out its fix-up for negative indices on every array access (benchmarks/HISTORY.md has
+    what that saved)."""
     return as_uint32(normal_row), as_uint32(friction_row), as_uint32(body_a), as_uint32(body_b)
 
 
