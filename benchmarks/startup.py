@@ -19,8 +19,8 @@ the installed one) and ``NUMBA_CACHE_DIR`` set to a directory of this script's o
    kernels (``@njit``): warm the copy's cache, time a warm run, append one comment line
    to the module, time ``python -m phys2d run pyramid --size 10 --steps 60 --no-record``,
    and restore the module (the next module's warm-up recompiles what the restore made
-   stale); then the same with ``--responder soft-step`` around an edit of
-   ``responders/soft_step.py``;
+   stale); then the same with ``--responder soft-step`` around an edit of each of the
+   soft step's modules (``responders/soft_*.py``);
 4. **kernels**: in a child process with a fresh ``NUMBA_CACHE_DIR`` and a listener on
    numba's ``"numba:compile"`` event, ``scenes.pyramid(15, responder=...)`` and one
    step, for ``pgs`` and ``soft-step``: each function's compile time inclusive (the whole
@@ -198,9 +198,8 @@ def measure_edit(repo: Path, repeats: int) -> list[Table]:
         copy = top / repo.name
         shutil.copytree(repo, copy, ignore=shutil.ignore_patterns(*COPY_IGNORE), symlinks=True)
         jobs = [(module, "pgs") for module in kernel_modules(copy)]
-        soft = copy / "phys2d" / "responders" / "soft_step.py"
-        if soft.is_file():
-            jobs.append((soft, "soft-step"))
+        # the soft step's modules again with the soft step: the run that compiles them
+        jobs += [(module, "soft-step") for module in kernel_modules(copy) if module.name.startswith("soft_")]
         table = Table(
             "edit-then-run: one comment line appended to a module, the cache warm before it",
             ["module edited", "command", "warm s", "after the edit s"],

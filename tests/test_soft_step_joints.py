@@ -17,7 +17,7 @@ from phys2d import scenes
 from phys2d.constraints.joints import JointArrays, joint_rows
 from phys2d.constraints.rows import Rows
 from phys2d.pipeline import records
-from phys2d.responders.soft_step import factor_joint_rows, solve_factored
+from phys2d.responders.soft_joints import factor_joint_rows, solve_factored
 from tests.test_joints import G, amplitude_factor, measured_period, swing
 
 
@@ -200,14 +200,14 @@ def test_a_world_without_joints_compiles_none_of_their_code(tmp_path):
         from phys2d.constraints import joints
         from phys2d.constraints.rows import Rows
         from phys2d.pipeline import records
-        from phys2d.responders import soft_step
+        from phys2d.responders import soft_joints, soft_step
         x, theta, V = np.array([[0.0, 1.0]]), np.zeros(1), np.array([[0.0, -0.1, 0.0]])
         bodies = records.new_bodies((x, theta, V, np.ones((1, 3)), V.copy()))
         rows = Rows(0)
         found = (rows.order, np.zeros(0), np.zeros(0), np.zeros((0, 4)))
         settings = soft_step.SoftStep().settings
-        kernels = [soft_step.prepare_joints, soft_step.solve_joints, soft_step.factor_joint_rows,
-                   soft_step.solve_factored, soft_step._equality_rows, joints.joint_rows]
+        kernels = [soft_joints.prepare_joints, soft_joints.solve_joints, soft_joints.factor_joint_rows,
+                   soft_joints.solve_factored, soft_joints._equality_rows, joints.joint_rows]
         for jointed in (False, True):
             joint_record = records.record_of_joints(joints.JointArrays([]), np.zeros(0)) if jointed else None
             n = soft_step.soft_step_solve(bodies, records.record_of_rows(rows), found, joint_record, 1 / 60, settings,

@@ -9,10 +9,10 @@ import pytest
 
 import phys2d
 from phys2d import scenes
-from phys2d.constraints.rows import Rows
+from phys2d.constraints.rows import Rows, unsigned_rows
 from phys2d.pipeline.records import record_of_rows
 from phys2d.responders.base import StepContext
-from phys2d.responders.soft_step import prepare_manifolds, unsigned_rows
+from phys2d.responders.soft_contacts import prepare_manifolds
 
 
 def rows_after(world: phys2d.World, responder: phys2d.SoftStep, steps: int) -> tuple[Rows, np.ndarray]:

@@ -89,7 +89,7 @@ def test_solve_order_is_the_pairs_points_concatenated():
 
 
 def test_gather_contacts_is_fancy_indexing():
-    from phys2d.responders.soft_step import gather_contacts
+    from phys2d.responders.soft_points import gather_contacts
 
     rng = np.random.default_rng(4)
     k = 13
@@ -152,7 +152,7 @@ def test_soft_step_gathering_for_itself_moves_the_bodies_as_the_world_s_gather()
 def test_cos_sin_is_libm_s_to_an_ulp():
     """Against np.cos, np.sin: the Taylor series below SMALL_TURN within one ulp (turns from
     1e-12 rad up, both signs), libm's own at and above it."""
-    from phys2d.responders.soft_step import SMALL_TURN, cos_sin
+    from phys2d.responders.soft_integrate import SMALL_TURN, cos_sin
 
     rng = np.random.default_rng(2)
     small = np.concatenate(

@@ -46,6 +46,7 @@ import numpy as np
 from numba import njit
 
 from ..contacts import find_in_cache, rows_to_contacts
+from ..pipeline.records import RowRecord
 
 FRICTION_COULOMB = 0
 FRICTION_LECTURE = 1
@@ -69,6 +70,19 @@ def unsigned_indices(normal_row, friction_row, body_a, body_b):
     leaves out its fix-up for negative indices on every array access (benchmarks/HISTORY.md has
     what that saved)."""
     return as_uint32(normal_row), as_uint32(friction_row), as_uint32(body_a), as_uint32(body_b)
+
+
+@njit(cache=True)
+def unsigned_rows(rows):
+    """The rows with their row map and bodies as uint32 (``unsigned_indices``, for the sweeps'
+    loops): a record over the same arrays."""
+    normal_row, friction_row, body_a, body_b = unsigned_indices(
+        rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    )
+    return RowRecord(
+        normal_row, friction_row, body_a, body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.push, rows.bounce,
+        rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
+    )  # fmt: skip
 
 
 def contact_row_map(n_contacts: int) -> tuple[np.ndarray, np.ndarray, int]:

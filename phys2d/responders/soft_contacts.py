@@ -1,0 +1,188 @@
+"""The soft step's contact rows (``responders.soft_step``): the soft push, the manifolds, the sweep.
+
+The soft push replaces Baumgarte's beta with a spring of stiffness ``contact_hertz``
+and damping ratio ``damping_ratio`` (Catto, "Solver2D", 2024): for a row with
+separation C < 0,
+
+    omega = 2 pi hertz,  a1 = 2 zeta + h omega,  a2 = h omega a1,  a3 = 1 / (1 + a2)
+    bias = max(omega / a1 * C, -push_max)
+    delta lambda = -mass_scale * (J V + bias) / A_kk - impulse_scale * lambda
+    with mass_scale = a2 a3 and impulse_scale = a3
+
+so the push is bounded and critically damped instead of proportional to 1/dt.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..constraints.rows import (
+    MET,
+    apply_row_impulse,
+    pair_row_impulse,
+    pair_row_velocity,
+    pair_velocity,
+    store_pair_velocity,
+)
+from .block import block_is_well_conditioned, lcp2
+
+
+@njit(cache=True)
+def soft_constants(hertz, zeta, h, push_max):
+    """(bias_rate 1/s, mass_scale, impulse_scale, push_max m/s) of a soft constraint over a sub-step h."""
+    if hertz == 0.0:
+        return 0.0, 1.0, 0.0, push_max
+    omega = 2.0 * np.pi * hertz
+    a1 = 2.0 * zeta + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3, push_max
+
+
+@njit(cache=True)
+def soft_push(s, h, use_bias, soft):
+    """(bias m/s, mass_scale, impulse_scale) of a normal row whose separation is s (m)."""
+    if s > 0.0:
+        return s / h, 1.0, 0.0  # speculative: close the gap, no more
+    if use_bias:
+        return max(soft[0] * s, -soft[3]), soft[1], soft[2]  # the soft push, at most push_max
+    return 0.0, 1.0, 0.0
+
+
+@njit(cache=True)
+def soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs):
+    """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
+    then the friction rows. C[c] is point c's separation now (m); ``manifolds`` comes from
+    ``prepare_manifolds``; inv_A_kk = 1 / A_kk (``inverse_diagonal``: the sweeps multiply,
+    never divide); springs: the soft push against a dynamic and a static partner (``soft_constants``).
+
+    A two-point manifold marked as a block has its normal rows solved together (lcp2), each
+    row scaled by its own softness (relax does so only while both points touch):
+        K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
+    Returns the largest |delta lambda| A_kk of the sweep (m/s).
+    """
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
+    soft_dyn, soft_static = springs[0], springs[1]
+    start, static_pair, K12, as_block, inv_det = manifolds
+    worst = 0.0
+    for m in range(start.shape[0] - 1):
+        c = start[m]
+        k = normal_row[c]
+        a, b = body_a[k], body_b[k]
+        soft = soft_static if static_pair[m] else soft_dyn
+        s1 = C[c]
+        V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
+        if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
+            k2 = normal_row[c + 1]
+            s2 = C[c + 1]
+            K11, K22 = A_kk[k], A_kk[k2]
+            bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
+            bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
+            a1, a2 = lam[k], lam[k2]
+            b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
+            b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
+            x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
+            lam[k] = x1
+            lam[k2] = x2
+            V_ab = pair_row_impulse(k2, JM, x2 - a2, pair_row_impulse(k, JM, x1 - a1, V_ab))
+            worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
+        else:
+            # relax leaves a point still apart alone: the next sweep with the push limits its
+            # approach to closing the gap (cutting it here would bounce it off the air)
+            for c in range(start[m], start[m + 1]):
+                k = normal_row[c]
+                s1 = C[c]
+                if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
+                    bias, mass_scale, impulse_scale = soft_push(s1, h, use_bias, soft)
+                    d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
+                    new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
+                    d = new - lam[k]
+                    lam[k] = new
+                    V_ab = pair_row_impulse(k, JM, d, V_ab)
+                    worst = max(worst, abs(d) * A_kk[k])
+        store_pair_velocity(a, b, V_ab, V)
+    for m in range(start.shape[0] - 1):  # then the friction rows, manifold by manifold
+        k = friction_row[start[m]]
+        a, b = body_a[k], body_b[k]
+        V_ab = pair_velocity(a, b, V)
+        for c in range(start[m], start[m + 1]):
+            k, kn = friction_row[c], normal_row[c]
+            if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
+                continue  # static pair, or a point that does not push: its friction cone is [0, 0]
+            top = mu[k] * lam[kn]
+            d = -pair_row_velocity(k, J, V_ab) * inv_A_kk[k]
+            new = min(max(lam[k] + d, -top), top)
+            d = new - lam[k]
+            lam[k] = new
+            V_ab = pair_row_impulse(k, JM, d, V_ab)
+            worst = max(worst, abs(d) * A_kk[k])
+        store_pair_velocity(a, b, V_ab, V)
+    return worst
+
+
+@njit(cache=True)
+def prepare_manifolds(rows, M_inv, block):
+    """What stays the same over the tick, per contact manifold in solve order (a manifold:
+    one point, or two consecutive points on the same pair):
+
+        start        (M + 1,)  its points are start[m] up to start[m + 1]
+        static_pair  (M,)      a partner is static (M^-1 = 0): the stiffer push
+        K12          (M,)      J_1 M^-1 J_2^T of a two-point manifold's normal rows
+        as_block     (M,)      ``block`` and its 2x2 K is well conditioned: solve them together
+        inv_det      (M,)      1 / det K of a block (``lcp2``), 0 elsewhere
+    """
+    normal_row, body_a, body_b, J, JM, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk
+    n_contacts = normal_row.shape[0]
+    start = np.empty(n_contacts + 1, np.uint32)
+    n = 0
+    c = 0
+    while c < n_contacts:
+        start[n] = c
+        n += 1
+        k = normal_row[c]
+        pair = c + 1 < n_contacts and body_a[normal_row[c + 1]] == body_a[k] and body_b[normal_row[c + 1]] == body_b[k]
+        c += 2 if pair else 1
+    start[n] = n_contacts
+    start = start[: n + 1].copy()
+    static_pair = np.empty(n, np.bool_)
+    K12 = np.zeros(n)
+    as_block = np.zeros(n, np.bool_)
+    inv_det = np.zeros(n)
+    for m in range(n):
+        k = normal_row[start[m]]
+        a, b = body_a[k], body_b[k]
+        static_pair[m] = M_inv[a, 0] == 0.0 or M_inv[b, 0] == 0.0
+        if block and start[m + 1] - start[m] == 2:
+            k2 = normal_row[start[m] + 1]
+            K = 0.0
+            for q in range(6):
+                K += J[k, q] * JM[k2, q]
+            K12[m] = K
+            as_block[m] = block_is_well_conditioned(A_kk[k], K, A_kk[k2])
+            if as_block[m]:
+                inv_det[m] = 1.0 / (A_kk[k] * A_kk[k2] - K * K)
+    return start, static_pair, K12, as_block, inv_det
+
+
+@njit(cache=True)
+def warm_start(manifolds, rows, V):
+    """Apply last sub-step's impulses (N s) to V: a manifold's rows (normal, then friction, point
+    by point) on its pair's velocities held in hand (``pair_velocity``), stored once; then the
+    joint rows."""
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    JM, lam = rows.JM, rows.lam
+    start = manifolds[0]
+    for m in range(start.shape[0] - 1):
+        k = normal_row[start[m]]
+        a, b = body_a[k], body_b[k]
+        V_ab = pair_velocity(a, b, V)
+        for c in range(start[m], start[m + 1]):
+            for k in (normal_row[c], friction_row[c]):
+                if lam[k] != 0.0:
+                    V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
+        store_pair_velocity(a, b, V_ab, V)
+    for k in range(2 * normal_row.shape[0], lam.shape[0]):  # the joint rows follow the contacts' 2K
+        if lam[k] != 0.0:
+            apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)

@@ -1,0 +1,175 @@
+"""The soft step's contact points over a tick (``responders.soft_step``): gathered once, their
+separation kept up to date from the bodies' motion, their approach noted until they meet
+their partner, and the bounce of those that met it fast.
+
+Between sweeps the separation of each contact point is updated from how far its bodies
+have moved (x - x0 and the rotated lever arms), so no new collision detection is needed
+within the tick.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import config, njit, types
+from numba.experimental import structref
+
+from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
+
+POINT_FIELDS = ("C0", "e", "r", "C", "vn", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
+_POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):
+    as found, its separation C0 (m), restitution e and lever arms r = (r_a, r_b) (m); within a
+    sub-step its separation C now (m) and J V before the sweep, vn (m/s); the points not yet met
+    (pending, in order) and, once met, their approach at impact (vn_impact, m/s, and dvn_impact,
+    the forces' share of the sub-step); landed: met its partner fast in this sub-step."""
+
+if config.DISABLE_JIT:  # type: ignore[attr-defined]  # plain Python: a plain object, as the records are
+
+    class Points:
+        __doc__ = _POINTS_DOC
+
+        def __init__(self, *arrays: np.ndarray) -> None:
+            for name, a in zip(POINT_FIELDS, arrays, strict=True):
+                setattr(self, name, a)
+
+else:
+
+    @structref.register
+    class PointsType(types.StructRef):
+        def preprocess_fields(self, fields):
+            return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+    class Points(structref.StructRefProxy):  # type: ignore[no-redef]
+        __doc__ = _POINTS_DOC
+
+    structref.define_proxy(Points, PointsType, POINT_FIELDS)
+
+
+@njit(cache=True)
+def separation_now(c, k, a, b, C0, r, J, moved):
+    """Current separation of point c (m) from its bodies' motion since the tick began.
+
+    moved[body] = (dx, dy, cos dtheta, sin dtheta); each anchor has moved by
+    dx + R(dtheta) r - r. The normal n is that of the point's normal row k (J_k = [-n, . | n, .]).
+    """
+    s = C0[c]
+    for side in range(2):
+        body = a if side == 0 else b
+        rx, ry = r[c, 2 * side], r[c, 2 * side + 1]
+        dx = moved[body, 0] + moved[body, 2] * rx - moved[body, 3] * ry - rx
+        dy = moved[body, 1] + moved[body, 3] * rx + moved[body, 2] * ry - ry
+        d = dx * J[k, 3] + dy * J[k, 4]
+        s += d if side == 1 else -d
+    return s
+
+
+@njit(cache=True)
+def separations(rows, points, moved):
+    """Every point's separation C at the positions now (m)."""
+    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
+    C0, r, C = points.C0, points.r, points.C
+    for c in range(normal_row.shape[0]):
+        k = normal_row[c]
+        C[c] = separation_now(c, k, body_a[k], body_b[k], C0, r, J, moved)
+
+
+@njit(cache=True)
+def note_approach(rows, points, n_pending, V):
+    """Before a sweep: J V (m/s) of the points not yet met (pending[:n_pending])."""
+    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
+    pending, vn = points.pending, points.vn
+    for q in range(n_pending):
+        c = pending[q]
+        k = normal_row[c]
+        vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)
+
+
+@njit(cache=True)
+def note_impacts(rows, points, n_pending, dv, h, threshold):
+    """After a sweep: a point that pushed for the first time meets its partner in this
+    sub-step's motion (gap C, J V vn before a sub-step of forces dv): its approach
+    at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
+    landed[c]: it was still apart and met its partner faster than the threshold.
+    Returns how many points are still to meet theirs (kept in order in pending)."""
+    normal_row, body_a, body_b, J, lam = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.lam
+    pending, C, vn, impacted, landed = points.pending, points.C, points.vn, points.impacted, points.landed
+    vn_impact, dvn_impact = points.vn_impact, points.dvn_impact
+    n = 0
+    for q in range(n_pending):
+        c = pending[q]
+        k = normal_row[c]
+        if lam[k] > 0.0:
+            impacted[c] = True
+            dvn = row_velocity(k, body_a[k], body_b[k], J, dv)
+            vn_impact[c] = approach_at_impact(C[c], vn[c], vn[c] + dvn, h)
+            dvn_impact[c] = dvn
+            landed[c] = C[c] > MET and vn_impact[c] < -threshold
+        else:
+            pending[n] = c
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def gather_contacts(order, separation, restitution, anchor):
+    """What the tick reads of each contact, in row order (row pair q is contact order[q]):
+    its separation C0 (m), restitution e and lever arms (r_a, r_b) (m). One pass, at prepare;
+    the normal is read from the contact's normal row (J_k = [-n, . | n, .])."""
+    n = order.shape[0]
+    C0, e, r = np.empty(n), np.empty(n), np.empty((n, 4))
+    for q in range(n):
+        c = order[q]
+        C0[q] = separation[c]
+        e[q] = restitution[c]
+        for i in range(4):
+            r[q, i] = anchor[c, i]
+    return C0, e, r
+
+
+@njit(cache=True)
+def prepare_points(found, n_contacts):
+    """The tick's ``Points`` of the step's contacts: C0, e and r gathered into row order
+    (``gather_contacts`` of found = (order, separation, e, anchor)), the rest to fill in."""
+    C0, e, r = gather_contacts(found[0], found[1], found[2], found[3])
+    return Points(
+        C0, e, r, np.zeros(n_contacts), np.zeros(n_contacts), np.arange(n_contacts, dtype=np.uint32),
+        np.zeros(n_contacts, np.bool_), np.zeros(n_contacts), np.zeros(n_contacts), np.zeros(n_contacts, np.bool_),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def store(rows, total, points):
+    """Add the sub-step's impulses to the tick's; an impact is an event, not a load: it is
+    not warm started into the next sub-step."""
+    normal_row, friction_row, lam, landed = rows.normal_row, rows.friction_row, rows.lam, points.landed
+    for k in range(lam.shape[0]):
+        total[k] += lam[k]
+    for c in range(normal_row.shape[0]):
+        if landed[c]:
+            lam[normal_row[c]] = 0.0
+            lam[friction_row[c]] = 0.0
+            landed[c] = False
+
+
+@njit(cache=True)
+def restitution(rows, points, threshold, total, V):
+    """Bounce the points that met their partner fast (``constraints.rows.bounce_target``),
+    keeping the tick's friction inside mu lambda_n."""
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    J, JM, A_kk, mu = rows.J, rows.JM, rows.A_kk, rows.mu
+    e, impacted, vn_impact, dvn_impact = points.e, points.impacted, points.vn_impact, points.dvn_impact
+    for c in range(normal_row.shape[0]):
+        k, kt = normal_row[c], friction_row[c]
+        if e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0 or A_kk[k] <= 0.0:
+            continue
+        a, b = body_a[k], body_b[k]
+        target = bounce_target(e[c], vn_impact[c], dvn_impact[c])
+        d = (target - row_velocity(k, a, b, J, V)) / A_kk[k]
+        new = max(total[k] + d, 0.0)
+        d = new - total[k]
+        total[k] = new
+        apply_row_impulse(k, a, b, JM, d, V)
+        top = mu[kt] * total[k]  # a smaller push shrinks the cone
+        d = min(max(total[kt], -top), top) - total[kt]
+        if d != 0.0:
+            total[kt] += d
+            apply_row_impulse(kt, a, b, JM, d, V)
