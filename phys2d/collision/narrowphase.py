@@ -300,8 +300,8 @@ def write_point(out, k, a, b, found, pair):
     px, py, nx, ny, separation, feature = found
     key, mu, e = pair
     out.key[k] = key | feature
-    out.mu[k] = mu
-    out.e[k] = e
+    out.friction[k] = mu
+    out.restitution[k] = e
     out.body_a[k] = a
     out.body_b[k] = b
     out.point[k, 0] = px

@@ -367,7 +367,7 @@ def contact_rows(bodies, shapes, cache, found, rows, settings):
     )
     x, V1, V, M_inv = bodies.x, bodies.V1, bodies.V, bodies.M_inv
     point, anchor, normal, separation = found.point, found.anchor, found.normal, found.separation
-    mu, e = found.mu, found.e
+    mu, e = found.friction, found.restitution
     J, JM, A_kk, xi, push, bounce, impact = rows.J, rows.JM, rows.A_kk, rows.xi, rows.push, rows.bounce, rows.impact
     lo, hi, bound_row, out_mu, lam = rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam
     out_a, out_b = rows.body_a, rows.body_b

@@ -79,7 +79,7 @@ ManifoldRecord = _record(
 )
 
 CONTACT_FIELDS = (
-    "body_a", "body_b", "point", "normal", "separation", "feature", "key", "mu", "e", "anchor",
+    "body_a", "body_b", "point", "normal", "separation", "feature", "key", "friction", "restitution", "anchor",
     "lambda_n", "lambda_t", "hit", "order", "pair_start", "cache_lambda_n", "cache_lambda_t", "cache_pushed",
     "manifold_key", "manifold_row",
 )  # fmt: skip

@@ -113,7 +113,7 @@ class ContactBuffers:
         cap = 2 * pairs
         self.body_a, self.body_b = np.zeros(cap, np.int32), np.zeros(cap, np.int32)
         self.point, self.normal, self.anchor = np.zeros((cap, 2)), np.zeros((cap, 2)), np.zeros((cap, 4))
-        self.separation, self.mu, self.e = np.zeros(cap), np.zeros(cap), np.zeros(cap)
+        self.separation, self.friction, self.restitution = np.zeros(cap), np.zeros(cap), np.zeros(cap)
         self.feature, self.key = np.zeros(cap, np.int32), np.zeros(cap, np.int64)
         self.lambda_n, self.lambda_t, self.hit = np.zeros(cap), np.zeros(cap), np.zeros(cap, np.bool_)
         self.order = np.zeros(cap + 2, np.int32)  # two spare slots: ``solve_order``
@@ -128,8 +128,8 @@ class ContactBuffers:
             body_a=self.body_a[:k].copy(), body_b=self.body_b[:k].copy(), point=self.point[:k].copy(),
             anchor=self.anchor[:k].copy(), normal=self.normal[:k].copy(), separation=self.separation[:k].copy(),
             lambda_n=self.lambda_n[:k].copy(), lambda_t=self.lambda_t[:k].copy(), feature=self.feature[:k].copy(),
-            key=self.key[:k].copy(), warm_started=self.hit[:k].copy(), friction=self.mu[:k].copy(),
-            restitution=self.e[:k].copy(),
+            key=self.key[:k].copy(), warm_started=self.hit[:k].copy(), friction=self.friction[:k].copy(),
+            restitution=self.restitution[:k].copy(),
         )  # fmt: skip
 
 
@@ -455,7 +455,7 @@ class Pipeline:
         c = t.sides[1 - self.side]
         order = c.order[:k]
         rows = Rows.view(t.rows, order, 2 * k + world._joint_lam.shape[0])
-        found: tuple[np.ndarray, ...] = (c.body_a, c.body_b, c.point, c.normal, c.separation, c.e, c.anchor)
+        found: tuple[np.ndarray, ...] = (c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution, c.anchor)
         if responder.colour_order and responder.contacts_in_row_order:  # the fields it reads, in row order
             found = tuple(f[order] for f in found)
         else:

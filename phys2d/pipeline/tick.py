@@ -65,7 +65,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft):
     if pgs is not None:
         count = pgs_step(s.bodies, rows, new.separation[:k], step.dt, pgs, s.residuals)
     if soft is not None:
-        found = (new.order[:k], new.separation[:k], new.e[:k], new.anchor[:k])
+        found = (new.order[:k], new.separation[:k], new.restitution[:k], new.anchor[:k])
         count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals)
     # the limits, then the impulses per contact and the cache the next step starts from
     b = s.bodies
