@@ -38,6 +38,7 @@ from ..constraints.rows import (
     pair_velocity,
     row_velocity,
     store_pair_velocity,
+    unsigned_rows,
 )
 from ..integrate import integrate_positions
 from ..pipeline.records import RowRecord, new_bodies, record_of_rows
@@ -143,7 +144,8 @@ def block_sweep(rows, rows_hat, V, joint_rows):
     and the joint rows ``joint_rows`` row by row (``sweep``, on ``rows_hat``, the same rows per
     unit A_kk). Returns the largest |delta lambda_k| A_kk (m/s). With no friction rows
     (``rows.friction_row`` empty) only the normal rows are swept."""
-    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    normal_row, friction_row = rows_hat.normal_row, rows_hat.friction_row  # unsigned: the sweep's visit
+    body_a, body_b = rows.body_a, rows.body_b
     worst = 0.0
     n_contacts = normal_row.shape[0]
     frictionless = friction_row.shape[0] == 0
@@ -199,8 +201,8 @@ def pgs_solve(rows, V, iterations, tolerance, residuals, block):
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
     residuals[s] is sweep s's. ``block``: see ``PGSSettings``."""
     apply_impulses(rows, V)
-    rows_hat = per_unit_A(rows)
-    all_rows = np.arange(rows.lam.shape[0], dtype=rows.normal_row.dtype)  # the row map's dtype: sweep compiles once
+    rows_hat = per_unit_A(unsigned_rows(rows))
+    all_rows = np.arange(rows.lam.shape[0], dtype=np.uint32)  # unsigned, as rows_hat's row map: sweep compiles once
     joint_rows = all_rows[2 * rows.normal_row.shape[0] :]
     for s in range(iterations):
         if block is not None:
@@ -235,12 +237,12 @@ def push_out(rows, V_push, iterations, tolerance, block):
         return 0
     none = rows.normal_row[:0]  # no friction rows, no joint rows: the normal rows only
     push_rows = with_target(rows, rows.push, np.zeros(rows.lam.shape[0]), none)
-    push_hat = per_unit_A(push_rows)
+    push_hat = per_unit_A(unsigned_rows(push_rows))
     for s in range(iterations):
         if block is not None:
             worst = block_sweep(push_rows, push_hat, V_push, none)
         else:
-            worst = sweep(push_hat, V_push, push_rows.normal_row)
+            worst = sweep(push_hat, V_push, push_hat.normal_row)
         if worst <= tolerance:
             return s + 1
     return iterations
