@@ -8,26 +8,120 @@ body in creation order:
     V      (N, 3)  the lecture's V: [vx, vy, omega] in m/s and rad/s
     M_inv  (N, 3)  the diagonal of M^-1: [1/m, 1/m, 1/I] (0 for static bodies)
 
-plus each body's shape (kind, radius, a slice of the polygon vertex arrays) and
-material (friction, restitution). A :class:`Body` is a thin handle: an index into
-these arrays, never a copy of them.
+plus each body's shape (kind, radius, a slice of the polygon vertex arrays), material
+(friction, restitution), the forces on it besides contacts (gravity_scale, damping, the
+force applied for the next step) and its collision filter (category, mask, group). A
+:class:`Body` is a thin handle: an index into these arrays, never a copy of them.
+
+Three kinds of body, as in Box2D: dynamic (moved by forces and contacts), static (never
+moves) and kinematic (moves at the velocity it is given; no force or contact changes it).
+Static and kinematic bodies both have M^-1 = 0, and the arrays' ``static`` flag (infinite
+mass) is set for both; ``kinematic`` tells them apart.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .shapes import CIRCLE, ShapeSpec
-from .validation import finite_float, float_in, non_negative_float, vec2
+from .validation import (
+    MAX_BITS,
+    check_bool,
+    filter_bits,
+    filter_group,
+    finite_float,
+    float_in,
+    non_negative_float,
+    positive_float,
+    vec2,
+)
 
 if TYPE_CHECKING:
     from .world import World
 
 MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
+
+
+ALL_CATEGORIES = MAX_BITS  # the default mask: collide with every category
+
+
+class BodyOptions(TypedDict, total=False):
+    """The keyword arguments every ``World.add_*`` takes besides the shape (SI units)."""
+
+    angle: float  # rad
+    density: float  # kg/m^2 (2D)
+    friction: float  # mu >= 0 (pairs mix sqrt(mu_a mu_b))
+    restitution: float  # e in [0, 1] (pairs take max(e_a, e_b))
+    static: bool  # never moves
+    kinematic: bool  # moves at the velocity it is given; no force or contact changes it
+    velocity: ArrayLike  # (vx, vy) m/s
+    angular_velocity: float  # rad/s
+    gravity_scale: float  # its gravity is gravity_scale g
+    linear_damping: float  # c >= 0 (1/s): v /= 1 + c dt every step
+    angular_damping: float  # c >= 0 (1/s): omega /= 1 + c dt every step
+    category: int  # the categories it belongs to, a 64-bit mask
+    mask: int  # the categories it collides with, a 64-bit mask
+    group: int  # a shared negative group never collides, a shared positive group always does
+
+
+class BodySettings(NamedTuple):
+    """``BodyOptions`` checked, with every default filled in."""
+
+    angle: float = 0.0
+    density: float = 1.0
+    friction: float = 0.6
+    restitution: float = 0.0
+    static: bool = False
+    kinematic: bool = False
+    velocity: tuple[float, float] = (0.0, 0.0)
+    angular_velocity: float = 0.0
+    gravity_scale: float = 1.0
+    linear_damping: float = 0.0
+    angular_damping: float = 0.0
+    category: int = 1
+    mask: int = ALL_CATEGORIES
+    group: int = 0
+
+
+def body_settings(options: BodyOptions) -> BodySettings:
+    """Check ``options`` (a ``BodyOptions``): each value, and that no name is unknown."""
+    unknown = sorted(set(options) - set(BodySettings._fields))
+    if unknown:
+        raise TypeError(f"unexpected keyword argument {unknown[0]!r}; a body takes {', '.join(BodySettings._fields)}")
+    o = BodySettings()._replace(**options)  # type: ignore[arg-type]  # (velocity: checked just below)
+    v = vec2(o.velocity, "velocity")
+    checked = BodySettings(
+        finite_float(o.angle, "angle"),
+        positive_float(o.density, "density"),
+        non_negative_float(o.friction, "friction"),
+        float_in(o.restitution, "restitution", 0.0, 1.0),
+        check_bool(o.static, "static"),
+        check_bool(o.kinematic, "kinematic"),
+        (float(v[0]), float(v[1])),
+        finite_float(o.angular_velocity, "angular_velocity"),
+        finite_float(o.gravity_scale, "gravity_scale"),
+        non_negative_float(o.linear_damping, "linear_damping"),
+        non_negative_float(o.angular_damping, "angular_damping"),
+        filter_bits(o.category, "category"),
+        filter_bits(o.mask, "mask"),
+        filter_group(o.group, "group"),
+    )
+    if checked.static and checked.kinematic:
+        raise ValueError("static and kinematic are both True: a body is static (never moves) or kinematic, not both")
+    return checked
+
+
+def should_collide(category_a: int, mask_a: int, group_a: int, category_b: int, mask_b: int, group_b: int) -> bool:
+    """Box2D's filter: a shared non-zero group decides (positive: always, negative: never);
+    else each body's category must be in the other's mask. (``collision.broadphase`` runs
+    the same test on the arrays.)"""
+    if group_a == group_b and group_a != 0:
+        return group_a > 0
+    return (mask_a & category_b) != 0 and (category_a & mask_b) != 0
 
 
 def _grown(a: np.ndarray, capacity: int) -> np.ndarray:
@@ -57,8 +151,15 @@ class BodyArrays:
     vcount: np.ndarray  # (N,) int32 number of vertices (0 for circles)
     friction: np.ndarray  # (N,) friction coefficient mu
     restitution: np.ndarray  # (N,) restitution e in [0, 1]
-    static: np.ndarray  # (N,) bool
+    static: np.ndarray  # (N,) bool: M^-1 = 0 (static or kinematic)
+    kinematic: np.ndarray  # (N,) bool: moves at its velocity, no force or contact changes it
     uid: np.ndarray  # (N,) int64 unique in the world's lifetime
+    gravity_scale: np.ndarray  # (N,) its gravity is gravity_scale g
+    damping: np.ndarray  # (N, 2) linear and angular damping c (1/s): v /= 1 + c dt
+    force: np.ndarray  # (N, 3) [f_x, f_y, tau] (N, N m) applied for the next step only
+    category: np.ndarray  # (N,) uint64 the categories the body belongs to
+    mask: np.ndarray  # (N,) uint64 the categories it collides with
+    group: np.ndarray  # (N,) int32 collision group (0: none)
     local_v: np.ndarray  # (n_verts, 2) polygon vertices in the body frame, m
     local_n: np.ndarray  # (n_verts, 2) unit outward edge normals in the body frame
     # the storage behind them, grown by doubling
@@ -75,7 +176,14 @@ class BodyArrays:
     _friction: np.ndarray
     _restitution: np.ndarray
     _static: np.ndarray
+    _kinematic: np.ndarray
     _uid: np.ndarray
+    _gravity_scale: np.ndarray
+    _damping: np.ndarray
+    _force: np.ndarray
+    _category: np.ndarray
+    _mask: np.ndarray
+    _group: np.ndarray
     _local_v: np.ndarray
     _local_n: np.ndarray
 
@@ -93,13 +201,21 @@ class BodyArrays:
         "friction": ((), np.float64),
         "restitution": ((), np.float64),
         "static": ((), np.bool_),
+        "kinematic": ((), np.bool_),
         "uid": ((), np.int64),
+        "gravity_scale": ((), np.float64),
+        "damping": ((2,), np.float64),
+        "force": ((3,), np.float64),
+        "category": ((), np.uint64),
+        "mask": ((), np.uint64),
+        "group": ((), np.int32),
     }
 
     def __init__(self) -> None:
         self.n = 0
         self.n_verts = 0
         self.next_uid = 0
+        self.forces_applied = False  # a force or torque waits in ``force`` for the next step
         for name, (shape, dtype) in self._PER_BODY.items():
             setattr(self, "_" + name, np.zeros((8,) + shape, dtype=dtype))
         self._local_v = np.zeros((32, 2))
@@ -113,20 +229,9 @@ class BodyArrays:
         self.local_v = self._local_v[: self.n_verts]
         self.local_n = self._local_n[: self.n_verts]
 
-    def append(
-        self,
-        spec: ShapeSpec,
-        x: ArrayLike,
-        theta: float,
-        V: ArrayLike,
-        mass: float,
-        inertia: float,
-        friction: float,
-        restitution: float,
-        static: bool,
-    ) -> int:
-        """Add a body's row (values already checked): x (m), theta (rad), V = (vx, vy, omega)
-        (m/s, rad/s), mass (kg), inertia (kg m^2); returns its row index."""
+    def append(self, spec: ShapeSpec, x: ArrayLike, mass: float, inertia: float, o: BodySettings) -> int:
+        """Add a body's row (values already checked): x (m), mass (kg), inertia (kg m^2) and the
+        rest as ``o`` says; returns its row index."""
         if self.next_uid > MAX_BODY_UID:
             raise ValueError(f"a world can create at most {MAX_BODY_UID + 1} bodies in its lifetime")
         i = self.n
@@ -140,20 +245,28 @@ class BodyArrays:
             self._local_n = _grown(self._local_n, cap)
         self._local_v[self.n_verts : self.n_verts + nv] = spec.vertices
         self._local_n[self.n_verts : self.n_verts + nv] = spec.normals
+        infinite_mass = o.static or o.kinematic
         self._x[i] = x
-        self._theta[i] = theta
-        self._V[i] = V
-        self._M_inv[i] = (0.0, 0.0, 0.0) if static else (1.0 / mass, 1.0 / mass, 1.0 / inertia)
+        self._theta[i] = o.angle
+        self._V[i] = (*o.velocity, o.angular_velocity)
+        self._M_inv[i] = (0.0, 0.0, 0.0) if infinite_mass else (1.0 / mass, 1.0 / mass, 1.0 / inertia)
         self._mass[i] = mass
         self._inertia[i] = inertia
         self._kind[i] = spec.kind
         self._radius[i] = spec.radius
         self._vstart[i] = self.n_verts
         self._vcount[i] = nv
-        self._friction[i] = friction
-        self._restitution[i] = restitution
-        self._static[i] = static
+        self._friction[i] = o.friction
+        self._restitution[i] = o.restitution
+        self._static[i] = infinite_mass
+        self._kinematic[i] = o.kinematic
         self._uid[i] = self.next_uid
+        self._gravity_scale[i] = o.gravity_scale
+        self._damping[i] = (o.linear_damping, o.angular_damping)
+        self._force[i] = 0.0
+        self._category[i] = o.category
+        self._mask[i] = o.mask
+        self._group[i] = o.group
         self.next_uid += 1
         self.n_verts += nv
         self.n += 1
@@ -187,10 +300,13 @@ class Body:
     """A handle onto one body's row of the world's arrays.
 
     Read and set ``position`` (m, the centre of mass), ``angle`` (rad),
-    ``velocity`` (m/s) and ``angular_velocity`` (rad/s); ``mass`` (kg),
-    ``inertia`` (kg m^2) and ``static`` are read-only. ``index`` is the body's
-    row in the world's arrays and in ``w.bodies``; it shifts down when an
-    earlier body is removed.
+    ``velocity`` (m/s) and ``angular_velocity`` (rad/s), ``friction``,
+    ``restitution``, ``gravity_scale``, ``linear_damping`` and ``angular_damping``
+    (1/s), and the collision filter ``category``, ``mask`` and ``group``; ``mass``
+    (kg), ``inertia`` (kg m^2), ``static`` and ``kinematic`` are read-only.
+    ``apply_force`` and ``apply_torque`` act for the next step only,
+    ``apply_impulse`` at once. ``index`` is the body's row in the world's arrays and
+    in ``w.bodies``; it shifts down when an earlier body is removed.
     """
 
     __slots__ = ("_world", "_index", "_uid", "__weakref__")
@@ -274,8 +390,78 @@ class Body:
 
     @property
     def static(self) -> bool:
-        """Static bodies have M^-1 = 0: no impulse or gravity moves them."""
-        return bool(self._arrays().static[self._index])
+        """Static bodies have M^-1 = 0 and never move: no impulse or gravity moves them."""
+        a = self._arrays()
+        return bool(a.static[self._index] and not a.kinematic[self._index])
+
+    @property
+    def kinematic(self) -> bool:
+        """Kinematic bodies have M^-1 = 0 and move at the velocity they are given: no force,
+        impulse or contact changes it."""
+        return bool(self._arrays().kinematic[self._index])
+
+    @property
+    def gravity_scale(self) -> float:
+        """The body's gravity is gravity_scale g (1: the world's; 0: none; negative: it rises)."""
+        return float(self._arrays().gravity_scale[self._index])
+
+    @gravity_scale.setter
+    def gravity_scale(self, value: float) -> None:
+        v = finite_float(value, "gravity_scale")
+        self._arrays().gravity_scale[self._index] = v
+
+    @property
+    def linear_damping(self) -> float:
+        """c >= 0 (1/s): every step v /= 1 + c dt (Box2D's damping), after the forces."""
+        return float(self._arrays().damping[self._index, 0])
+
+    @linear_damping.setter
+    def linear_damping(self, value: float) -> None:
+        v = non_negative_float(value, "linear_damping")
+        self._arrays().damping[self._index, 0] = v
+
+    @property
+    def angular_damping(self) -> float:
+        """c >= 0 (1/s): every step omega /= 1 + c dt, after the forces."""
+        return float(self._arrays().damping[self._index, 1])
+
+    @angular_damping.setter
+    def angular_damping(self, value: float) -> None:
+        v = non_negative_float(value, "angular_damping")
+        self._arrays().damping[self._index, 1] = v
+
+    # -- collision filter (Box2D's) -------------------------------------------
+    @property
+    def category(self) -> int:
+        """The categories the body belongs to, a 64-bit mask (default 1)."""
+        return int(self._arrays().category[self._index])
+
+    @category.setter
+    def category(self, value: int) -> None:
+        self._set_filter("category", filter_bits(value, "category"))
+
+    @property
+    def mask(self) -> int:
+        """The categories the body collides with, a 64-bit mask (default: all)."""
+        return int(self._arrays().mask[self._index])
+
+    @mask.setter
+    def mask(self, value: int) -> None:
+        self._set_filter("mask", filter_bits(value, "mask"))
+
+    @property
+    def group(self) -> int:
+        """Collision group: two bodies of the same negative group never collide, of the same
+        positive group always do (whatever their masks); 0 is no group."""
+        return int(self._arrays().group[self._index])
+
+    @group.setter
+    def group(self, value: int) -> None:
+        self._set_filter("group", filter_group(value))
+
+    def _set_filter(self, field: str, value: int) -> None:
+        getattr(self._arrays(), field)[self._index] = value
+        self._world._pipeline.bodies_changed()  # the broadphase's pairs are found anew
 
     @property
     def friction(self) -> float:
@@ -324,6 +510,27 @@ class Body:
         return self.local_vertices @ rot.T + a.x[self._index]
 
     # -- actions ----------------------------------------------------------
+    def apply_force(self, force: ArrayLike, point: ArrayLike | None = None) -> None:
+        """Apply a force (N) at a world point (m), the centre of mass by default, for the next
+        step only: V += dt M^-1 F_ext then, with the torque (r x F) of r = point - x.
+        Forces add up until that step; static and kinematic bodies are not moved."""
+        a = self._arrays()
+        f = vec2(force, "force")
+        r = np.zeros(2) if point is None else vec2(point, "point") - a.x[self._index]
+        self._add_force(f[0], f[1], r[0] * f[1] - r[1] * f[0])
+
+    def apply_torque(self, torque: float) -> None:
+        """Apply a torque tau (N m) for the next step only: omega += dt tau / I then."""
+        self._add_force(0.0, 0.0, finite_float(torque, "torque"))
+
+    def _add_force(self, fx: float, fy: float, tau: float) -> None:
+        a = self._arrays()
+        total = a.force[self._index] + (fx, fy, tau)
+        if not np.all(np.isfinite(total)):
+            raise ValueError("force: the total force on the body would not be finite")
+        a.force[self._index] = total
+        a.forces_applied = True
+
     def apply_impulse(self, impulse: ArrayLike, point: ArrayLike | None = None) -> None:
         """Apply an impulse (N s) at a world point (m), the centre of mass by default.
 
@@ -346,7 +553,7 @@ class Body:
             return f"<Body #{self._uid} removed>"
         a = self._world._bodies
         i = self._index
-        kind = "static " if a.static[i] else ""
+        kind = "kinematic " if a.kinematic[i] else "static " if a.static[i] else ""
         shape = f"circle r={a.radius[i]:.3g}" if a.kind[i] == CIRCLE else f"polygon {a.vcount[i]} vertices"
         x, y = a.x[i]
         return (

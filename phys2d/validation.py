@@ -81,6 +81,21 @@ def check_int(value, name: str, low: int, high: int = MAX_COUNT) -> int:
     return int(value)
 
 
+MAX_BITS = (1 << 64) - 1  # category and mask are 64-bit masks, as Box2D's
+GROUP_RANGE = (-(1 << 31), (1 << 31) - 1)  # group is a 32-bit signed int
+
+
+def filter_bits(value, name: str) -> int:
+    """``value`` as a 64-bit mask of collision categories (``category``, ``mask``): an int in
+    [0, 2^64 - 1] (bools are refused)."""
+    return check_int(value, name, 0, MAX_BITS)
+
+
+def filter_group(value, name: str = "group") -> int:
+    """``value`` as a collision group: a 32-bit signed int (0: no group)."""
+    return check_int(value, name, *GROUP_RANGE)
+
+
 def check_bool(value, name: str) -> bool:
     """``value`` as a bool (numpy bools too; 0 and 1 are refused)."""
     if not isinstance(value, (bool, np.bool_)):

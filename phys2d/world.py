@@ -13,13 +13,14 @@ from Python for every other responder (and for any with ``one_call_tick = False`
 from __future__ import annotations
 
 import math
-from typing import TypeVar
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from . import shapes
-from .bodies import Body, BodyArrays
+from .bodies import Body, BodyArrays, BodyOptions, body_settings
 from .constraints.joints import (
     AngleJoint,
     DistanceJoint,
@@ -34,7 +35,10 @@ from .contacts import Contacts
 from .pipeline.step import Pipeline, SimulationError
 from .responders.base import Responder, StepReport
 from .responders.pgs import PGS
-from .validation import check_bool, finite_float, float_in, non_negative_float, positive_float, vec2
+from .validation import check_bool, non_negative_float, positive_float, vec2
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack  # typing.Unpack from Python 3.11; annotations only
 
 _J = TypeVar("_J", bound=Joint)
 
@@ -218,106 +222,41 @@ class World:
         return self._bodies.n
 
     # -- adding and removing bodies ----------------------------------------------
-    # Every argument after ``position`` is keyword-only. The ones all add_* share:
-    #   angle (rad), density (kg/m^2, 2D), friction (mu >= 0), restitution (e in [0, 1]),
-    #   static (never moved by impulses or gravity), velocity (m/s), angular_velocity (rad/s).
+    # Every argument after ``position`` is keyword-only. Besides the shape's own, every add_*
+    # takes the body's (``bodies.BodyOptions``): angle (rad), density (kg/m^2, 2D), friction
+    # (mu >= 0), restitution (e in [0, 1]), static (never moves), kinematic (moves at its
+    # velocity, no force or contact changes it), velocity (m/s), angular_velocity (rad/s),
+    # gravity_scale, linear_damping and angular_damping (c >= 0, 1/s: v /= 1 + c dt), and the
+    # collision filter category, mask (64-bit masks) and group (Box2D's meaning).
     def add_box(
-        self,
-        position: ArrayLike = (0.0, 0.0),
-        *,
-        half_extents: ArrayLike = (0.5, 0.5),
-        angle: float = 0.0,
-        density: float = 1.0,
-        friction: float = 0.6,
-        restitution: float = 0.0,
-        static: bool = False,
-        velocity: ArrayLike = (0.0, 0.0),
-        angular_velocity: float = 0.0,
+        self, position: ArrayLike = (0.0, 0.0), *, half_extents: ArrayLike = (0.5, 0.5), **options: Unpack[BodyOptions]
     ) -> Body:
         """A box of half extents (hx, hy) in m centred at ``position`` (m), rotated by ``angle`` (rad)."""
-        return self._add(
-            shapes.box(half_extents),
-            position,
-            angle,
-            density,
-            friction,
-            restitution,
-            static,
-            velocity,
-            angular_velocity,
-        )
+        return self._add(lambda: shapes.box(half_extents), position, options)
 
     def add_circle(
-        self,
-        position: ArrayLike = (0.0, 0.0),
-        *,
-        radius: float = 0.5,
-        angle: float = 0.0,
-        density: float = 1.0,
-        friction: float = 0.6,
-        restitution: float = 0.0,
-        static: bool = False,
-        velocity: ArrayLike = (0.0, 0.0),
-        angular_velocity: float = 0.0,
+        self, position: ArrayLike = (0.0, 0.0), *, radius: float = 0.5, **options: Unpack[BodyOptions]
     ) -> Body:
         """A circle of ``radius`` (m) centred at ``position`` (m)."""
-        return self._add(
-            shapes.circle(radius), position, angle, density, friction, restitution, static, velocity, angular_velocity
-        )
+        return self._add(lambda: shapes.circle(radius), position, options)
 
     def add_polygon(
-        self,
-        position: ArrayLike = (0.0, 0.0),
-        *,
-        vertices: ArrayLike,
-        angle: float = 0.0,
-        density: float = 1.0,
-        friction: float = 0.6,
-        restitution: float = 0.0,
-        static: bool = False,
-        velocity: ArrayLike = (0.0, 0.0),
-        angular_velocity: float = 0.0,
+        self, position: ArrayLike = (0.0, 0.0), *, vertices: ArrayLike, **options: Unpack[BodyOptions]
     ) -> Body:
         """A convex polygon: ``vertices`` (m), at least 3, counter-clockwise in the body frame.
 
         The vertices are re-centred on their centroid, which is placed at
         ``position`` (m): a body's position is always its centre of mass.
         """
-        return self._add(
-            shapes.polygon(vertices),
-            position,
-            angle,
-            density,
-            friction,
-            restitution,
-            static,
-            velocity,
-            angular_velocity,
-        )
+        return self._add(lambda: shapes.polygon(vertices), position, options)
 
-    def _add(
-        self,
-        spec: shapes.ShapeSpec,
-        position: ArrayLike,
-        angle: float,
-        density: float,
-        friction: float,
-        restitution: float,
-        static: bool,
-        velocity: ArrayLike,
-        angular_velocity: float,
-    ) -> Body:
+    def _add(self, make_shape: Callable[[], shapes.ShapeSpec], position: ArrayLike, options: BodyOptions) -> Body:
         # validate everything before touching the arrays: a rejected call changes nothing
         x = vec2(position, "position")
-        theta = finite_float(angle, "angle")
-        density = positive_float(density, "density")
-        friction = non_negative_float(friction, "friction")
-        restitution = float_in(restitution, "restitution", 0.0, 1.0)
-        static = check_bool(static, "static")
-        v = vec2(velocity, "velocity")
-        omega = finite_float(angular_velocity, "angular_velocity")
-        mass, inertia = shapes.mass_properties(spec, density)
-        index = self._bodies.append(spec, x, theta, (v[0], v[1], omega), mass, inertia, friction, restitution, static)
+        spec = make_shape()
+        o = body_settings(options)
+        mass, inertia = shapes.mass_properties(spec, o.density)
+        index = self._bodies.append(spec, x, mass, inertia, o)
         handle = Body(self, index, int(self._bodies.uid[index]))
         self._handles.append(handle)
         self._pipeline.bodies_changed()  # a new body
@@ -557,7 +496,9 @@ class World:
     body_uids = _read_only_view(
         "uid", "(N,) int64 uid of each body: unique in the world's lifetime, kept through removals."
     )
-    body_static = _read_only_view("static", "(N,) bool, True for static bodies (M^-1 = 0).")
+    body_static = _read_only_view(
+        "static", "(N,) bool, True for bodies of infinite mass (M^-1 = 0): static and kinematic ones."
+    )
     body_kinds = _read_only_view("kind", "(N,) int32 shape kind of each body: ``phys2d.shapes.CIRCLE`` or ``POLYGON``.")
     body_radii = _read_only_view("radius", "(N,) float64 circle radius of each body, m (0 for polygons).")
     body_masses = _read_only_view("mass", "(N,) float64 mass m of each body, kg (also for static bodies).")

@@ -46,7 +46,8 @@ def test_sweep_pairs_are_every_overlap_sorted_by_pair(boxes):
     n = aabb.shape[0]
     static = np.zeros(n, np.bool_)
     pairs = np.zeros((n * n + 1, 2), np.int32)
-    count = sweep_and_prune(aabb, static, np.zeros(0, np.int64), pairs)
+    no_filter = (np.ones(n, np.uint64), np.full(n, np.iinfo(np.uint64).max, np.uint64), np.zeros(n, np.int32))
+    count = sweep_and_prune(aabb, static, np.zeros(0, np.int64), pairs, no_filter)
     expected = [
         (a, b)
         for a in range(n)

@@ -113,16 +113,29 @@ def find_pairs(shapes):
     """The broadphase anew: ``fatten`` the tight boxes into the fat ones, then ``sweep_and_prune``
     them into ``shapes.pairs`` (their count, or minus the room needed when it is too small)."""
     fatten(shapes.aabb, shapes.fat)
-    return sweep_and_prune(shapes.fat, shapes.static, shapes.excluded, shapes.pairs)
+    filters = (shapes.category, shapes.mask, shapes.group)
+    return sweep_and_prune(shapes.fat, shapes.static, shapes.excluded, shapes.pairs, filters)
+
+
+@njit(cache=True, inline="always")
+def filtered_out(filters, a, b):
+    """Box2D's collision filter (``bodies.should_collide``): a shared non-zero group decides
+    (positive: collide, negative: never); else each one's category must be in the other's mask.
+    filters = (category, mask, group), per body."""
+    category, mask, group = filters
+    if group[a] == group[b] and group[a] != 0:
+        return group[a] < 0
+    return (mask[a] & category[b]) == 0 or (category[a] & mask[b]) == 0
 
 
 @njit(cache=True)
-def sweep_and_prune(aabb, static, excluded, pairs):
+def sweep_and_prune(aabb, static, excluded, pairs, filters):
     """Write the candidate pairs (a < b) into ``pairs``, sorted by (a, b).
 
     Returns how many there are; if ``pairs`` is too small, returns the number
     needed as a negative count so the caller can grow the buffer and retry.
-    Static-static pairs and the pairs in ``excluded`` are skipped.
+    Pairs of bodies that are both static (or kinematic), the pairs in ``excluded`` (joined
+    bodies) and the pairs the collision filter keeps apart (``filtered_out``) are skipped.
     """
     n = aabb.shape[0]
     order = stable_argsort(aabb[:, 0])
@@ -135,7 +148,7 @@ def sweep_and_prune(aabb, static, excluded, pairs):
             b = order[jj]
             if aabb[b, 0] > right:
                 break  # sorted by left edge: nothing further overlaps a in x
-            if static[a] and static[b]:
+            if (static[a] and static[b]) or filtered_out(filters, a, b):
                 continue
             if aabb[a, 1] > aabb[b, 3] or aabb[b, 1] > aabb[a, 3]:
                 continue

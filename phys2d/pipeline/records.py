@@ -57,7 +57,8 @@ BodyRecord = _record(
 
 SHAPE_FIELDS = (
     "static", "uid", "friction", "restitution", "kind", "radius", "vstart", "vcount", "local_v", "local_n",
-    "rotation", "world_v", "world_n", "aabb", "fat", "travel", "pairs", "pair_order", "excluded",
+    "rotation", "world_v", "world_n", "aabb", "fat", "travel", "pairs", "pair_order", "excluded", "category", "mask",
+    "group",
 )  # fmt: skip
 ShapeRecord = _record(
     "ShapeRecord",
@@ -66,7 +67,8 @@ ShapeRecord = _record(
     (mixed per contact); its shape: kind, radius (m), vertices vstart:vstart + vcount of local_v and local_n in the
     body's frame; now: rotation (cos, sin), world_v, world_n, the tight aabb and the fat one
     (m), travel (m a body may move within the step); the broadphase's pairs (and their
-    colour order, pair_order), and the pair keys joints exclude.""",
+    colour order, pair_order), the pair keys joints exclude, and each body's collision filter
+    (category, mask, group: ``bodies.should_collide``).""",
 )
 
 MANIFOLD_FIELDS = ("found_pose", "found_rotation", "span", "anchor", "normal", "separation", "feature")
@@ -161,23 +163,24 @@ def record_of_joints(joints: object, lam: object) -> Any:
     return new_joints((*arrays_of(joints, JOINT_FIELDS[:-1]), lam))
 
 
-STATE_FIELDS = ("bodies", "shapes", "store", "sides", "rows", "undo_x", "undo_theta", "residuals")
+STATE_FIELDS = ("bodies", "shapes", "store", "sides", "rows", "undo_x", "undo_theta", "residuals", "forces")
 StepState = _record(
     "StepState",
     STATE_FIELDS,
     """Everything a tick's stages read and write, as one argument: the bodies, shapes and manifold
     store, both sides of the contact buffers (a tuple of two ContactRecords), the row buffers
-    (a RowRecord at capacity), the positions to undo a failed step with, and the residual of
-    each sweep.""",
+    (a RowRecord at capacity), the positions to undo a failed step with, the residual of
+    each sweep, and the forces on the bodies besides contacts: (gravity_scale (N,), damping
+    (N, 2) 1/s, force (N, 3) N and N m applied for this step).""",
 )
 
 
 @njit(cache=True)
 def new_state(bodies, shapes, store, sides, rest):
     """A StepState over the arrays of each record (tuples in the order of their ``*_FIELDS``;
-    sides: one per side; rest: the rows' arrays, then undo_x, undo_theta and residuals), and the
-    records it holds: (state, bodies, shapes, store, (side 0, side 1), rows)."""
-    row_arrays, undo_x, undo_theta, residuals = rest
+    sides: one per side; rest: the rows' arrays, then undo_x, undo_theta, residuals and forces),
+    and the records it holds: (state, bodies, shapes, store, (side 0, side 1), rows)."""
+    row_arrays, undo_x, undo_theta, residuals, forces = rest
     records = (
         BodyRecord(*bodies),
         ShapeRecord(*shapes),
@@ -185,4 +188,4 @@ def new_state(bodies, shapes, store, sides, rest):
         (ContactRecord(*sides[0]), ContactRecord(*sides[1])),
         RowRecord(*row_arrays),
     )
-    return (StepState(*records, undo_x, undo_theta, residuals), *records)
+    return (StepState(*records, undo_x, undo_theta, residuals, forces), *records)

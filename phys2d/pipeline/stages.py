@@ -3,7 +3,7 @@
 A tick, as ``pipeline.step.tick`` runs it (and ``Pipeline`` stage by stage, calling the
 same functions with the same records):
 
-    begin                 keep what an undo needs, V += dt M^-1 F_ext, the geometry now
+    begin                 keep what an undo needs, V += dt M^-1 F_ext (damped), the geometry now
     sweep                 the broadphase's pairs anew, when a body left its fat box
     collide_recycling     manifolds recycled or found (``collision.recycle``)
     order_contacts        the manifolds sorted for the next look-up, the solve order
@@ -79,7 +79,7 @@ def begin(s, gravity, dt, margin):
     for i in range(b.x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
         s.undo_x[i, 0], s.undo_x[i, 1], s.undo_theta[i] = b.x[i, 0], b.x[i, 1], b.theta[i]
         b.V1[i, 0], b.V1[i, 1], b.V1[i, 2] = b.V[i, 0], b.V[i, 1], b.V[i, 2]
-    apply_external_forces(b.V, b.M_inv, gravity, dt)
+    apply_external_forces(b.V, b.M_inv, s.forces, gravity, dt)
     return update_geometry(b, s.shapes, dt, margin)
 
 

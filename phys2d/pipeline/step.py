@@ -227,14 +227,21 @@ class Pipeline:
             world_v, world_n, aabb, travel, rotation, fat = self._geometry(world)
             shapes = (
                 b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
-                rotation, world_v, world_n, aabb, fat, travel, self.pairs, t.pair_order, world._excluded,
+                rotation, world_v, world_n, aabb, fat, travel, self.pairs, t.pair_order, world._excluded, b.category,
+                b.mask, b.group,
             )  # fmt: skip
             self._state, *self._records = records.new_state(
                 (b.x, b.theta, b.V, b.M_inv, self.undo[2]),
                 shapes,
                 records.arrays_of(store, records.MANIFOLD_FIELDS),
                 tuple(records.arrays_of(c, records.CONTACT_FIELDS) for c in t.sides),
-                (records.arrays_of(t.rows, records.ROW_FIELDS), self.undo[0], self.undo[1], self.residuals),
+                (
+                    records.arrays_of(t.rows, records.ROW_FIELDS),
+                    self.undo[0],
+                    self.undo[1],
+                    self.residuals,
+                    (b.gravity_scale, b.damping, b.force),
+                ),  # fmt: skip
             )
             self._state_over = b.x
         return self._state
@@ -464,7 +471,18 @@ class Pipeline:
         return StepContext(
             step.dt, b.x, b.theta, b.V, self.undo[2], b.M_inv, rows, k, body_a, body_b, point, normal, separation,
             restitution, gravity=world._gravity, joints=world._joint_arrays, anchor=anchor,
+            forces=self._forces(b, step.dt),
         )  # fmt: skip
+
+    def _forces(self, b: Any, dt: float) -> np.ndarray | None:
+        """F_ext of the step (``StepContext.F_ext``) when a body has more than m g on it: the force
+        that took V1 to V over dt, forces applied and damping included; None otherwise."""
+        if not (b.forces_applied or np.any(b.gravity_scale != 1.0) or np.any(b.damping)):
+            return None
+        F = np.zeros(b.V.shape)
+        dyn = b.M_inv[:, 0] > 0.0
+        F[dyn] = (b.V[dyn] - self.undo[2][dyn]) / (dt * b.M_inv[dyn])
+        return F
 
     def _commit(self, world: World, spec: TickSpec, done: tuple, dt: float) -> StepReport:
         """A step that succeeded: its side of the buffers becomes the cache, and the report."""
@@ -473,6 +491,10 @@ class Pipeline:
         store.recycled, store.rows_used, store.points_used = recycled, rows_used, points_used
         self.side = w = 1 - self.side
         self.manifolds, self.cached = n_new, k
+        b = world._bodies
+        if b.forces_applied:  # Body.apply_force and apply_torque act for one step
+            b.force[:] = 0.0
+            b.forces_applied = False
         t = self.buffers
         c = t.sides[w]
         world._contacts_from(t.sides[w], k)

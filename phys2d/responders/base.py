@@ -39,10 +39,15 @@ class StepContext:
     gravity: np.ndarray | None = None  # (2,) m/s^2, the only external force
     joints: object = None  # the world's packed joints (``JointArrays``), for responders that rebuild joint rows
     anchor: np.ndarray | None = None  # (K, 4) lever arms r_a, r_b (m) as each manifold was found
+    forces: np.ndarray | None = None  # (N, 3) F_ext when bodies have more than m g on them (below)
 
     @property
     def F_ext(self) -> np.ndarray:
-        """(N, 3) external forces and torques [f_x, f_y, tau] (N, N m): m g on dynamic bodies."""
+        """(N, 3) external forces and torques [f_x, f_y, tau] (N, N m) on the dynamic bodies: m g,
+        or, where a body has a gravity_scale, an applied force or damping, the force that took
+        V1 to V over dt (so V = V1 + dt M^-1 F_ext holds, damping included)."""
+        if self.forces is not None:
+            return self.forces
         F = np.zeros(self.M_inv.shape)
         if self.gravity is not None:
             dyn = self.M_inv[:, 0] > 0.0
