@@ -26,7 +26,7 @@ from ..constraints.joints import start_joint_rows
 from ..constraints.order import colour_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
 from ..contacts import Contacts, impulses_to_contacts_and_cache
-from ..integrate import first_too_fast, integrate_positions
+from ..integrate import first_too_fast
 from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepReport
 from ..responders.pgs import PGS
 from ..responders.restitution import bounce_after_moving
