@@ -77,6 +77,9 @@ class LecturePGS(phys2d.Responder):
         r.lam[:] = lam
         return phys2d.SolveResult(self.sweeps, np.array(residuals))
 
+    def __repr__(self) -> str:
+        return f"LecturePGS(sweeps={self.sweeps})"
+
 
 class LectureNaive(phys2d.Responder):
     """The lecture's naive take: one impulse per colliding contact point, once per step.
@@ -115,3 +118,6 @@ class LectureNaive(phys2d.Responder):
         ctx.V[:] = V
         r.lam[:] = lam
         return phys2d.SolveResult(1, np.array([worst]))
+
+    def __repr__(self) -> str:
+        return "LectureNaive()"

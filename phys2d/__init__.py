@@ -73,8 +73,8 @@ def __getattr__(name: str):
         from .recording import playback
 
         return playback
-    if name == "check":  # the report card (the function; its package is phys2d.check)
-        from .check import check
+    if name == "check":  # the report card (the function; its package is phys2d.checks)
+        from .checks import check
 
         return check
     if name == "sweep":  # the function; its package is phys2d.sweeps

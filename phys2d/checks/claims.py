@@ -213,9 +213,11 @@ def bounce(make: Make, quick: bool, rec: Any) -> Outcome:
     r = 0.25
     w.add_circle(position=(0.0, DROP + r), radius=r, restitution=BOUNCE_E)
     y = np.array(simulate(w, 1.6, rec, "bounce", lambda w: w.x[1, 1] - r))
-    landed = int(np.argmax(y <= 1e-3)) if (y <= 1e-3).any() else len(y)
-    apex = float(y[landed:].max()) if landed < len(y) else math.nan
+    touched = np.flatnonzero(y <= 1e-3)  # on the ground, to within 1 mm
     exact = BOUNCE_E**2 * DROP
+    if touched.size == 0:
+        return Outcome(math.inf, False, f"the ball never came within 1 mm of the ground (lowest {y.min():.4f} m)")
+    apex = float(y[touched[0] :].max())
     error = abs(apex / exact - 1.0)
     return Outcome(100 * error, error <= 0.05, f"rose to {apex:.4f} m, e^2 h = {exact:.4f} m")
 

@@ -133,6 +133,8 @@ def failure_note(responder: Responder, e: BaseException) -> str:
     """What went wrong, naming the responder."""
     who = type(responder).__name__
     text = f"{type(e).__name__}: {e}"
+    if who in str(e):  # the world's own message names the responder (a respond that returned no SolveResult)
+        return f"{e} (the world was left as before that step)"
     if type(e).__name__ == "SimulationError":
         return f"{who}.respond left a non-finite (NaN?) or too fast state: {text}"
     return f"{who}.respond raised {text} (the world was left as before that step)"
@@ -194,8 +196,8 @@ def check(
         o = _run(claim, make, quick, None, responder)
         expected = "" if o.passed else claim.predicted.get(take, "")
         recording = "" if o.passed or out is None else _record(claim, make, quick, responder, out)
-        r = Result(claim.name, o.passed, float(o.figure), claim.unit, claim.bar, claim.statement, o.note, expected,
-                   recording)  # fmt: skip
+        passed, figure = bool(o.passed), float(o.figure)
+        r = Result(claim.name, passed, figure, claim.unit, claim.bar, claim.statement, o.note, expected, recording)
         results.append(r)
         if echo is not None:
             echo(r.line())
@@ -205,7 +207,8 @@ def check(
         predicted = sum(bool(r.expected) for r in results)
         echo(
             f"{responder.name}: {len(results) - failed} of {len(results)} claims pass"
-            + (f"; {failed} fail, {predicted} of them as the lecture predicts" if failed else "")
+            + (f"; {failed} fail" if failed else "")
+            + (f", {predicted} of them as the lecture predicts" if predicted else "")
         )
     return card
 
