@@ -62,7 +62,7 @@ def runs_in(path: Path) -> dict[str, int]:
 
 def test_lesson_files_are_indexed_and_documented():
     names = sorted(p.stem for p in LESSONS.glob("[0-9][0-9]_*.py"))
-    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 12)]
+    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 13)]
     index = (LESSONS / "README.md").read_text()
     for n in names:
         text = (LESSONS / f"{n}.py").read_text()
@@ -311,3 +311,24 @@ def check_11(out: str, out_dir: Path) -> None:
 
 def test_11_catto_figures(tmp_path):
     check_11(run("11_catto_figures", tmp_path), tmp_path)
+
+
+def test_12_your_own_responder(tmp_path):
+    out = run("12_your_own_responder", tmp_path)
+    for cls in ("LecturePGS", "LectureNaive"):  # about 30 lines each
+        assert line(out, rf"^{cls}.respond: ")[0] <= 35
+    assert line(out, r"^10-box stack: lecture-pgs ")[0] >= 100  # steps/s in plain Python
+    moved = {name: line(out, rf"^  {name}\s+(?={NUM})")[0] for name in ("lecture-pgs", "pgs", "lecture-naive")}
+    assert moved["lecture-pgs"] < 0.1 and moved["pgs"] < 0.1 and moved["lecture-naive"] > 1.0
+    assert re.search(r"^lecture-pgs: 12 of 12 claims pass$", out, re.M)
+    assert re.search(r"^pgs: 12 of 12 claims pass$", out, re.M)
+    naive = re.search(
+        r"^lecture-naive: \d+ of 12 claims pass; \d+ fail, (\d+) of them as the lecture predicts", out, re.M
+    )
+    assert naive and int(naive.group(1)) >= 2
+    assert re.search(
+        r"^FAIL  10-box stack .*expected: the lecture: the naive takes 'do not support stacking'", out, re.M
+    )
+    assert (tmp_path / "check" / "lecture-naive-10-box-stack.rrd").stat().st_size > 0
+    runs = runs_in(tmp_path / "12_your_own_responder.rrd")
+    assert runs == {f"stack-{r}": 180 for r in ("lecture-pgs", "pgs", "lecture-naive", "naive")}
