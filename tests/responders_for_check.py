@@ -71,3 +71,13 @@ class NeedsArguments(phys2d.Responder):
 class NotAResponder:
     def respond(self, ctx: object) -> None:
         return None
+
+
+class OneSided(LecturePGS):  # type: ignore[misc, valid-type]
+    """Impulses act on body a only (M^-1 J^T of body b zeroed): momentum is not kept."""
+
+    name = "one-sided"
+
+    def respond(self, ctx: phys2d.StepContext) -> phys2d.SolveResult:
+        ctx.rows.JM[:, 3:] = 0.0
+        return super().respond(ctx)
