@@ -104,8 +104,15 @@ def load(target: str) -> type[Responder]:
                 spec.loader.exec_module(module)
             finally:
                 sys.path.pop(0)
-        else:
-            module = importlib.import_module(where)
+        else:  # a module of the current folder too, as `python -m` finds it (the phys2d script's sys.path lacks it)
+            here = os.getcwd() not in sys.path
+            if here:
+                sys.path.insert(0, os.getcwd())
+            try:
+                module = importlib.import_module(where)
+            finally:
+                if here:
+                    sys.path.remove(os.getcwd())
     except CheckError:
         raise
     except BaseException as e:  # SystemExit too: a script that parses argv when imported
