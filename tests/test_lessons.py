@@ -104,6 +104,10 @@ def test_02_iterative_naive(tmp_path):
     assert all(r[3] < 8 for r in [naive, *rows.values()])  # but every naive take lets it fall
     assert pgs[1] == 5.0 and pgs[3] == 8 and pgs[2] < min(r[2] for r in rows.values()) / 3
     assert min(r[0] for r in rows.values()) > 1e-6 > pgs[0]  # the dropped boxes jitter; under PGS they rest
+    assert max(r[0] for r in rows.values()) > 10 * naive[0]  # and more passes make them jitter more, not less
+    one, _, low, high = line(out, r"^dropped boxes: kinetic energy left in the last second ")[:4]  # 1; 2 to 20
+    assert one == pytest.approx(naive[0], rel=0.01)
+    assert high == pytest.approx(max(r[0] for r in rows.values()), rel=0.01) and low <= high
     assert len(runs_in(tmp_path / "02_iterative_naive.rrd")) == 12
 
 
