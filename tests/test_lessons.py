@@ -165,11 +165,14 @@ def test_06_contact_caching(tmp_path):
     assert all(s[0] == pytest.approx(s[1], rel=0.25) for s in stored) and stored[3][1] == pytest.approx(5.0)
     kick = line(out, r"box 3 \(it carries only its own")  # 1 kg: v = lambda / m - g dt
     assert kick[-1] == pytest.approx(stored[2][0] - 10 / 60, rel=3e-3) and kick[-1] > 3.0
-    split, lecture = line(out, r"^  split "), line(out, r"^  lecture-push ")
-    assert split[1] <= 5.0  # mm: cold-started, nothing is thrown up
+    split, stored_run, lecture = (line(out, rf"^  {r} ") for r in ("split", "warm-stored", "lecture-push"))
+    # speed before, up after the removal step (m/s), rise above the column at removal (mm)
+    assert stored_run[1] > 0.2 > 0.05 > split[1]  # warm-started from the load's impulses the column is thrown up
+    assert stored_run[1] < kick[-1] / 5  # though PGS's sweeps take most of the kick back
+    assert stored_run[2] > 2 * split[2]  # and it rises more than the cold column, which only pushes out its overlap
     assert lecture[0] > 0.5 > split[0]  # the lecture's push keeps a heavy column bouncing
-    assert re.search(r"^  split .* cold$", out, re.M)
-    assert len(runs_in(tmp_path / "06_contact_caching.rrd")) == 8
+    assert re.search(r"^  split .* cold$", out, re.M) and re.search(r"^  warm-stored .* warm$", out, re.M)
+    assert len(runs_in(tmp_path / "06_contact_caching.rrd")) == 9
 
 
 def test_07_friction(tmp_path):
