@@ -36,7 +36,12 @@ def normal_speed(x, V, p, n):
 
 
 def lecture_impulse(x, V, M_inv, p, n, e):
-    """The lecture's f for bodies 0 and 1 at point p, normal n (0 -> 1), and V after it."""
+    """The lecture's f for bodies 0 and 1 at point p, normal n (0 -> 1), and V after it.
+
+    The slide updates v_A+ = v_A- + f N0 / m_A and v_B+ = v_B- - f N0 / m_B with its relative
+    normal velocity (v_A - v_B) . N0. phys2d's n points from a to b, so the slide's N0 is -n
+    (from B towards A): then (v_A - v_B) . N0 = (v_B - v_A) . n = J_n V, and body a gets -f n,
+    body b +f n, as below."""
     r_a, r_b = p - x[0], p - x[1]
     f = (
         -(1 + e)

@@ -18,7 +18,8 @@ What the field learned after the lecture:
   spring, then relaxes. It fixes both, at a price: the spring of a row has
   stiffness m_eff omega^2 (m_eff = 1/A_kk, omega = 2 pi hertz), so a load F on a
   point needs an overlap F / (m_eff omega^2): millimetres to centimetres under
-  heavy loads. The estimate is printed beside the overlap measured.
+  heavy loads. A box on two points puts F = m g / 2 on each, so the estimate
+  printed beside the overlap measured is m g / (2 m_eff omega^2).
 
 For each responder and scene: the largest sideways (x) move of any box, the
 highest any box rose, the largest turn, how long it stood (until a box moved
@@ -28,6 +29,8 @@ manifold in the first second (|lambda_1 - lambda_2| / (lambda_1 + lambda_2):
 and ms per step (wall clock, informative only).
 
 (c) The same stack with box k shifted sideways by 1 mm * k: no longer symmetric.
+This part needs the full 30 s run: --quick stops at 3 s, before the block solver
+falls.
 Row-by-row PGS falls within seconds, the block solver at about 6 s. The soft step
 sways (by about 9 cm in the full 30 s run) and comes back. It stands because a pair
 that barely moves keeps its contact points from tick to tick
@@ -111,7 +114,7 @@ c.claim(
     "row-by-row PGS rocks a resting box between its corners, so a 20-box stack falls, and converges too "
     "slowly for a 100 kg box on a 1 kg one; the block solver fixes the stack and, its push kept out of the "
     "velocities, holds the mass ratio after sinking; the soft step fixes both, with contacts that sink by "
-    "m g / (m_eff (2 pi hertz)^2)"
+    "F / (m_eff (2 pi hertz)^2), F the load on a point: m g / (2 m_eff (2 pi hertz)^2) on two points"
 )
 
 rows, soft = [], {}
@@ -187,6 +190,8 @@ def fate(row):
 
 
 lean_pgs, lean_blk, lean_soft = (by[f"20-box stack, 1 mm lean, {n}"] for n, _ in RESPONDERS)
+if args.quick:
+    print(f"(c) needs the full run: --quick stops at {seconds:g} s, before the block solver's lean stack falls")
 print(
     f"LEAN: with box k shifted by 1 mm * k, row-by-row PGS {fate(lean_pgs)}; the block solver moved "
     f"{lean_blk[1]:.3f} m and {fate(lean_blk)}; the soft step moved {lean_soft[1]:.3f} m and {fate(lean_soft)} "

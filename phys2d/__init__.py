@@ -11,7 +11,8 @@ Recordings: ``phys2d.Recorder`` writes a world's ticks to a Rerun .rrd file and
 ``phys2d.playback.load`` reads one back; both are imported on first use, so the
 engine itself never loads rerun. Likewise ``phys2d.sweep`` (a grid of runs to one
 Parquet table, on a process pool or a Dask cluster: ``phys2d.sweeps``) loads on
-first use, so ``import phys2d`` never imports pyarrow or dask.
+first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.check``
+(a responder's report card on the lecture's claims: ``phys2d check FILE.py:CLASS``).
 """
 
 # kernel_cache first (isort keeps it so): it stamps numba's cache before any kernel is defined
@@ -52,6 +53,7 @@ __all__ = [
     "Verdict",
     "Watch",
     "World",
+    "check",
     "describe_feature",
     "make_responder",
     "playback",
@@ -71,6 +73,10 @@ def __getattr__(name: str):
         from .recording import playback
 
         return playback
+    if name == "check":  # the report card (the function; its package is phys2d.checks)
+        from .checks import check
+
+        return check
     if name == "sweep":  # the function; its package is phys2d.sweeps
         from .sweeps import sweep
 

@@ -8,6 +8,7 @@
     phys2d inspect PATH                 a summary table of a recording
     phys2d view PATH [--web]            the Rerun viewer, or the web viewer on 127.0.0.1
     phys2d sweep [GRID.toml] [--scenes ...] ...    a grid of runs to one Parquet table (phys2d/sweeps/command.py)
+    phys2d check FILE.py:CLASS [--quick] [--json] [--out DIR]   a responder's report card (phys2d/checks/)
     phys2d --version
 
 Counts: ``--sweeps`` (PGS), ``--passes`` (iterative) and ``--substeps`` (soft-step) are
@@ -861,7 +862,13 @@ def add_sweep(sub: Any) -> None:
     add_parser(sub)
 
 
-COMMANDS: list[Callable[[Any], None]] = [add_scenes, add_run, add_compare, add_inspect, add_view, add_sweep]
+def add_check(sub: Any) -> None:
+    from .checks.card import add_parser  # its own package: the claims and the card
+
+    add_parser(sub)
+
+
+COMMANDS: list[Callable[[Any], None]] = [add_scenes, add_run, add_compare, add_inspect, add_view, add_sweep, add_check]
 
 
 def version() -> str:

@@ -175,7 +175,7 @@ DISTRIBUTION = {
     "Box2D": "box2d",
     "yaml": "pyyaml",
 }
-LOCAL = {"phys2d", "tests", "_common", "engines", "box2d_v3", "webview", "conftest", "strategies"}
+LOCAL = {"phys2d", "tests", "_common", "engines", "box2d_v3", "webview", "conftest", "strategies", "your_responder"}
 
 
 def third_party_imports(root: Path) -> set[str]:
@@ -208,7 +208,7 @@ def declared(requirements: list[str]) -> set[str]:
 @pytest.mark.parametrize(
     "folder, extras",
     [
-        ("phys2d", ["sweep"]),
+        ("phys2d", ["sweep", "test"]),  # test: hypothesis, for phys2d.testing (not imported by phys2d)
         ("lessons", ["notebook"]),
         ("tests", ["test"]),
         ("benchmarks", ["bench", "test"]),

@@ -11,6 +11,8 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 import phys2d
+from phys2d.testing import properties
+from phys2d.testing.properties import momentum_scale
 from tests.strategies import (
     SceneSpec,
     body_specs,
@@ -39,24 +41,11 @@ crowds = scenes(
 )
 
 
-def momentum_scale(w: phys2d.World) -> float:
-    """A size for round-off: the sum of |m v| and |I omega| + |x||m v| over the bodies."""
-    m = np.array([b.mass for b in w.bodies])
-    inertia = np.array([b.inertia for b in w.bodies])
-    speed = np.hypot(w.V[:, 0], w.V[:, 1])
-    return float(np.sum(m * speed * (1.0 + np.hypot(*w.x.T)) + inertia * np.abs(w.V[:, 2]))) + 1e-12
-
-
 @given(scene=crowds, responder=responders(), dt=dts)
 def test_linear_momentum_is_conserved(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
     """No gravity, no static bodies: every contact impulse acts equally and oppositely,
     so sum m v is unchanged by any number of steps (to round-off), under every responder."""
-    w = build(free_scene(scene), responder)
-    p0 = w.linear_momentum()
-    scale = momentum_scale(w)  # the largest momenta seen so far set the round-off
-    for _ in run(w, dt, 30):
-        scale = max(scale, momentum_scale(w))
-        np.testing.assert_allclose(w.linear_momentum(), p0, rtol=0, atol=5e-11 * scale * (1 + w.tick))
+    properties.linear_momentum_kept(scene, responder, dt)
 
 
 @given(scene=crowds, responder=pgs_settings(), dt=dts, about=vectors(-5.0, 5.0))

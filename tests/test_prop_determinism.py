@@ -25,13 +25,13 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 import phys2d
+from phys2d.testing import properties
 from tests.strategies import (
     BodySpec,
     SceneSpec,
     body_specs,
     build,
     dts,
-    fingerprint,
     reals,
     responders,
     run,
@@ -58,19 +58,7 @@ def test_same_scene_twice_is_bit_identical(
 ) -> None:
     """Two worlds built from the same scene and stepped alike hold bit-identical arrays,
     contacts, caches and reports after every step."""
-    a, b = build(scene, responder), build(scene, responder)
-    for _ in range(steps):
-        outcome = []
-        for w in (a, b):
-            try:
-                w.step(dt)
-                outcome.append(None)
-            except phys2d.SimulationError as err:
-                outcome.append(str(err))
-        assert outcome[0] == outcome[1]
-        assert fingerprint(a) == fingerprint(b)
-        if outcome[0] is not None:
-            return
+    properties.same_scene_twice(scene, responder, dt, steps)
 
 
 @st.composite

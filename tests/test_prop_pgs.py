@@ -18,6 +18,7 @@ from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 
 import phys2d
+from phys2d.testing import properties
 from tests.strategies import (
     GROUND,
     SceneSpec,
@@ -159,18 +160,6 @@ def frictionless(scene: SceneSpec) -> SceneSpec:
 # -- properties ---------------------------------------------------------------------
 
 
-def friction_bound(w: phys2d.World, responder: phys2d.Responder, dt: float) -> np.ndarray:
-    """The bound on |lambda_t| of each contact: Coulomb mu lambda_n, or with the lecture's
-    model mu m_c g dt, m_c the pair's reduced mass shared among its manifold's points."""
-    c = w.contacts
-    if not (isinstance(responder, phys2d.PGS) and responder.friction == "lecture"):
-        return c.friction * c.normal_impulse
-    inv = w.M_inv[c.body_a, 0] + w.M_inv[c.body_b, 0]  # a static partner is infinitely heavy
-    pair = c.body_a.astype(np.int64) * len(w) + c.body_b
-    _, where, count = np.unique(pair, return_inverse=True, return_counts=True)
-    return c.friction / inv / count[where] * float(np.hypot(*w.gravity)) * dt
-
-
 @given(scene=scenes(max_bodies=6, ground=True, static=None), responder=responders(), dt=dts)
 def test_lambda_bounds(scene: SceneSpec, responder: phys2d.Responder, dt: float) -> None:
     """After every step: lambda_n >= 0 and |lambda_t| within its bound: mu lambda_n
@@ -182,12 +171,7 @@ def test_lambda_bounds(scene: SceneSpec, responder: phys2d.Responder, dt: float)
     bounds add up to the same bounds on the tick's totals, and its restitution pass
     pulls the friction back inside a cone that a smaller push has shrunk.
     """
-    w = build(scene, responder)
-    for _ in run(w, dt, 25):
-        c = w.contacts
-        assert np.all(c.normal_impulse >= 0.0)
-        bound = friction_bound(w, responder, dt)
-        assert np.all(np.abs(c.tangent_impulse) <= bound * (1.0 + 1e-12) + 1e-300)
+    properties.lambda_bounds(scene, responder, dt)
 
 
 @given(scene=small_scenes, dt=dts, beta=reals(0.0, 1.0), e=reals(0.0, 1.0))

@@ -26,9 +26,10 @@ from ..constraints.joints import start_joint_rows
 from ..constraints.order import colour_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
 from ..contacts import Contacts, impulses_to_contacts_and_cache
-from ..integrate import first_too_fast, integrate_positions
+from ..integrate import first_too_fast
 from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepReport
 from ..responders.pgs import PGS
+from ..responders.restitution import bounce_after_moving
 from ..responders.soft_step import SoftStep
 from . import ahead, records
 from .stages import (
@@ -46,6 +47,9 @@ from .tick import tick
 
 if TYPE_CHECKING:
     from ..world import World
+
+
+BOUNCE_SWEEPS = 10  # sweeps of the restitution pass the world makes for a responder that leaves it the move
 
 
 class SimulationError(RuntimeError):
@@ -439,15 +443,16 @@ class Pipeline:
         if joints is not None:
             start_joint_rows(joints, 2 * k, self.bodies_record, step.dt, settings.beta, settings.warm_start, rows)
         # rows -> responder -> integration
-        result = responder.respond(self._context(world, responder, k, step))
+        ctx = self._context(world, responder, k, step)
+        result = responder.respond(ctx)
         if not isinstance(result, SolveResult):
             raise TypeError(
                 f"{type(responder).__name__}.respond must return a phys2d SolveResult(iterations, residuals, "
                 f"integrated=...), got {type(result).__name__}"
             )
         b = world._bodies
-        if not result.integrated:
-            integrate_positions(b.x, b.theta, b.V, step.dt)
+        if not result.integrated:  # the world moves the positions, then bounces the points that met (rows.bounce)
+            bounce_after_moving(ctx, b.V, BOUNCE_SWEEPS, 0.0)
         # the limits, then the impulses per contact and the cache the next step starts from
         if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:
             raise_too_fast(world)

@@ -176,7 +176,17 @@ class StepReport:
 
 
 class Responder:
-    """Base of the collision responders: the parameters the world needs to build rows.
+    """Base of the collision responders: the parameters the world needs to build rows, and
+    ``respond``, the protocol (docs/your-responder.md). Subclass it to write your own:
+
+        class MyPGS(phys2d.Responder):
+            name, counts, warm_start = "my-pgs", "sweeps", True
+
+            def respond(self, ctx):  # change ctx.V, leave ctx.rows.lam
+                ...
+                return phys2d.SolveResult(sweeps, residuals)
+
+    ``phys2d check FILE.py:MyPGS`` grades it on the lecture's claims.
 
     beta    Baumgarte push factor (push = -(beta/dt) min(0, C + slop)), in [0, 1]
     slop    penetration allowed without push, m
@@ -190,6 +200,8 @@ class Responder:
     contacts_in_row_order  whether StepContext's contact arrays come gathered into row order;
                     False: the world's own, in contact order (``rows.order`` maps), for a
                     responder that gathers the few fields it reads in a kernel of its own
+    lecture_take  (optional, a subclass's) which of the lecture's naive takes it is, 'naive' or
+                    'iterative': the report card then notes the failures the lecture predicts
     found_lever_arms  build contact rows with the lever arms each manifold was found with
                     (``Contacts.anchor``: a recycled one keeps them) instead of p - x now;
                     see ``collision.recycle``. False keeps angular momentum exact: an
@@ -228,14 +240,34 @@ class Responder:
         return FRICTION_COULOMB
 
     def respond(self, ctx: StepContext) -> SolveResult:  # pragma: no cover - interface
-        """Solve one step's rows: the protocol every responder follows.
+        """Solve one step's rows: the protocol every responder follows (docs/your-responder.md).
 
-        On entry ``ctx.V`` (N, 3) holds the velocities after external forces (m/s, rad/s),
-        ``ctx.rows`` the step's rows (J, A_kk, xi, bounds; ``rows.lam`` warm started when
-        ``warm_start`` is set) and the contact arrays in row order. The responder changes
-        ``ctx.V`` in place, leaves each row's accumulated impulse in ``rows.lam`` (N s)
-        for the world to report and cache, and may move ``ctx.x`` and ``ctx.theta``
-        itself, saying so with ``SolveResult.integrated``. It returns the work it did
-        (``iterations``, counted in the unit ``counts`` names) and the residual of each.
+        Given (arrays are the world's own: edit in place):
+
+            ctx.V           (N, 3) [vx, vy, omega] after the external forces (m/s, rad/s)
+            ctx.M_inv       (N, 3) [1/m, 1/m, 1/I]; 0 for static bodies
+            ctx.rows.J      (R, 6) row k's entries [J_a | J_b]; rows.body_a, rows.body_b its bodies
+            ctx.rows.JM     (R, 6) M^-1 J_k^T: the velocity change of a, b per unit lambda_k
+            ctx.rows.A_kk   (R,) J_k M^-1 J_k^T (0: both bodies static)
+            ctx.rows.xi     (R,) the J_k V the row must reach (m/s): 0 touching, -C/dt still
+                            apart, a touching contact's bounce, a joint's Baumgarte term
+            ctx.rows.push   (R,) a touching contact's Baumgarte push-out speed (m/s): the
+                            lecture's target is xi + push
+            ctx.rows.lo, hi (R,) fixed bounds on lambda_k (N s), for rows with bound_row = -1
+            ctx.rows.bound_row, mu  a friction row's normal row (>= 0) and coefficient: its
+                            bounds are +-mu[k] * lam[bound_row[k]]
+            ctx.rows.lam    (R,) with ``warm_start``: last step's impulses (N s), not yet in V
+
+        To do: apply the warm start, V += M^-1 J^T lambda (``JM[k] * lam[k]`` on bodies a, b);
+        sweep the rows, clamping each accumulated lambda_k into its bounds; leave each row's
+        impulse in ``rows.lam`` (N s); return ``SolveResult(iterations, residuals)``, the
+        work done (counted in ``counts``) and each one's residual (m/s).
+
+        After it, unless ``SolveResult.integrated`` says the responder moved ``ctx.x`` and
+        ``ctx.theta`` itself, the world moves them (x += dt v, theta += dt omega) and bounces
+        the contacts that met their partner within the step (``rows.bounce``). It refuses a
+        non-finite or too fast state (``SimulationError``), and a step that fails, or whose
+        ``respond`` raises, leaves the world as before it. Then it reports and caches
+        ``rows.lam``.
         """
         raise NotImplementedError
