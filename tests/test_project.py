@@ -39,12 +39,13 @@ ADDERS = {
 
 @pytest.mark.parametrize("method, last", ADDERS.items())
 def test_add_methods_take_keywords_after_position(method: str, last: str) -> None:
-    """In the signature: nothing positional after ``last``, and every parameter annotated."""
+    """In the signature: nothing positional after ``last`` (keyword-only, or the body options
+    ``**options: Unpack[BodyOptions]``), and every parameter annotated."""
     params = list(inspect.signature(getattr(phys2d.World, method)).parameters.values())
     names = [p.name for p in params]
     cut = names.index(last) + 1
     assert all(p.kind is p.POSITIONAL_OR_KEYWORD for p in params[:cut])
-    assert params[cut:] and all(p.kind is p.KEYWORD_ONLY for p in params[cut:]), names
+    assert params[cut:] and all(p.kind in (p.KEYWORD_ONLY, p.VAR_KEYWORD) for p in params[cut:]), names
     assert all(p.annotation is not p.empty for p in params[1:]), names
     assert inspect.signature(getattr(phys2d.World, method)).return_annotation is not inspect.Signature.empty
 
@@ -208,7 +209,8 @@ def declared(requirements: list[str]) -> set[str]:
 @pytest.mark.parametrize(
     "folder, extras",
     [
-        ("phys2d", ["sweep", "test"]),  # test: hypothesis, for phys2d.testing (not imported by phys2d)
+        # test: hypothesis, for phys2d.testing (not imported by phys2d); dev: typing_extensions, for mypy only
+        ("phys2d", ["sweep", "test", "dev"]),
         ("lessons", ["notebook"]),
         ("tests", ["test"]),
         ("benchmarks", ["bench", "test"]),
