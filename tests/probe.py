@@ -22,7 +22,7 @@ def records_now(w: phys2d.World, V: np.ndarray, pairs: np.ndarray, dt: float = 1
     geometry = (rotation, np.empty((nv, 2)), np.empty((nv, 2)), np.empty((n, 4)), np.zeros((n, 4)), np.empty(n))
     shapes = records.new_shapes(
         (b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
-         *geometry, pairs, np.zeros(pairs.shape[0], np.int32), w._excluded)
+         *geometry, pairs, np.zeros(pairs.shape[0], np.int32), w._excluded, b.category, b.mask, b.group)
     )  # fmt: skip
     bodies = records.new_bodies((b.x, b.theta, V, b.M_inv, V))
     fits = update_geometry(bodies, shapes, dt, w.contact_margin)
