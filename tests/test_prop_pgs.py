@@ -78,6 +78,18 @@ def normal_targets(
     return xi, np.where(fast & apart, target, 0.0)
 
 
+def friction_targets(c: phys2d.Contacts, vn_ext: np.ndarray, vt_ext: np.ndarray, dt: float) -> np.ndarray:
+    """xi of each friction row: friction acts only once its point touches. 0 for a touching
+    point; a point C > 0 apart that closes its gap within the step (C < -dt vn) keeps the
+    tangential velocity of the part of the step before it touches, vt C / (-dt vn); one that
+    does not close it keeps vt (docs/formulation.md, "friction at impact")."""
+    C = c.separation
+    closes = (vn_ext < 0.0) & (C < -dt * vn_ext)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # np.where evaluates both sides
+        fraction = np.where(closes, C / (-dt * vn_ext), 1.0)
+    return np.where(C > 0.0, vt_ext * fraction, 0.0)
+
+
 def solve_lcp_by_active_sets(A: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     """lambda >= 0 with w = A lambda - b >= 0 and lambda_k w_k = 0, by trying every active set."""
     n = len(b)
@@ -212,7 +224,8 @@ def test_converged_pgs_solves_the_lcp(scene: SceneSpec, dt: float, beta: float, 
 def test_converged_pgs_is_complementary(scene: SceneSpec, dt: float) -> None:
     """With Coulomb friction, converged PGS satisfies, at every contact:
     lambda_n > 0 only where the normal velocity meets its target (w_n = 0, else w_n >= 0);
-    |lambda_t| < mu lambda_n only where the contact sticks (v_t = 0); a sliding point
+    |lambda_t| < mu lambda_n only where the contact sticks (v_t at its target xi_t: 0, or the
+    part of a landing before its touch, ``friction_targets``); a sliding point
     gets |lambda_t| = mu lambda_n exactly; and a friction impulse never pushes along the
     sliding direction (lambda_t v_t <= 0)."""
     pgs = converged_pgs(beta=0.2)
@@ -226,7 +239,7 @@ def test_converged_pgs_is_complementary(scene: SceneSpec, dt: float) -> None:
     xi, bounce = normal_targets(c, Jn @ V1, Jn @ V_ext, pgs, dt)
     assume(not np.any((bounce > 0.0) & (c.normal_impulse > 0.0)))  # the restitution pass re-clamps friction only
     w_n = Jn @ V2 - xi
-    v_t = Jt @ V2
+    v_t = Jt @ V2 - friction_targets(c, Jn @ V_ext, Jt @ V_ext, dt)
     lam_n, lam_t, mu = c.normal_impulse, c.tangent_impulse, c.friction
     assert np.all(w_n >= -tol)
     assert np.all(np.abs(lam_n * w_n) <= tol * (1.0 + lam_n))

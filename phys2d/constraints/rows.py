@@ -258,6 +258,20 @@ def pair_row_impulse(k, JM, impulse, V_ab):
 
 
 @njit(cache=True, inline="always")
+def speculative_friction_target(C, vn, vt, dt):
+    """xi of a friction row (m/s): friction acts only once its point touches. A touching point
+    (C <= 0): 0, friction may stop it. A point still C > 0 apart that approaches at -vn closes
+    its gap after t = C / -vn, a fraction C / (-vn dt) of the step: its tangential velocity vt
+    may carry it that far and no further (so that it lands where it touches, and friction stops
+    it from then on); one that does not close its gap within the step keeps vt."""
+    if C <= 0.0:
+        return 0.0
+    if vn >= 0.0 or C >= -vn * dt:
+        return vt
+    return vt * (C / (-vn * dt))
+
+
+@njit(cache=True, inline="always")
 def speculative_target(C, dt):
     """xi of a normal row: a point still C > 0 apart may approach at C/dt (close the gap
     within the step, no more); a touching one may not approach at all (m/s)."""
@@ -344,7 +358,8 @@ def contact_rows(bodies, shapes, cache, found, rows, settings):
               threshold bounces (``bounce_target``): a touching one at once, xi = max(xi, bounce),
               one still apart after the move to its partner (bounce, for the responder's
               restitution pass). lambda in [0, inf).
-    Friction: t = (-n_y, n_x), xi = 0; Coulomb bounds +-mu lambda_n of its normal row, or the
+    Friction: t = (-n_y, n_x), xi = 0 when touching; a speculative point's friction acts only
+              once it touches (``speculative_friction_target``); Coulomb bounds +-mu lambda_n of its normal row, or the
               lecture's fixed +-mu m_c g dt (lambda is an impulse, hence dt), with m_c
               the pair's reduced mass shared among the manifold's points (``manifold_sizes``).
 
@@ -427,7 +442,7 @@ def contact_rows(bodies, shapes, cache, found, rows, settings):
         out_a[k] = a
         out_b[k] = b
         store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, -ny, nx), M_inv_a, M_inv_b, J, JM, A_kk)
-        xi[k] = 0.0
+        xi[k] = speculative_friction_target(C, vn_forced, row_velocity(k, a, b, J, V), dt)
         push[k] = 0.0
         bounce[k] = 0.0
         impact[k] = False

@@ -4,7 +4,7 @@ For each contact pair once per tick (docs/formulation.md#symbols-arrays-and-unit
 
     f   = -(1 + e) (J_n V) / (1/m_a + 1/m_b + (r_a x n)^2 / I_a + (r_b x n)^2 / I_b)
     V  += M^-1 J_n^T f                       only if the bodies approach (J_n V < 0)
-    f_t = clamp(-(J_t V) / A_t, -mu f, +mu f),  V += M^-1 J_t^T f_t
+    f_t = clamp(-(J_t V) / A_t, -mu f, +mu f),  V += M^-1 J_t^T f_t  (a pair still apart: below)
     x_a -= n s w_a / (w_a + w_b),  x_b += n s w_b / (w_a + w_b)   (s: the overlap, w = 1/m)
 
 The last line is the lecture's "push away from interpenetration as long as
@@ -26,7 +26,9 @@ still apart (by a gap s > 0) only meets its partner within this step, so it gets
 the impulse that closes the gap and no more, f = -(J_n V + s/dt) / A_nn; the
 positions move up to the surface, and only then is it bounced, from its approach
 speed at impact (``bounce_landed``, ``constraints.rows.bounce_target``). So a body
-turns round where it meets the other, never in the air.
+turns round where it meets the other, never in the air. Its friction acts only after
+the touch: it may keep the tangential velocity that carries it to where it touches
+(``constraints.rows.speculative_friction_target``).
 
 Nothing is remembered between ticks and nothing accumulates: there is no
 warm start, no bound on the total impulse, no Baumgarte term, restitution e is
@@ -48,7 +50,14 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
+from ..constraints.rows import (
+    MET,
+    apply_row_impulse,
+    approach_at_impact,
+    bounce_target,
+    row_velocity,
+    speculative_friction_target,
+)
 from ..integrate import integrate_positions
 from ..pipeline.records import record_of_rows
 from ..validation import Setting, non_negative_float
@@ -186,6 +195,9 @@ def impulse_pass(pairs, V, dt):
             continue
         a, b = pa[p], pb[p]
         vn = row_velocity(p, a, b, Jn, V)  # relative normal velocity, m/s
+        xi_t = 0.0  # friction's target: stop the sliding, or for a pair still apart only once it touches
+        if gap[p] > 0.0 and At[p] > 0.0:
+            xi_t = speculative_friction_target(gap[p], vn, row_velocity(p, a, b, Jt, V), dt)
         if gap[p] > 0.0:
             f = -(vn + gap[p] / dt) / An[p]  # meets its partner within the step: close the gap, no more
         else:
@@ -196,7 +208,7 @@ def impulse_pass(pairs, V, dt):
         f_n[p] += f
         worst = max(worst, f * An[p])
         if At[p] > 0.0:
-            ft = min(max(-row_velocity(p, a, b, Jt, V) / At[p], -mu[p] * f), mu[p] * f)
+            ft = min(max(-(row_velocity(p, a, b, Jt, V) - xi_t) / At[p], -mu[p] * f), mu[p] * f)
             apply_row_impulse(p, a, b, JMt, ft, V)
             f_t[p] += ft
             worst = max(worst, abs(ft) * At[p])
@@ -207,11 +219,13 @@ def impulse_pass(pairs, V, dt):
 def bounce_landed(pairs, vn_start, vn_forced, dt, V):
     """After the positions moved: bounce each pair that met its partner within the step (gap > 0,
     and it pushed or its gap closed to within MET) from its approach speed at impact,
-    f = (bounce - J_n V) / A_nn when it is > 0. With
-    the landing impulse this adds up to the lecture's -(1 + e) J_n V / A_nn (no external forces)."""
+    f = (bounce - J_n V) / A_nn when it is > 0, with its friction f_t = clamp(-(J_t V) / A_t,
+    -mu f, +mu f): friction acts fully at impact. With the landing impulse this adds up to the
+    lecture's -(1 + e) J_n V / A_nn (no external forces)."""
     pa, pb, Jn, JMn, An, gap, e, f_n = (
         pairs.body_a, pairs.body_b, pairs.J_n, pairs.JM_n, pairs.A_n, pairs.gap, pairs.e, pairs.f_n
     )  # fmt: skip
+    Jt, JMt, At, mu, f_t = pairs.J_t, pairs.JM_t, pairs.A_t, pairs.mu, pairs.f_t
     for p in range(pa.shape[0]):
         if An[p] <= 0.0 or gap[p] <= 0.0:
             continue
@@ -223,6 +237,10 @@ def bounce_landed(pairs, vn_start, vn_forced, dt, V):
         if f > 0.0:
             apply_row_impulse(p, a, b, JMn, f, V)
             f_n[p] += f
+            if At[p] > 0.0:
+                ft = min(max(-row_velocity(p, a, b, Jt, V) / At[p], -mu[p] * f), mu[p] * f)
+                apply_row_impulse(p, a, b, JMt, ft, V)
+                f_t[p] += ft
 
 
 @njit(cache=True)

@@ -23,6 +23,7 @@ from ..constraints.rows import (
     pair_row_impulse,
     pair_row_velocity,
     pair_velocity,
+    speculative_friction_target,
     store_pair_velocity,
 )
 from .block import block_is_well_conditioned, lcp2
@@ -51,9 +52,11 @@ def soft_push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs):
+def soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
-    then the friction rows. C[c] is point c's separation now (m); ``manifolds`` comes from
+    then the friction rows. points.C[c] is point c's separation now (m); a point still apart
+    that has not yet met its partner lets friction act only once it touches
+    (``speculative_friction_target`` of points.vn, points.vt); ``manifolds`` comes from
     ``prepare_manifolds``; inv_A_kk = 1 / A_kk (``inverse_diagonal``: the sweeps multiply,
     never divide); springs: the soft push against a dynamic and a static partner (``soft_constants``).
 
@@ -65,6 +68,7 @@ def soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs):
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
     soft_dyn, soft_static = springs[0], springs[1]
+    C, vn, vt, impacted = points.C, points.vn, points.vt, points.impacted
     start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
     for m in range(start.shape[0] - 1):
@@ -112,7 +116,10 @@ def soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs):
             if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
                 continue  # static pair, or a point that does not push: its friction cone is [0, 0]
             top = mu[k] * lam[kn]
-            d = -pair_row_velocity(k, J, V_ab) * inv_A_kk[k]
+            target = 0.0  # stop sliding; a point landing within this sweep: only after its touch
+            if C[c] > 0.0 and not impacted[c]:
+                target = speculative_friction_target(C[c], vn[c], vt[c], h)
+            d = -(pair_row_velocity(k, J, V_ab) - target) * inv_A_kk[k]
             new = min(max(lam[k] + d, -top), top)
             d = new - lam[k]
             lam[k] = new

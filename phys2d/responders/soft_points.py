@@ -15,10 +15,11 @@ from numba.experimental import structref
 
 from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 
-POINT_FIELDS = ("C0", "e", "r", "C", "vn", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
+POINT_FIELDS = ("C0", "e", "r", "C", "vn", "vt", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
 _POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):
     as found, its separation C0 (m), restitution e and lever arms r = (r_a, r_b) (m); within a
-    sub-step its separation C now (m) and J V before the sweep, vn (m/s); the points not yet met
+    sub-step its separation C now (m) and J V of its rows before the sweep, vn and vt (m/s, while it
+    has not met its partner: the landing's friction target); the points not yet met
     (pending, in order) and, once met, their approach at impact (vn_impact, m/s, and dvn_impact,
     the forces' share of the sub-step); landed: met its partner fast in this sub-step."""
 
@@ -74,13 +75,15 @@ def separations(rows, points, moved):
 
 @njit(cache=True)
 def note_approach(rows, points, n_pending, V):
-    """Before a sweep: J V (m/s) of the points not yet met (pending[:n_pending])."""
-    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
-    pending, vn = points.pending, points.vn
+    """Before a sweep: J V (m/s) of the normal and friction rows of the points not yet met
+    (pending[:n_pending])."""
+    normal_row, friction_row, body_a, body_b, J = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, rows.J
+    pending, vn, vt = points.pending, points.vn, points.vt
     for q in range(n_pending):
         c = pending[q]
-        k = normal_row[c]
+        k, kt = normal_row[c], friction_row[c]
         vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)
+        vt[c] = row_velocity(kt, body_a[kt], body_b[kt], J, V)
 
 
 @njit(cache=True)
@@ -131,8 +134,9 @@ def prepare_points(found, n_contacts):
     (``gather_contacts`` of found = (order, separation, e, anchor)), the rest to fill in."""
     C0, e, r = gather_contacts(found[0], found[1], found[2], found[3])
     return Points(
-        C0, e, r, np.zeros(n_contacts), np.zeros(n_contacts), np.arange(n_contacts, dtype=np.uint32),
-        np.zeros(n_contacts, np.bool_), np.zeros(n_contacts), np.zeros(n_contacts), np.zeros(n_contacts, np.bool_),
+        C0, e, r, np.zeros(n_contacts), np.zeros(n_contacts), np.zeros(n_contacts),
+        np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.zeros(n_contacts),
+        np.zeros(n_contacts), np.zeros(n_contacts, np.bool_),
     )  # fmt: skip
 
 

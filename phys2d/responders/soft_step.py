@@ -69,14 +69,14 @@ class SoftSettings(NamedTuple):
 
 
 @njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs, joints, system):
+def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, system):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). springs: (contacts with a dynamic partner, with
     a static one, joints) (``soft_constants``). Returns the largest velocity correction (m/s)."""
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
-    return max(worst, soft_sweep(rows, manifolds, inv_A_kk, C, V, h, use_bias, springs))
+    return max(worst, soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
 
 
 @njit(cache=True)
@@ -138,7 +138,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
             if with_bias:
                 integrate_velocities(V, dv)
                 warm_start(manifolds, rows, V)
-            worst = solve(rows, manifolds, inv_A_kk, points.C, V, h, with_bias, springs, joints, system)
+            worst = solve(rows, manifolds, inv_A_kk, points, V, h, with_bias, springs, joints, system)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
             if with_bias:
