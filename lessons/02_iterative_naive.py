@@ -75,8 +75,8 @@ print(
 )
 ke = [r[1] for r in passes]
 print(
-    f"dropped boxes: kinetic energy left in the last second {naive[1]:.2g} J with 1 pass, "
-    f"{min(ke):.2g} to {max(ke):.2g} J with 2 to 20: more passes jitter more, not less"
+    f"dropped boxes: kinetic energy left in the last second {naive[1]:.3g} J with 1 pass, "
+    f"{min(ke):.3g} to {max(ke):.3g} J with 2 to 20: more passes jitter more, not less"
 )
 print(
     f"TAKEAWAY: more passes keep the stack up at best {max(stood) / naive[2]:.1f}x as long, but every naive take "
