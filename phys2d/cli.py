@@ -191,6 +191,8 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
     is cold), say so in one line before it starts, so a quiet wait is not mistaken for a hang."""
     from numba.core import event
 
+    from .pipeline import ahead
+
     out = sys.stderr if stream is None else stream
 
     class Notice(event.Listener):
@@ -200,13 +202,12 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
             if not Notice.said:
                 Notice.said = time.perf_counter()
                 names = sorted({getattr(getattr(w, "responder", None), "name", "other") for w in worlds})
-                about = max(FIRST_RUN_SECONDS.get(name, FIRST_RUN_SECONDS["other"]) for name in names)
-                print(
-                    f"phys2d: compiling the numba kernels for {', '.join(names)} (first run only: about {about} s "
-                    "on 2 cores; cached after that) ...",
-                    file=out,
-                    flush=True,
-                )
+                if ahead.last_plan == "behind":  # an edit: only what it touched, the one-call tick aside
+                    what = "the kernels an edit touched (a few seconds; the one-call step compiles aside)"
+                else:
+                    about = max(FIRST_RUN_SECONDS.get(name, FIRST_RUN_SECONDS["other"]) for name in names)
+                    what = f"the numba kernels for {', '.join(names)} (first run only: about {about} s on 2 cores)"
+                print(f"phys2d: compiling {what}; cached after that ...", file=out, flush=True)
 
         def on_end(self, ev: event.Event) -> None:
             pass

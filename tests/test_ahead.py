@@ -100,3 +100,43 @@ def test_it_is_wanted_unless_turned_off(monkeypatch):
     assert not ahead.wanted()
     monkeypatch.setenv("PHYS2D_COMPILE_AHEAD", "1")
     assert ahead.wanted() == ((os.cpu_count() or 1) >= 2)
+
+
+BEHIND = """
+import sys, time
+import numpy as np
+from phys2d import scenes, PGS, SoftStep
+from phys2d.pipeline import ahead
+
+scenes.pyramid(3, responder=PGS()).step(1 / 60)  # a cold cache: compiled ahead, on two cores
+assert ahead.last_plan == "ahead", ahead.last_plan
+# the soft step's tick is cold now, but the stages it shares with PGS's are cached: as after an edit
+w, ref = scenes.pyramid(4, responder=SoftStep()), scenes.pyramid(4, responder=SoftStep())
+ref.one_call_tick = False
+w.step(1 / 60)
+ref.step(1 / 60)
+assert ahead.last_plan == "behind", ahead.last_plan
+assert w._pipeline._compiled[2] is None, "the first step went in one call"
+start = time.time()
+while w._pipeline._compiled[2] is None:  # until the child has cached the tick
+    assert time.time() - start < 900, "the child never finished"
+    w.step(1 / 60)
+    ref.step(1 / 60)
+for _ in range(20):  # in one call from here
+    w.step(1 / 60)
+    ref.step(1 / 60)
+for name in ("x", "theta", "V"):
+    assert np.array_equal(getattr(w._bodies, name), getattr(ref._bodies, name)), name
+print("behind")
+"""
+
+
+@pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")
+def test_an_edit_steps_in_stages_while_a_child_compiles_the_tick(tmp_path):
+    """With some stages cached but not the tick (as after an edit of a responder), the world steps
+    stage by stage until a child has compiled the tick, then goes on in one call, bit-identical to a
+    world that went stage by stage throughout."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PHYS2D_COMPILE_AHEAD": "1"}
+    child = subprocess.run([sys.executable, "-c", BEHIND], env=env, capture_output=True, timeout=1800)
+    assert child.returncode == 0, child.stderr.decode()[-2000:]
+    assert child.stdout.decode().split() == ["behind"]

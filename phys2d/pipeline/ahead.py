@@ -10,8 +10,15 @@ second core, ``start`` splits the work:
                       then the tick itself, which loads from the cache what the child saved
 
 Nothing changes in what runs: the same kernels, compiled for the same argument types, and a
-kernel that neither process has compiled yet is compiled by whichever needs it first. Set
-PHYS2D_COMPILE_AHEAD=0 to compile in one process.
+kernel that neither process has compiled yet is compiled by whichever needs it first.
+
+After an edit the cache holds most stages but not the tick, which links them all and takes
+seconds to compile on its own. Then (``plan`` says "behind") this process steps the world stage
+by stage, compiling only the stages the edit touched, while a child compiles the tick into the
+cache; once the child is done the world goes on in one call. Both ways give bit-identical
+states, so the switch changes nothing but the speed.
+
+Set PHYS2D_COMPILE_AHEAD=0 to compile in one process.
 """
 
 from __future__ import annotations
@@ -25,12 +32,22 @@ from typing import Any
 import numpy as np
 from numba import config, typeof
 
+# what the last cold tick did: "ahead" (two processes compile it), "behind" (stages now, the tick
+# in a child), "here" (this process compiles it); read by the first-run notice
+last_plan = ""
+
 
 def cold(kernel: Any, args: tuple) -> bool:
     """Whether ``kernel`` has neither machine code nor a cached entry for the types of ``args``."""
     if config.DISABLE_JIT or getattr(kernel, "overloads", None) is None:  # type: ignore[attr-defined]
         return False
-    sig = tuple(kernel.typeof_pyval(a) for a in args)
+    return cold_for(kernel, tuple(kernel.typeof_pyval(a) for a in args))
+
+
+def cold_for(kernel: Any, sig: tuple) -> bool:
+    """Whether ``kernel`` has neither machine code nor a cached entry for the argument types ``sig``."""
+    if config.DISABLE_JIT or getattr(kernel, "overloads", None) is None:  # type: ignore[attr-defined]
+        return False
     if sig in kernel.overloads:
         return False
     try:
@@ -64,10 +81,27 @@ def start(responder: Any, joints: bool) -> subprocess.Popen | None:
     return child
 
 
+def plan(pipeline: Any, tick: Any, args: tuple) -> str:
+    """How to compile the tick for ``args`` (the tick's own): "here" when its machine code is
+    cached (or compiling ahead is off), "behind" when it is not but some of its stages are (an
+    edit), "ahead" when nothing is (a first run)."""
+    if not wanted() or not cold(tick, args):
+        return "here"
+    warm = any(not cold_for(kernel, sig) for kernel, sig in stage_jobs(pipeline, args))
+    return "behind" if warm else "ahead"
+
+
 def compile_from_the_end(pipeline: Any, args: tuple) -> None:
     """Compile the stages ``pipeline.tick.tick`` calls, from the last one up, for the types the
     tick calls them with: ``args`` are the tick's own (state, joints, stage, counts, step,
     row_settings, pgs, soft)."""
+    for kernel, sig in stage_jobs(pipeline, args):
+        kernel.compile(sig)
+
+
+def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
+    """The stages ``pipeline.tick.tick`` calls, from the last one up, each with the argument
+    types the tick calls it with (``args`` are the tick's own)."""
     from ..collision.recycle import collide_recycling
     from ..constraints.joints import start_joint_rows
     from ..constraints.rows import contact_rows
@@ -101,8 +135,7 @@ def compile_from_the_end(pipeline: Any, args: tuple) -> None:
         (collide_recycling, (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0)))),
     ]
     del sides, counts, step, i32
-    for kernel, sig in jobs:
-        kernel.compile(sig)
+    return jobs
 
 
 def _child() -> None:

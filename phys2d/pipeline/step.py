@@ -97,6 +97,10 @@ def _tick_spec(r: Responder) -> TickSpec:
     return staged
 
 
+# per kind of tick (PGS or soft, its argument types): the child compiling it, once started
+_BEHIND: dict[tuple, Any] = {}
+
+
 def compiled_for(kernel: Callable, args: tuple) -> Callable:
     """The machine code ``kernel`` compiled for the types of ``args``, callable without numba's
     dispatch (which works out every argument's type on every call), or ``kernel`` itself when
@@ -354,9 +358,8 @@ class Pipeline:
         _, _, step, row_settings, joints = ready
         self.began = False  # set once the undo buffers hold the state before the step
         try:
-            if spec.one_call and one_call:
-                done = self._in_one_call(world, spec, step, joints, row_settings)
-            else:
+            done = self._in_one_call(world, spec, step, joints, row_settings) if spec.one_call and one_call else None
+            if done is None:
                 done = self._in_stages(world, responder, step, joints, row_settings)
         except BaseException:
             if self.began:
@@ -364,8 +367,11 @@ class Pipeline:
             raise
         return self._commit(world, spec, done, dt)
 
-    def _in_one_call(self, world: World, spec: TickSpec, step: StepSettings, joints: Any, row_settings: Any) -> tuple:
-        """The tick as one kernel call (``stages.tick``; two when Python must sweep or make room first)."""
+    def _in_one_call(
+        self, world: World, spec: TickSpec, step: StepSettings, joints: Any, row_settings: Any
+    ) -> tuple | None:
+        """The tick as one kernel call (``stages.tick``; two when Python must sweep or make room first);
+        None, having changed nothing, while a child process compiles it (``_behind``)."""
         stage, colour_order = 0, spec.colour_order
         while True:
             self._room(world, spec.n_residuals)
@@ -376,6 +382,8 @@ class Pipeline:
             types_now = (getattr(s, "_numba_type_", None), joints is None)
             spec_was, types_was, code = self._compiled
             kernel = code if spec_was is spec and types_was == types_now else tick
+            if kernel is tick and self._behind(world, spec, args, types_now):
+                return None  # a child compiles the tick: this step goes stage by stage
             child = self._compile_ahead(world, args) if kernel is tick else None
             self.began = True
             result = kernel(*args)
@@ -398,12 +406,28 @@ class Pipeline:
         _, k, n_new, recycled, rows_used, points_used, hits, deepest, count, _ = result
         return k, n_new, recycled, rows_used, points_used, hits, deepest, count, self.residuals[:count].copy(), None
 
+    def _behind(self, world: World, spec: TickSpec, args: tuple, types_now: tuple) -> bool:
+        """Whether a child process is compiling the tick for these types while the world steps in
+        stages (``ahead.plan``: the cache holds some of its stages, not the tick)."""
+        key = (spec.pgs is None, spec.soft is None, types_now)
+        child = _BEHIND.get(key)
+        if child is None:
+            if ahead.plan(self, tick, args) != "behind":
+                return False
+            child = ahead.start(world._responder, args[1] is not None)
+            if child is None:
+                return False
+            _BEHIND[key] = child
+            ahead.last_plan = "behind"
+        return child.poll() is None  # once it is done, the tick loads from the cache it filled
+
     def _compile_ahead(self, world: World, args: tuple) -> Any:
         """On a cold numba cache with a second core: start a child process compiling the tick from
         its first stage down, and compile its stages here from the last one up (``pipeline.ahead``).
         Returns the child (None when the cache is warm, or it cannot help)."""
-        if not ahead.wanted() or not ahead.cold(tick, args):
+        if ahead.plan(self, tick, args) != "ahead":
             return None
+        ahead.last_plan = "ahead"
         child = ahead.start(world._responder, args[1] is not None)
         if child is not None:
             ahead.compile_from_the_end(self, args)
