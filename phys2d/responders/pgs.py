@@ -108,12 +108,10 @@ def sweep(rows, V, visit):
 
 
 @njit(cache=True, inline="always")
-def solve_normal_pair(n1, n2, rows, V):
-    """Both normal rows n1, n2 of a two-point manifold at once, as an exact 2x2 LCP (lcp2);
-    returns the largest |delta lambda| A_kk (m/s), or -1 when the pair is too
-    ill-conditioned to solve as a block (nothing is changed then)."""
-    J, JM, A_kk, xi, lam = rows.J, rows.JM, rows.A_kk, rows.xi, rows.lam
-    a, b = rows.body_a[n1], rows.body_b[n1]
+def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
+    """Both normal rows n1, n2 of a two-point manifold between bodies a and b at once, as an
+    exact 2x2 LCP (lcp2); returns the largest |delta lambda| A_kk (m/s), or -1 when the pair is
+    too ill-conditioned to solve as a block (nothing is changed then)."""
     K11, K22 = A_kk[n1], A_kk[n2]
     K12 = 0.0
     for c in range(6):
@@ -145,7 +143,7 @@ def block_sweep(rows, rows_hat, V, joint_rows):
     unit A_kk). Returns the largest |delta lambda_k| A_kk (m/s). With no friction rows
     (``rows.friction_row`` empty) only the normal rows are swept."""
     normal_row, friction_row = rows_hat.normal_row, rows_hat.friction_row  # unsigned: the sweep's visit
-    body_a, body_b = rows.body_a, rows.body_b
+    body_a, body_b, J, JM, A_kk, xi, lam = rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.lam
     worst = 0.0
     n_contacts = normal_row.shape[0]
     frictionless = friction_row.shape[0] == 0
@@ -155,7 +153,7 @@ def block_sweep(rows, rows_hat, V, joint_rows):
         a, b = body_a[n1], body_b[n1]
         together = 1  # contacts taken in this turn
         if q + 1 < n_contacts and body_a[normal_row[q + 1]] == a and body_b[normal_row[q + 1]] == b:
-            err = solve_normal_pair(n1, normal_row[q + 1], rows, V)
+            err = solve_normal_pair(n1, normal_row[q + 1], a, b, J, JM, A_kk, xi, lam, V)
             if err >= 0.0:  # solved as a block: then the two friction rows
                 worst = max(worst, err)
                 together = 2
