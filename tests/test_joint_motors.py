@@ -507,3 +507,46 @@ def test_each_row_is_the_rate_of_its_C(seed, kind):
         JV = rows.J[k, :3] @ V[a_k] + rows.J[k, 3:] @ V[b_k]
         dC = (-plus.xi[k] + minus.xi[k]) / (2 * eps)
         assert JV == pytest.approx(dC, rel=1e-5, abs=1e-7)
+
+
+def every_joint_hash(responder: str, one_call: bool = True) -> str:
+    """sha256 of the states of a scene with every new joint, a target dragged halfway."""
+    import hashlib
+
+    w = world(responder)
+    w.one_call_tick = one_call
+    w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)
+    post = w.add_box(position=(0.0, 2.0), half_extents=(0.05, 0.05), static=True)
+    bar = w.add_box(position=(0.5, 2.0), half_extents=(0.5, 0.05))
+    w.add_pin_joint(post, bar, anchor=(0.0, 2.0), motor_speed=1.0, max_motor_torque=2.0, lower=-0.5, upper=0.5)
+    car = w.add_box(position=(1.5, 2.0), half_extents=(0.2, 0.1))
+    w.add_slider_joint(
+        bar, car, anchor=(1.5, 2.0), axis=(1, 0), lower=-0.3, upper=0.3, motor_speed=-0.5, max_motor_force=3.0
+    )
+    w.add_weld_joint(car, w.add_box(position=(2.0, 2.0), half_extents=(0.2, 0.1)), anchor=(1.75, 2.0))
+    mouse = w.add_mouse_joint(
+        w.add_box(position=(-1.0, 0.5), half_extents=(0.3, 0.3)), target=(-1, 0.6), max_force=20.0
+    )
+    h = hashlib.sha256()
+    for i in range(60):
+        if i == 20:
+            mouse.target = (-2.0, 2.0)  # far: the pull is capped
+        w.step(DT)
+        for a in (w.x, w.theta, w.V, w.last_step.joint_impulses):
+            h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+@ALL
+def test_every_joint_steps_alike_in_one_call_staged_and_uncompiled(responder):
+    import os
+    import subprocess
+    import sys
+
+    compiled = every_joint_hash(responder)
+    assert every_joint_hash(responder, one_call=False) == compiled
+    code = f"from tests.test_joint_motors import every_joint_hash; print(every_joint_hash({responder!r}))"
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1", PHYS2D_COMPILE_AHEAD="0")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == compiled

@@ -55,7 +55,7 @@ def solve_mouse(k, rows, V, C, soft, max_impulse):
     old_x, old_y = lam[k], lam[k + 1]
     new_x = old_x - mass_scale * (K22 * cx - K12 * cy) / det - impulse_scale * old_x  # K^-1 c
     new_y = old_y - mass_scale * (K11 * cy - K12 * cx) / det - impulse_scale * old_y
-    size = math.hypot(new_x, new_y)
+    size = math.sqrt(new_x * new_x + new_y * new_y)  # (not hypot: numba's and Python's may differ in the last bit)
     if size > max_impulse:  # the pull's cap: max_force over the step
         new_x, new_y = new_x * (max_impulse / size), new_y * (max_impulse / size)
     lam[k], lam[k + 1] = new_x, new_y
