@@ -258,7 +258,8 @@ class Responder:
                             lecture's target is xi + push
             ctx.rows.lo, hi (R,) fixed bounds on lambda_k (N s), for rows with bound_row = -1
             ctx.rows.bound_row, mu  a friction row's normal row (>= 0) and coefficient: its
-                            bounds are +-mu[k] * lam[bound_row[k]]
+                            bounds are +-mu[k] * lam[bound_row[k]]; -2 marks a mouse joint's
+                            rows (only for a responder with ``solves_mouse_joints``)
             ctx.rows.lam    (R,) with ``warm_start``: last step's impulses (N s), not yet in V
 
         To do: apply the warm start, V += M^-1 J^T lambda (``JM[k] * lam[k]`` on bodies a, b);
