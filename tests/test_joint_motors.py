@@ -550,3 +550,100 @@ def test_every_joint_steps_alike_in_one_call_staged_and_uncompiled(responder):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == compiled
+
+
+@st.composite
+def new_joints(draw):
+    """Free bodies without gravity (tests.strategies), and new joints between random pairs."""
+    from tests.strategies import free_scene, reals, scenes, vectors
+
+    scene = free_scene(draw(scenes(min_bodies=2, max_bodies=4, ground=False, region=1.5)))
+    n = len(scene.bodies)
+    joints = []
+    for _ in range(draw(st.integers(1, 3))):
+        a, b = draw(st.lists(st.integers(0, n - 1), min_size=2, max_size=2, unique=True))
+        kind = draw(st.sampled_from(["pin", "slider", "weld"]))
+        lower, upper = draw(st.none() | reals(-0.5, 0.0)), draw(st.none() | reals(0.0, 0.5))
+        motor = draw(st.none() | reals(-3.0, 3.0))
+        joints.append((kind, a, b, draw(vectors(-0.3, 0.3)), draw(vectors(-1, 1)), lower, upper, motor))
+    return scene, joints
+
+
+def add_new_joints(w: phys2d.World, joints) -> None:
+    bodies = w.bodies
+    for kind, a, b, offset, axis, lower, upper, motor in joints:
+        anchor = bodies[a].position + offset
+        if kind == "pin":
+            w.add_pin_joint(
+                bodies[a], bodies[b], anchor=anchor, lower=lower, upper=upper, motor_speed=motor, max_motor_torque=2.0
+            )
+        elif kind == "slider" and np.hypot(*axis) > 1e-3:
+            w.add_slider_joint(
+                bodies[a], bodies[b], anchor=anchor, axis=axis, lower=lower, upper=upper, motor_speed=motor,
+                max_motor_force=2.0,
+            )  # fmt: skip
+        elif kind == "weld":
+            w.add_weld_joint(bodies[a], bodies[b], anchor=anchor)
+
+
+@settings(max_examples=25, deadline=None)
+@given(case=new_joints(), dt=st.sampled_from([1 / 30, 1 / 60, 1 / 120]))
+def test_new_joints_keep_momentum_and_both_forms_of_pgs_agree(case, dt):
+    """No gravity, no static body: every new row (motor, limit, slider, weld) pushes its two
+    bodies equally and oppositely, so linear momentum is kept; and the lecture's matrix form
+    makes the same iterates as the impulse form (to round-off)."""
+    from tests.strategies import build
+
+    scene, joints = case
+    impulse, matrix = build(scene, phys2d.PGS(split=False)), build(scene, phys2d.PGS(split=False, form="matrix"))
+    add_new_joints(impulse, joints)
+    add_new_joints(matrix, joints)
+    p0 = impulse.linear_momentum()
+    size = 1.0 + float(np.sum([b.mass for b in impulse.bodies]) * np.abs(impulse.V).max())
+    for _ in range(10):
+        try:
+            impulse.step(dt)
+        except phys2d.SimulationError:
+            return
+        matrix.step(dt)
+        np.testing.assert_allclose(impulse.linear_momentum(), p0, rtol=0, atol=1e-9 * size)
+        scale = 1.0 + float(np.abs(impulse.V).max())
+        np.testing.assert_allclose(matrix.V, impulse.V, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose(matrix.last_step.joint_impulses, impulse.last_step.joint_impulses, atol=1e-9 * size)
+        matrix.x[:], matrix.theta[:], matrix.V[:] = impulse.x, impulse.theta, impulse.V  # no drift of round-off
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    responder=st.sampled_from(["pgs", "soft-step"]),
+    lower=st.floats(-1.2, -0.1),
+    upper=st.floats(0.1, 1.2),
+    spin=st.floats(-8.0, 8.0),
+)
+def test_pin_limits_hold_whatever_the_range_and_spin(responder, lower, upper, spin):
+    # property: a wheel spun toward a stop ends within [lower, upper] (a few hundredths of a
+    # radian past it at most, while it lands), and never rebounds past the other
+    w = world(responder, gravity=(0.0, 0.0))
+    post = w.add_box(position=(0.0, 0.0), half_extents=(0.1, 0.1), static=True)
+    wheel = w.add_circle(position=(0.0, 0.0), radius=0.5, angular_velocity=spin)
+    pin = w.add_pin_joint(post, wheel, anchor=(0.0, 0.0), lower=lower, upper=upper)
+    for _ in range(60):
+        w.step(DT)
+        assert lower - 0.05 <= pin.angle() <= upper + 0.05
+    assert lower - 0.01 <= pin.angle() <= upper + 0.01
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    responder=st.sampled_from(["pgs", "soft-step"]),
+    target=st.tuples(st.floats(-5.0, 5.0), st.floats(-5.0, 5.0)),
+    max_force=st.floats(0.0, 200.0),
+)
+def test_the_mouse_never_pulls_harder_than_max_force(responder, target, max_force):
+    w = world(responder)
+    box = w.add_box(position=(0.0, 0.0), half_extents=(0.3, 0.2), angle=0.4)
+    mouse = w.add_mouse_joint(box, target=(0.2, 0.1), max_force=max_force)
+    mouse.target = target
+    for _ in range(20):
+        w.step(DT)
+        assert float(np.hypot(*mouse.impulse)) <= max_force * DT * (1 + 1e-12) + 1e-15
