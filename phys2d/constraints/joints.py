@@ -16,7 +16,7 @@ with Baumgarte stabilisation xi = -(beta/dt) C:
     weld      3 rows  the pin's two and the angle row
     mouse     2 rows  C = p_b - target along x and y, J = [0 | e, r_b x e]: the world is the
               other side (the row's body_a is body_b, its entries zero); soft, solved by its own
-              2x2 block (``solve_mouse``), |lambda| <= max_force dt
+              2x2 block (``responders.mouse``), |lambda| <= max_force dt
 
 with d = p_b - p_a the vector between the anchors, e the unit x or y vector and
 r = p - x each body's lever arm to its anchor.
