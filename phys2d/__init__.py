@@ -19,7 +19,7 @@ first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.chec
 from . import kernel_cache, scenes  # noqa: F401  (kernel_cache: imported for what it installs)
 from .bodies import Body
 from .collision import describe_feature
-from .constraints.joints import AngleJoint, DistanceJoint, Joint, PinJoint
+from .constraints.joints import AngleJoint, DistanceJoint, Joint, MouseJoint, PinJoint, SliderJoint, WeldJoint
 from .contacts import Contacts
 from .responders import REGISTRY, make_responder
 from .responders.base import Responder, SolveResult, StepContext, StepReport
@@ -39,6 +39,7 @@ __all__ = [
     "DistanceJoint",
     "IterativeImpulse",
     "Joint",
+    "MouseJoint",
     "NaiveImpulse",
     "PGS",
     "PinJoint",
@@ -46,12 +47,14 @@ __all__ = [
     "Recorder",
     "Responder",
     "SimulationError",
+    "SliderJoint",
     "SoftStep",
     "SolveResult",
     "StepContext",
     "StepReport",
     "Verdict",
     "Watch",
+    "WeldJoint",
     "World",
     "check",
     "describe_feature",

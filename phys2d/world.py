@@ -26,7 +26,10 @@ from .constraints.joints import (
     DistanceJoint,
     Joint,
     JointArrays,
+    MouseJoint,
     PinJoint,
+    SliderJoint,
+    WeldJoint,
     check_limits,
     local_anchor,
     optional_limit,
@@ -99,6 +102,7 @@ class World:
         self._excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
         self._joints: list[Joint] = []
         self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
+        self._mice = 0  # how many of them are mouse joints
         self._contacts = Contacts().read_only()
         self._contacts_sealed = True
         self._pending_contacts: tuple | None = None  # (buffers, K) of the last step's contacts, read lazily
@@ -127,11 +131,16 @@ class World:
         self._check_joints_supported(value)
         self._responder = value
 
-    def _check_joints_supported(self, responder: Responder, adding: bool = False) -> None:
+    def _check_joints_supported(self, responder: Responder, adding: bool = False, mouse: bool = False) -> None:
         if (self._joints or adding) and not responder.handles_joints:
             raise ValueError(
                 f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
                 "(as the lecture's naive takes do); use phys2d.PGS() or phys2d.SoftStep() in a world with joints"
+            )
+        if (mouse or self._mice) and not responder.solves_mouse_joints:
+            raise ValueError(
+                f"responder {responder.name!r} cannot solve mouse joints: their soft pull has a solve of its own "
+                "(phys2d.responders.mouse); use phys2d.PGS() in impulse form or phys2d.SoftStep()"
             )
 
     @property
@@ -343,16 +352,109 @@ class World:
         self._check_joints_supported(self._responder, adding=True)
         return self._add_joint(DistanceJoint(self, body_a, body_b, local_a, local_b, length, collide))
 
-    def add_pin_joint(self, a: Body, b: Body, *, anchor: ArrayLike, collide_connected: bool = False) -> PinJoint:
-        """Pin a and b together at the world point ``anchor`` (m): they may turn about it."""
+    def add_pin_joint(
+        self,
+        a: Body,
+        b: Body,
+        *,
+        anchor: ArrayLike,
+        collide_connected: bool = False,
+        motor_speed: float | None = None,
+        max_motor_torque: float = 0.0,
+        lower: float | None = None,
+        upper: float | None = None,
+    ) -> PinJoint:
+        """Pin a and b together at the world point ``anchor`` (m): they may turn about it.
+
+        With ``motor_speed`` (rad/s) a motor drives omega_b - omega_a toward it with a torque of
+        at most ``max_motor_torque`` (N m; |lambda| <= max_motor_torque dt a step). ``lower`` and
+        ``upper`` (rad, offsets from theta_b - theta_a now) limit the relative angle. All four
+        are settable on the joint afterwards."""
         body_a, body_b = self._joint_bodies(a, b)
+        local_a, local_b = self._shared_anchor(body_a, body_b, anchor)
+        collide = check_bool(collide_connected, "collide_connected")
+        motor = self._motor(motor_speed, max_motor_torque, "max_motor_torque")
+        limits = self._limits(lower, upper)
+        self._check_joints_supported(self._responder, adding=True)
+        theta_0 = body_b.angle - body_a.angle
+        return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide, theta_0, motor, limits))
+
+    def add_slider_joint(
+        self,
+        a: Body,
+        b: Body,
+        *,
+        anchor: ArrayLike,
+        axis: ArrayLike,
+        lower: float | None = None,
+        upper: float | None = None,
+        motor_speed: float | None = None,
+        max_motor_force: float = 0.0,
+    ) -> SliderJoint:
+        """A prismatic joint: b slides relative to a along ``axis`` (a world direction now, kept in
+        a's frame, so it turns with a) through the world point ``anchor`` (m), and may not turn
+        relative to a. ``lower`` and ``upper`` (m) limit the translation along the axis from
+        where b is now; with ``motor_speed`` (m/s) a motor drives it along the axis with a
+        force of at most ``max_motor_force`` (N). a and b do not collide with each other."""
+        body_a, body_b = self._joint_bodies(a, b)
+        local_a, local_b = self._shared_anchor(body_a, body_b, anchor)
+        u = vec2(axis, "axis")
+        size = float(np.hypot(*u))
+        if not size > 1e-12:
+            raise ValueError(f"axis must be a nonzero direction (x, y), got {u.tolist()}")
+        local_axis = local_anchor(body_a, body_a.position + u / size, "axis")  # u in a's frame
+        motor = self._motor(motor_speed, max_motor_force, "max_motor_force")
+        limits = self._limits(lower, upper)
+        self._check_joints_supported(self._responder, adding=True)
+        theta_0 = body_b.angle - body_a.angle
+        return self._add_joint(SliderJoint(self, body_a, body_b, local_a, local_b, local_axis, theta_0, motor, limits))
+
+    def add_weld_joint(self, a: Body, b: Body, *, anchor: ArrayLike) -> WeldJoint:
+        """Weld b to a at the world point ``anchor`` (m): no relative motion, neither apart nor
+        turning (the pin's two rows and the angle row). a and b do not collide with each other."""
+        body_a, body_b = self._joint_bodies(a, b)
+        local_a, local_b = self._shared_anchor(body_a, body_b, anchor)
+        self._check_joints_supported(self._responder, adding=True)
+        theta_0 = body_b.angle - body_a.angle
+        return self._add_joint(WeldJoint(self, body_a, body_b, local_a, local_b, theta_0))
+
+    def add_mouse_joint(
+        self, body: Body, *, target: ArrayLike, max_force: float, hertz: float = 5.0, damping_ratio: float = 0.7
+    ) -> MouseJoint:
+        """Drag ``body`` by the point of it that lies at ``target`` (m) now toward ``target``,
+        which is settable (``joint.target = (x, y)``): Box2D's mouse joint, a soft spring of
+        frequency ``hertz`` (Hz) and damping ratio ``damping_ratio`` whose pull is at most
+        ``max_force`` (N; |lambda| <= max_force dt a step). The other side is the world."""
+        i = self._own(body, "body")
+        if self._bodies.static[i]:
+            raise ValueError("body must be dynamic: a static or kinematic body cannot be dragged")
+        handle = self._handles[i]
+        p = vec2(target, "target")
+        force = non_negative_float(max_force, "max_force")
+        frequency = positive_float(hertz, "hertz")
+        zeta = non_negative_float(damping_ratio, "damping_ratio")
+        self._check_joints_supported(self._responder, adding=True, mouse=True)
+        local = local_anchor(handle, p, "target")
+        return self._add_joint(MouseJoint(self, handle, local, p, force, frequency, zeta))
+
+    @staticmethod
+    def _shared_anchor(body_a: Body, body_b: Body, anchor: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """The world point ``anchor`` in a's frame and in b's."""
         if anchor is None:
             raise TypeError("anchor must be a pair of numbers (x, y), got None")
-        local_a = local_anchor(body_a, anchor, "anchor")
-        local_b = local_anchor(body_b, anchor, "anchor")
-        collide = check_bool(collide_connected, "collide_connected")
-        self._check_joints_supported(self._responder, adding=True)
-        return self._add_joint(PinJoint(self, body_a, body_b, local_a, local_b, collide))
+        return local_anchor(body_a, anchor, "anchor"), local_anchor(body_b, anchor, "anchor")
+
+    @staticmethod
+    def _motor(speed: float | None, max_motor: float, name: str) -> tuple[float | None, float]:
+        """(motor_speed or None, the motor's largest torque or force), checked."""
+        return optional_limit(speed, "motor_speed"), non_negative_float(max_motor, name)
+
+    @staticmethod
+    def _limits(lower: float | None, upper: float | None) -> tuple[float | None, float | None]:
+        """(lower, upper), each None or finite, lower <= upper."""
+        lower, upper = optional_limit(lower, "lower"), optional_limit(upper, "upper")
+        check_limits(lower, upper)
+        return lower, upper
 
     def add_angle_joint(
         self,
@@ -391,10 +493,24 @@ class World:
         joint._has_rows = False
         self._joints_changed()
 
-    def _joints_changed(self) -> None:
+    def _joint_changed(self, joint: Joint, rows_changed: bool) -> None:
+        """A joint's setting changed (``joint.motor_speed = ...``, limits, target, max force): its
+        parameters are written into the packed joints in place, or, when its rows changed (a
+        motor or a limit added or taken away), the joints are packed anew and its rows start
+        from lambda = 0."""
+        if rows_changed:
+            joint._impulse, joint._offset, joint._has_rows = np.zeros(joint.row_count), None, False
+            self._joints_changed(pairs=False)
+            return
+        values = joint._params()
+        self._joint_arrays.params[self._joints.index(joint), : len(values)] = values
+
+    def _joints_changed(self, pairs: bool = True) -> None:
         """Repack the joints (each keeps its last reactions) and rebuild the sorted keys of pairs
-        that must not collide."""
+        that must not collide (``pairs``: bodies' pairs may have changed, so the broadphase
+        sweeps again)."""
         self._joint_arrays = ja = JointArrays(self._joints)
+        self._mice = sum(isinstance(q, MouseJoint) for q in self._joints)
         lam = np.zeros(ja.n_rows)
         for q, joint in enumerate(self._joints):
             offset = int(ja.row_offset[q])
@@ -408,8 +524,9 @@ class World:
             for q in self._joints
             if not q.collide_connected
         ]
-        self._excluded = np.unique(np.asarray(keys, np.int64))
-        self._pipeline.bodies_changed()
+        if pairs:
+            self._excluded = np.unique(np.asarray(keys, np.int64))
+            self._pipeline.bodies_changed()
         self._settings_changed()
 
     # -- one tick ----------------------------------------------------------------

@@ -121,7 +121,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
         (first_too_fast, (bodies.field_dict["V"], bodies.field_dict["x"], floats, f64)),
     ]
     if pgs is not None:
-        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals)))
+        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals, typeof(joints))))
     if soft is not None:
         quad = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros((0, 4))))
         jobs.append((soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals)))

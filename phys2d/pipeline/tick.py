@@ -63,7 +63,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft):
     # rows -> responder -> integration
     count = 0
     if pgs is not None:
-        count = pgs_step(s.bodies, rows, new.separation[:k], step.dt, pgs, s.residuals)
+        count = pgs_step(s.bodies, rows, new.separation[:k], step.dt, pgs, s.residuals, joints)
     if soft is not None:
         found = (new.order[:k], new.separation[:k], new.restitution[:k], new.anchor[:k])
         count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals)

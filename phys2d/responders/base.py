@@ -194,6 +194,8 @@ class Responder:
     restitution_threshold  approach speed (m/s) above which contacts bounce
     warm_start  whether the world should start lambda from the contact cache
     handles_joints  whether joint rows may be given to this responder
+    solves_mouse_joints  whether it solves mouse joints: their two rows (bound_row ``OWN_SOLVE``,
+                    -2) are a soft pull with a solve of its own (``responders.mouse.solve_mice``)
     counts  the word for the work ``SolveResult.iterations`` counts: 'sweeps', 'passes', 'substeps'
     colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
                     instead of in pair order: faster sweeps, a different Gauss-Seidel order
@@ -215,6 +217,7 @@ class Responder:
     restitution_threshold = 1.0
     warm_start = False
     handles_joints = False
+    solves_mouse_joints = False
     colour_order = False
     contacts_in_row_order = True
     found_lever_arms = False
@@ -255,7 +258,8 @@ class Responder:
                             lecture's target is xi + push
             ctx.rows.lo, hi (R,) fixed bounds on lambda_k (N s), for rows with bound_row = -1
             ctx.rows.bound_row, mu  a friction row's normal row (>= 0) and coefficient: its
-                            bounds are +-mu[k] * lam[bound_row[k]]
+                            bounds are +-mu[k] * lam[bound_row[k]]; -2 marks a mouse joint's
+                            rows (only for a responder with ``solves_mouse_joints``)
             ctx.rows.lam    (R,) with ``warm_start``: last step's impulses (N s), not yet in V
 
         To do: apply the warm start, V += M^-1 J^T lambda (``JM[k] * lam[k]`` on bodies a, b);

@@ -29,6 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ..constraints.joints import OWN_SOLVE, JointArrays
 from ..constraints.rows import (
     FRICTION_COULOMB,
     FRICTION_LECTURE,
@@ -41,7 +42,7 @@ from ..constraints.rows import (
     unsigned_rows,
 )
 from ..integrate import integrate_positions
-from ..pipeline.records import RowRecord, new_bodies, record_of_rows
+from ..pipeline.records import RowRecord, new_bodies, record_of_joints, record_of_rows
 from ..validation import (
     Setting,
     check_bool,
@@ -53,6 +54,7 @@ from ..validation import (
 )
 from .base import Responder, SolveResult, StepContext
 from .block import block_is_well_conditioned, inverse_diagonal, lcp2
+from .mouse import has_mouse, solve_mice
 from .pgs_matrix import solve_matrix_form
 from .restitution import bouncing_contacts, restitution_pass
 
@@ -194,19 +196,47 @@ def per_unit_A(rows):
 
 
 @njit(cache=True)
-def pgs_solve(rows, V, iterations, tolerance, residuals, block):
+def swept_rows(bound_row):
+    """The rows the sweeps visit: all but the mouse joints' (bound_row ``OWN_SOLVE``), which
+    ``solve_mice`` solves (unsigned, as ``pgs_solve``'s)."""
+    n = 0
+    for k in range(bound_row.shape[0]):
+        if bound_row[k] != OWN_SOLVE:
+            n += 1
+    visit = np.empty(n, np.uint32)
+    n = 0
+    for k in range(bound_row.shape[0]):
+        if bound_row[k] != OWN_SOLVE:
+            visit[n] = k
+            n += 1
+    return visit
+
+
+@njit(cache=True)
+def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt):
     """Warm start from rows.lam, then sweep all rows in solve order (rows are stored in it)
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
-    residuals[s] is sweep s's. ``block``: see ``PGSSettings``."""
+    residuals[s] is sweep s's. ``block``: see ``PGSSettings``. ``joints``: the JointRecord, or
+    None in a world without joints (then none of this joint code is compiled); its mouse
+    joints' rows are solved after each sweep by their own soft solve (``solve_mice``, over dt)."""
     apply_impulses(rows, V)
     rows_hat = per_unit_A(unsigned_rows(rows))
     all_rows = np.arange(rows.lam.shape[0], dtype=np.uint32)  # unsigned, as rows_hat's row map: sweep compiles once
-    joint_rows = all_rows[2 * rows.normal_row.shape[0] :]
+    first_joint_row = 2 * rows.normal_row.shape[0]
+    mice = False
+    if joints is not None:
+        mice = has_mouse(joints)
+        if mice:
+            all_rows = swept_rows(rows.bound_row)
+    joint_rows = all_rows[first_joint_row:]
     for s in range(iterations):
         if block is not None:
             residuals[s] = block_sweep(rows, rows_hat, V, joint_rows)
         else:
             residuals[s] = sweep(rows_hat, V, all_rows)
+        if joints is not None:
+            if mice:
+                residuals[s] = max(residuals[s], solve_mice(joints, first_joint_row, rows, V, dt, dt))
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -261,16 +291,17 @@ class PGSSettings(NamedTuple):
 
 
 @njit(cache=True)
-def pgs_step(bodies, rows, separation, dt, settings, residuals):
+def pgs_step(bodies, rows, separation, dt, settings, residuals, joints):
     """``PGS.respond`` in one call on the bodies' record and the step's rows: warm start and
     sweeps on V, the push pass (split) or the push inside xi (not split), positions moved,
     then the restitution pass. ``separation``: (K,) each contact's C (m) in row order;
-    ``residuals``: each sweep's. Returns the sweeps made on A lambda = b."""
+    ``residuals``: each sweep's; ``joints``: the JointRecord (for its mouse joints), or None
+    in a world without joints. Returns the sweeps made on A lambda = b."""
     iterations, tolerance, block, split = settings
     V = bodies.V
     target = rows.xi if split else rows.xi + rows.push  # the lecture: the push is part of the target
     system = with_target(rows, target, rows.lam, rows.friction_row)
-    n = pgs_solve(system, V, iterations, tolerance, residuals, block)
+    n = pgs_solve(system, V, iterations, tolerance, residuals, block, joints, dt)
     V_move = V
     if split and pushes(system):
         V_push = np.zeros_like(V)
@@ -398,6 +429,11 @@ class PGS(Responder):
         self._form = value
 
     @property
+    def solves_mouse_joints(self) -> bool:  # type: ignore[override]
+        """The impulse form solves mouse joints (``responders.mouse``); the matrix form, rigid rows only."""
+        return self._form == "impulse"
+
+    @property
     def block(self) -> bool:
         """Solve a two-point manifold's normal rows together (impulse form only)."""
         return self._block
@@ -421,7 +457,10 @@ class PGS(Responder):
             return solve_matrix_form(ctx, xi, self.iterations, self.settings.tolerance, self.split)
         residuals = np.zeros(self.iterations)
         bodies = new_bodies((ctx.x, ctx.theta, ctx.V, ctx.M_inv, ctx.V1))
-        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, self.settings, residuals)
+        joints = None  # a world without joints compiles none of their code
+        if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
+            joints = record_of_joints(ctx.joints, r.lam[r.first_joint_row :])  # (lam: not read)
+        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, self.settings, residuals, joints)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:

@@ -6,7 +6,9 @@ their A = J M^-1 J^T (a chain's A is banded: only each row's envelope is factore
 gives delta lambda = -A^-1 (J V + bias) exactly for the joint block, bias pulling C
 back to 0 at ``joint_hertz``; a heavy body on a long chain then stretches it by
 millimetres where one sweep of soft joint rows lets it stretch by decimetres.
-Angle limits are one-sided rows solved like contact points (``soft_contacts.soft_push``).
+Limits (angle, a pin's, a slider's) are one-sided rows solved like contact points
+(``soft_contacts.soft_push``); motors are rigid rows toward their speed, clamped to the motor's
+torque or force times the sub-step; mouse joints have a soft solve of their own (``mouse``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.joints import joint_rows
+from ..constraints.joints import OWN_SOLVE, joint_rows
 from ..constraints.rows import MET, apply_row_impulse, row_velocity
 from .soft_contacts import soft_push
 
@@ -117,8 +119,9 @@ def _joint_bias(C, use_bias, soft):
 
 @njit(cache=True)
 def solve_joints(rows, system, V, h, use_bias, soft_joint):
-    """The joint rows once: limit rows one by one (lambda >= 0, like a contact point whose
-    separation is the gap to the stop), then the equality rows, together (``direct``:
+    """The joint rows once: motor rows (rigid, toward their speed, |lambda| <= max_motor h) and
+    limit rows (lambda >= 0, like a contact point whose separation is the gap to the stop) one
+    by one, then the equality rows, together (``direct``:
     delta lambda = -A^-1 (J V + bias), exact for the joint block) or one by one with the
     joint's softness. ``system``: the joint rows' (eq, L, first, C, direct) (``joint_system``).
     Returns the largest |delta lambda| A_kk (m/s)."""
@@ -128,10 +131,15 @@ def solve_joints(rows, system, V, h, use_bias, soft_joint):
     worst = 0.0
     for k in range(first_joint_row, n_rows):
         unbounded = lo[k] == -np.inf
-        if A_kk[k] <= 0.0 or (direct and unbounded):
-            continue
+        if A_kk[k] <= 0.0 or (direct and unbounded) or rows.bound_row[k] == OWN_SOLVE:
+            continue  # (a mouse joint's rows: ``mouse.solve_mice``)
         a, b = body_a[k], body_b[k]
-        if unbounded:  # the soft joint of Box2D v3
+        if not unbounded and rows.hi[k] != np.inf:  # a motor: rigid, |lambda| <= max_motor h
+            d = (rows.xi[k] - row_velocity(k, a, b, J, V)) / A_kk[k]  # xi: the motor's speed
+            new = min(max(lam[k] + d, lo[k] * h), rows.hi[k] * h)  # lo, hi: -+max_motor (rows of dt = 1)
+            d = new - lam[k]
+            lam[k] = new
+        elif unbounded:  # the soft joint of Box2D v3
             mass_scale, impulse_scale = (soft_joint[1], soft_joint[2]) if use_bias else (1.0, 0.0)
             d = (
                 -mass_scale * (row_velocity(k, a, b, J, V) + _joint_bias(C[k], use_bias, soft_joint)) / A_kk[k]

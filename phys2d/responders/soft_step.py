@@ -47,6 +47,7 @@ from ..pipeline import records
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .block import inverse_diagonal
+from .mouse import solve_mice
 from .soft_contacts import prepare_manifolds, soft_constants, soft_sweep, warm_start
 from .soft_integrate import integrate_positions, integrate_velocities, split_forces
 from .soft_joints import first_joint_row_of, joint_system, prepare_joints, solve_joints
@@ -76,6 +77,7 @@ def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, sy
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
+        worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
     return max(worst, soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
 
 
@@ -180,6 +182,7 @@ class SoftStep(Responder):
     name = "soft-step"
     counts = "substeps"
     handles_joints = True
+    solves_mouse_joints = True
     colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
     contacts_in_row_order = False  # it gathers the three fields it reads itself (gather_contacts)
     found_lever_arms = True  # measured: a 1 mm leaning 20-stack stands (it buckled with arms p - x)
