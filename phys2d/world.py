@@ -21,6 +21,8 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import Body, BodyArrays, BodyOptions, body_settings
+from .collision import queries
+from .collision.queries import RayHit
 from .constraints.joints import (
     AngleJoint,
     DistanceJoint,
@@ -460,6 +462,52 @@ class World:
                 assert joint._offset is not None  # placed by _joints_changed
                 joint._rows_offset, joint._has_rows = joint._offset, True
             self._joints_placed = True
+
+    # -- queries -------------------------------------------------------------------------
+    # Each reads the bodies where they are now (between steps: where the last step left them).
+    def _geometry(self) -> tuple:
+        """The arrays the query kernels read (``collision.queries``)."""
+        b = self._bodies
+        return (b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v)
+
+    def ray_cast(self, start: ArrayLike, end: ArrayLike) -> list[RayHit]:
+        """The bodies the segment from ``start`` to ``end`` (m) enters, nearest first: one
+        ``RayHit`` per body (where the ray first enters its shape: ``point``, the unit outward
+        ``normal`` there, and ``fraction`` t in [0, 1] with point = start + t (end - start)),
+        sorted by fraction, equal fractions in creation order.
+
+        As in Box2D, a ray that starts inside a shape (or on its surface) does not hit that
+        shape: cast from a point on a body's surface, it finds what lies beyond (``query_point``
+        tells which bodies hold a point). A ray of length 0 hits nothing."""
+        p_start, p_end = vec2(start, "start"), vec2(end, "end")
+        n = self._bodies.n
+        fraction, normal = np.empty(n), np.empty((n, 2))
+        queries.ray_cast_bodies(self._geometry(), p_start, p_end, fraction, normal)
+        hit = np.flatnonzero(fraction <= 1.0)
+        hit = hit[np.argsort(fraction[hit], kind="stable")]
+        d = p_end - p_start
+        return [RayHit(self._handles[i], p_start + fraction[i] * d, normal[i].copy(), float(fraction[i])) for i in hit]
+
+    def query_point(self, point: ArrayLike) -> list[Body]:
+        """The bodies whose shape holds ``point`` (m), its surface included, in creation order."""
+        p = vec2(point, "point")
+        inside = np.zeros(self._bodies.n, np.bool_)
+        queries.bodies_containing(self._geometry(), p, inside)
+        return [self._handles[i] for i in np.flatnonzero(inside)]
+
+    def query_aabb(self, lower: ArrayLike, upper: ArrayLike) -> list[Body]:
+        """The bodies whose shape's axis-aligned bounding box overlaps the box from ``lower`` to
+        ``upper`` (m; corners (min x, min y) and (max x, max y)), touching included, in creation
+        order. As Box2D's b2World_OverlapAABB, it tests the shapes' boxes (tight, as the bodies
+        are now), not the shapes: a body near a corner of the box may be returned though its
+        shape lies outside it."""
+        lo, hi = vec2(lower, "lower"), vec2(upper, "upper")
+        if np.any(lo > hi):
+            raise ValueError(f"lower must be <= upper in x and in y, got lower={lo.tolist()}, upper={hi.tolist()}")
+        aabb = np.empty((self._bodies.n, 4))
+        queries.tight_aabbs(self._geometry(), aabb)
+        overlap = (aabb[:, 0] <= hi[0]) & (aabb[:, 1] <= hi[1]) & (aabb[:, 2] >= lo[0]) & (aabb[:, 3] >= lo[1])
+        return [self._handles[i] for i in np.flatnonzero(overlap)]
 
     # -- energy and momentum ---------------------------------------------------------
     def kinetic_energy(self) -> float:
