@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import shapes
-from .bodies import Body, BodyArrays, BodyOptions, body_settings
+from . import sleep as sleeping
+from .bodies import Body, BodyArrays, BodyOptions, body_settings, should_collide
 from .collision import queries
 from .collision.queries import RayHit
 from .constraints.joints import (
@@ -79,6 +80,10 @@ class World:
     one_call_tick  run a step in one kernel call when the responder has one (PGS in
                 impulse form, SoftStep; default True); False calls each stage's kernel
                 from Python, with bit-identical results (to time or watch the stages)
+    sleep       let islands of bodies at rest fall asleep (Box2D's rules, ``phys2d.sleep``):
+                an island whose every body stayed under 0.05 m/s and 2 deg/s for 0.5 s
+                stops moving and costs almost nothing to step until something wakes it
+                (``Body.awake``); default False, settable between steps (False wakes all)
     """
 
     def __init__(
@@ -89,6 +94,7 @@ class World:
         contact_margin: float = 0.02,
         max_speed: float = 1e4,
         contact_recycle_distance: float = 0.05,
+        sleep: bool = False,
     ) -> None:
         self.gravity = gravity
         self._responder = self._check_responder(PGS() if responder is None else responder)
@@ -109,6 +115,9 @@ class World:
         self._joints_placed = True  # every joint knows where its rows stood in the last step
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
+        self._sleep = check_bool(sleep, "sleep")
+        self._some_asleep = False  # a body sleeps (then the pipeline steps it as immovable)
+        self._next_island = 0  # the id the next island to fall asleep gets
         self.tick = 0
         self.time = 0.0
 
@@ -188,6 +197,17 @@ class World:
     def max_speed(self, value: float) -> None:
         self._max_speed = positive_float(value, "max_speed")
         self._settings_changed()
+
+    @property
+    def sleep(self) -> bool:
+        """Whether islands at rest fall asleep (``phys2d.sleep``); setting False wakes every body."""
+        return self._sleep
+
+    @sleep.setter
+    def sleep(self, value: bool) -> None:
+        self._sleep = check_bool(value, "sleep")
+        if not self._sleep:
+            self._wake_all()
 
     def _settings_changed(self) -> None:
         """The next step reads the world's settings and joints anew."""
@@ -285,6 +305,7 @@ class World:
         if not isinstance(item, Body):
             raise TypeError(f"item must be a phys2d Body or Joint, got {type(item).__name__}")
         i = self._own(item)
+        self._wake(i)  # its island, and the sleeping islands it touches
         for joint in [q for q in self._joints if i in (q.body_a._index, q.body_b._index)]:
             self._remove_joint(joint)
         self._bodies.delete(i)
@@ -377,6 +398,8 @@ class World:
         return self._add_joint(AngleJoint(self, body_a, body_b, theta_0, lower, upper, collide))
 
     def _add_joint(self, joint: _J) -> _J:
+        self._wake_island_of(joint.body_a._index)
+        self._wake_island_of(joint.body_b._index)
         self._joints.append(joint)
         self._joints_changed()
         return joint
@@ -386,6 +409,8 @@ class World:
             raise ValueError("joint belongs to another world")
         if not joint.alive:
             raise ValueError("joint was removed from this world")
+        self._wake_island_of(joint.body_a._index)
+        self._wake_island_of(joint.body_b._index)
         joint._impulse = joint.impulse  # its last reactions, kept by the handle from now on
         joint._offset = None
         self._joints.remove(joint)
@@ -425,7 +450,11 @@ class World:
         responder = self._responder
         if self._joints:
             self._check_joints_supported(responder)
+        if self._some_asleep or self._pipeline.sleep_masks is not None:
+            self._before_step(dt)
         report = self._pipeline.step(self, dt, self._one_call_tick)
+        if self._sleep:
+            self._after_step(dt)
         self._last_step = report
         self.tick += 1
         self.time += dt
@@ -462,6 +491,113 @@ class World:
                 assert joint._offset is not None  # placed by _joints_changed
                 joint._rows_offset, joint._has_rows = joint._offset, True
             self._joints_placed = True
+
+    # -- sleeping (``phys2d.sleep``) --------------------------------------------------------
+    def _links(self) -> np.ndarray:
+        """(L, 2) the body pairs an island holds together: the last step's touching contacts
+        (separation <= contact_margin) and the joints."""
+        if self._pending_contacts is not None:
+            buffers, k = self._pending_contacts
+            a, b, separation = buffers.body_a[:k], buffers.body_b[:k], buffers.separation[:k]
+        else:
+            c = self._contacts
+            a, b, separation = c.body_a, c.body_b, c.separation
+        touching = separation <= self._contact_margin
+        pairs = [np.stack([a[touching], b[touching]], axis=1).astype(np.int64)]
+        if self._joints:
+            pairs.append(np.array([(q.body_a._index, q.body_b._index) for q in self._joints], np.int64))
+        return np.concatenate(pairs) if len(pairs) > 1 else pairs[0]
+
+    def _before_step(self, dt: float) -> None:
+        """Wake the sleeping islands an awake body could touch within the step, then tell the
+        pipeline which bodies sleep (it steps them as immovable)."""
+        b = self._bodies
+        if self._some_asleep:
+            aabb = np.empty((b.n, 4))
+            queries.tight_aabbs(self._geometry(), aabb)
+            reach = sleeping.grown_by_travel(aabb, b, self._gravity, dt, self._contact_margin)
+            movers = (~b.static | (b.kinematic & np.any(b.V != 0.0, axis=1))) & (b.island < 0)
+            while self._some_asleep and movers.any():
+                asleep = np.flatnonzero(b.island >= 0)
+                moving = np.flatnonzero(movers)
+                near = sleeping.overlapping(reach[moving], aabb[asleep])
+                woken = np.zeros(b.n, np.bool_)
+                for m, s in zip(*np.nonzero(near), strict=True):
+                    i, j = int(moving[m]), int(asleep[s])
+                    if not woken[j] and should_collide(*self._filter(i), *self._filter(j)):
+                        woken |= b.island == b.island[j]
+                        self._wake_island_of(j)
+                movers = woken  # the woken may reach further islands (by a margin: rarely)
+        self._pipeline.sleepers(b.island >= 0 if self._some_asleep else None, b)
+
+    def _filter(self, i: int) -> tuple[int, int, int]:
+        b = self._bodies
+        return int(b.category[i]), int(b.mask[i]), int(b.group[i])
+
+    def _after_step(self, dt: float) -> None:
+        """Each awake dynamic body's rest time, then the islands that rested long enough sleep."""
+        b = self._bodies
+        dynamic = ~b.static & (b.island < 0)
+        b.sleep_time[:] = np.where(dynamic & sleeping.rests(b.V), b.sleep_time + dt, 0.0)
+        links = self._links()
+        if b.kinematic.any() and links.shape[0]:  # a moving kinematic body keeps what it touches awake
+            pushing = b.kinematic & np.any(b.V != 0.0, axis=1)
+            b.sleep_time[links[pushing[links[:, 0]], 1]] = 0.0
+            b.sleep_time[links[pushing[links[:, 1]], 0]] = 0.0
+        if not np.any(b.sleep_time >= sleeping.TIME_TO_SLEEP):
+            return
+        island = sleeping.find_islands(links, dynamic)
+        for root in sleeping.islands_falling_asleep(island, b.sleep_time):
+            self._fall_asleep(island == root)
+
+    def _fall_asleep(self, members: np.ndarray) -> None:
+        """The bodies ``members`` (an island) sleep: V = 0, and the island's id."""
+        b = self._bodies
+        b.V[members] = 0.0
+        b.island[members] = self._next_island
+        self._next_island += 1
+        self._some_asleep = True
+        self._pipeline.bodies_changed()  # their pairs with static and sleeping bodies go
+
+    def _put_to_sleep(self, i: int) -> None:
+        """Body i's island (as the last step's contacts and the joints link it) sleeps now."""
+        b = self._bodies
+        if b.island[i] >= 0:
+            return
+        island = sleeping.find_islands(self._links(), ~b.static & (b.island < 0))
+        self._fall_asleep(island == island[i])
+
+    def _wake_island_of(self, i: int) -> None:
+        """Wake body i's island, if it sleeps: its bodies rest from 0 s again."""
+        b = self._bodies
+        if not self._some_asleep or b.island[i] < 0:
+            return
+        members = b.island == b.island[i]
+        b.island[members] = -1
+        b.sleep_time[members] = 0.0
+        self._some_asleep = bool(np.any(b.island >= 0))
+        self._pipeline.bodies_changed()
+
+    def _wake(self, i: int) -> None:
+        """Wake body i's island and the sleeping islands within contact_margin of its shape (a
+        static body moved or removed, say, leaves nothing asleep in the air)."""
+        if not self._some_asleep:
+            return
+        self._wake_island_of(i)
+        b = self._bodies
+        aabb = np.empty((b.n, 4))
+        queries.tight_aabbs(self._geometry(), aabb)
+        grow = self._contact_margin
+        near = sleeping.overlapping(aabb[i : i + 1] + (-grow, -grow, grow, grow), aabb)[0] & (b.island >= 0)
+        for j in np.flatnonzero(near):
+            self._wake_island_of(int(j))
+
+    def _wake_all(self) -> None:
+        if self._some_asleep:
+            self._bodies.island[:] = -1
+            self._bodies.sleep_time[:] = 0.0
+            self._some_asleep = False
+            self._pipeline.bodies_changed()
 
     # -- queries -------------------------------------------------------------------------
     # Each reads the bodies where they are now (between steps: where the last step left them).
@@ -553,6 +689,12 @@ class World:
     body_inertias = _read_only_view(
         "inertia", "(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."
     )
+
+    @property
+    def body_asleep(self) -> np.ndarray:
+        """(N,) bool, True for the bodies that sleep now (``Body.awake`` is False for them), a copy."""
+        return self._bodies.island >= 0
+
     vertex_start = _read_only_view("vstart", "(N,) int32 first row of each body's polygon in ``local_vertices``.")
     vertex_count = _read_only_view("vcount", "(N,) int32 number of polygon vertices of each body (0 for circles).")
     local_vertices = _read_only_view(
