@@ -509,26 +509,39 @@ class World:
         return np.concatenate(pairs) if len(pairs) > 1 else pairs[0]
 
     def _before_step(self, dt: float) -> None:
-        """Wake the sleeping islands an awake body could touch within the step, then tell the
-        pipeline which bodies sleep (it steps them as immovable)."""
+        """Wake the sleeping islands an awake body could touch within the step or pulls on
+        through a joint, then tell the pipeline which bodies sleep (it steps them as immovable)."""
         b = self._bodies
-        if self._some_asleep:
+        movers = (~b.static | (b.kinematic & np.any(b.V != 0.0, axis=1))) & (b.island < 0)
+        if self._some_asleep and movers.any():  # (a world all asleep skips this)
             aabb = np.empty((b.n, 4))
             queries.tight_aabbs(self._geometry(), aabb)
             reach = sleeping.grown_by_travel(aabb, b, self._gravity, dt, self._contact_margin)
-            movers = (~b.static | (b.kinematic & np.any(b.V != 0.0, axis=1))) & (b.island < 0)
             while self._some_asleep and movers.any():
-                asleep = np.flatnonzero(b.island >= 0)
-                moving = np.flatnonzero(movers)
-                near = sleeping.overlapping(reach[moving], aabb[asleep])
-                woken = np.zeros(b.n, np.bool_)
-                for m, s in zip(*np.nonzero(near), strict=True):
-                    i, j = int(moving[m]), int(asleep[s])
-                    if not woken[j] and should_collide(*self._filter(i), *self._filter(j)):
-                        woken |= b.island == b.island[j]
-                        self._wake_island_of(j)
-                movers = woken  # the woken may reach further islands (by a margin: rarely)
+                movers = self._wake_reached(movers, reach, aabb)  # the woken may reach further (rarely)
         self._pipeline.sleepers(b.island >= 0 if self._some_asleep else None, b)
+
+    def _wake_reached(self, movers: np.ndarray, reach: np.ndarray, aabb: np.ndarray) -> np.ndarray:
+        """Wake the islands of the sleeping bodies whose box (``aabb``) a mover's ``reach`` overlaps
+        (when the filter lets the two touch), or that a mover is joined to; returns the woken."""
+        b = self._bodies
+        asleep, moving = np.flatnonzero(b.island >= 0), np.flatnonzero(movers)
+        m, s = np.nonzero(sleeping.overlapping(reach[moving], aabb[asleep]))
+        reached = [
+            int(j)
+            for i, j in zip(moving[m], asleep[s], strict=True)
+            if should_collide(*self._filter(i), *self._filter(j))
+        ]
+        if self._joints:  # a moving kinematic body's joint partners (dynamic ones share its islands)
+            ja = self._joint_arrays
+            for one, other in ((ja.body_a, ja.body_b), (ja.body_b, ja.body_a)):
+                reached += [int(j) for j in other[movers[one] & (b.island[other] >= 0)]]
+        woken = np.zeros(b.n, np.bool_)
+        for j in reached:
+            if not woken[j]:
+                woken |= b.island == b.island[j]
+                self._wake_island_of(j)
+        return woken
 
     def _filter(self, i: int) -> tuple[int, int, int]:
         b = self._bodies

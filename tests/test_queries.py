@@ -240,6 +240,27 @@ def test_ray_against_a_rounded_polygon_meets_its_surface_first_there(verts, radi
     assert distance(nearest) == pytest.approx(0.0, abs=1e-9)
 
 
+@given(a=vectors(-2.0, 2.0), b=vectors(-2.0, 2.0), start=vectors(-4.0, 4.0), end=vectors(-4.0, 4.0))
+def test_a_two_vertex_polygon_of_radius_0_is_a_segment(a, b, start, end) -> None:
+    """Segment against segment: start + t d = a + u (b - a) solved by Cramer's rule; a hit when
+    both t and u lie in [0, 1], its normal across the segment, against the ray."""
+    s, e, p, q = (np.asarray(v, float) for v in (start, end, a, b))
+    d, f = e - s, q - p
+    det = d[0] * -f[1] + f[0] * d[1]  # det [d, -f]
+    assume(np.linalg.norm(f) > 1e-3 and abs(det) > 1e-6 * np.linalg.norm(d) * np.linalg.norm(f))
+    w = p - s
+    t = (w[0] * -f[1] + f[0] * w[1]) / det
+    u = (d[0] * w[1] - d[1] * w[0]) / det
+    assume(min(abs(t), abs(t - 1.0), abs(u), abs(u - 1.0)) > 1e-7)
+    got, n_x, n_y = queries.ray_polygon(s, d, np.stack([p, q]), 0.0)
+    if not (0.0 < t < 1.0 and 0.0 < u < 1.0):
+        assert got == queries.MISS
+        return
+    assert got == pytest.approx(t, rel=1e-7, abs=1e-9)
+    n = np.array([n_x, n_y])
+    assert abs(n @ f) < 1e-9 and n @ d < 0.0
+
+
 @given(centre=vectors(-2.0, 2.0), r=reals(0.05, 2.0), start=vectors(-4.0, 4.0), end=vectors(-4.0, 4.0))
 def test_a_one_vertex_rounded_polygon_is_a_circle(centre, r, start, end) -> None:
     s, e = np.asarray(start, float), np.asarray(end, float)

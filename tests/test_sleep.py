@@ -235,6 +235,38 @@ def test_a_moving_kinematic_body_keeps_what_it_carries_awake() -> None:
     run_until_asleep(w)
 
 
+def test_a_kinematic_body_that_starts_moving_wakes_what_hangs_from_it() -> None:
+    """A load on a rope from a resting kinematic crane sleeps; given a velocity, the crane wakes
+    it (the joint pulls it along) though their boxes are 2 m apart."""
+    w = phys2d.World(sleep=True)
+    crane = w.add_box((0.0, 5.0), half_extents=(0.5, 0.1), kinematic=True)
+    load = w.add_circle((0.0, 3.0), radius=0.2, linear_damping=1.0)
+    w.add_distance_joint(crane, load)
+    run_until_asleep(w)
+    crane.velocity = (1.0, 0.0)
+    w.step(DT)
+    assert load.awake
+    for _ in range(60):
+        w.step(DT)
+    assert load.awake and load.position[0] > 0.3
+
+
+def test_a_body_the_filter_keeps_apart_passes_through_a_sleeping_one_without_waking_it() -> None:
+    w = phys2d.World(sleep=True, gravity=(0.0, 0.0))
+    sleeper = w.add_box((0.0, 0.0), half_extents=(0.5, 0.5))
+    sleeper.awake = False
+    ghost = w.add_circle((-3.0, 0.0), radius=0.2, velocity=(3.0, 0.0), mask=0)
+    solid = w.add_circle((-3.0, 3.0), radius=0.2, velocity=(0.0, 0.0))
+    for _ in range(120):
+        w.step(DT)
+    assert ghost.position[0] > 2.0 and not sleeper.awake
+    solid.position = (-3.0, 0.0)
+    solid.velocity = (3.0, 0.0)
+    for _ in range(60):
+        w.step(DT)
+    assert sleeper.awake and sleeper.velocity[0] > 0.0  # the solid one hit it
+
+
 # -- properties ----------------------------------------------------------------------------------
 
 

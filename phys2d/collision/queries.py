@@ -132,8 +132,9 @@ def polygon_contains(vertices, radius, point):
 def ray_polygon(start, d, vertices, radius):
     """Where the ray start + t d first enters the convex polygon of ``vertices`` (counter-clockwise,
     m) grown by ``radius`` (m): (t, n_x, n_y), t = MISS when it does not within t in [0, 1] or
-    starts inside or on it. radius 0: ``ray_sharp_polygon``; else ``ray_rounded_polygon``."""
-    if radius == 0.0:
+    starts inside or on it. A polygon of radius 0: ``ray_sharp_polygon``; else (and for a
+    segment, whose two half-planes meet in a line without ends) ``ray_rounded_polygon``."""
+    if radius == 0.0 and vertices.shape[0] >= 3:
         return ray_sharp_polygon(start, d, vertices)
     return ray_rounded_polygon(start, d, vertices, radius)
 
@@ -167,7 +168,7 @@ def ray_sharp_polygon(start, d, vertices):
 
 @njit(cache=True)
 def ray_rounded_polygon(start, d, vertices, radius):
-    """The ray against a polygon grown by radius > 0: its surface is each edge pushed out by r
+    """The ray against a polygon grown by radius r >= 0: its surface is each edge pushed out by r
     along its normal, joined by arcs of radius r about the vertices, so the entry is the first
     of the ray's crossings of those edges (heading in) and of the vertices' circles."""
     if polygon_contains(vertices, radius, start):
