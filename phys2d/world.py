@@ -118,6 +118,7 @@ class World:
         self._sleep = check_bool(sleep, "sleep")
         self._some_asleep = False  # a body sleeps (then the pipeline steps it as immovable)
         self._next_island = 0  # the id the next island to fall asleep gets
+        self._island_cache: dict[int, tuple] = {}  # a sleeping island's contact cache, by island id
         self.tick = 0
         self.time = 0.0
 
@@ -568,6 +569,7 @@ class World:
         b = self._bodies
         b.V[members] = 0.0
         b.island[members] = self._next_island
+        self._island_cache[self._next_island] = self._pipeline.cache_of(np.sort(b.uid[members]))
         self._next_island += 1
         self._some_asleep = True
         self._pipeline.bodies_changed()  # their pairs with static and sleeping bodies go
@@ -585,9 +587,11 @@ class World:
         b = self._bodies
         if not self._some_asleep or b.island[i] < 0:
             return
-        members = b.island == b.island[i]
+        island = int(b.island[i])
+        members = b.island == island
         b.island[members] = -1
         b.sleep_time[members] = 0.0
+        self._warm(island)
         self._some_asleep = bool(np.any(b.island >= 0))
         self._pipeline.bodies_changed()
 
@@ -605,8 +609,17 @@ class World:
         for j in np.flatnonzero(near):
             self._wake_island_of(int(j))
 
+    def _warm(self, island: int) -> None:
+        """Put a woken island's contact cache back: its first step warm starts, as if awake."""
+        kept = self._island_cache.pop(island, None)
+        if kept is not None and kept[0].size:
+            self.contacts  # noqa: B018  (copied out now: the cache shares their keys)
+            self._pipeline.warm(*kept)
+
     def _wake_all(self) -> None:
         if self._some_asleep:
+            for island in np.unique(self._bodies.island[self._bodies.island >= 0]):
+                self._warm(int(island))
             self._bodies.island[:] = -1
             self._bodies.sleep_time[:] = 0.0
             self._some_asleep = False

@@ -160,6 +160,42 @@ def test_a_joint_wakes_both_islands_it_joins() -> None:
     assert not any(asleep(stack + other))
 
 
+@pytest.mark.parametrize("responder", ["pgs", "soft-step"])
+def test_a_woken_island_warm_starts_from_the_impulses_it_fell_asleep_with(responder: str) -> None:
+    """Box2D keeps a sleeping island's contact impulses: the step after waking finds the same
+    contacts and warm starts every one of them from the cache it fell asleep with."""
+    w, _, (stack, other) = two_stacks(phys2d.make_responder(responder))
+    run_until_asleep(w)
+    fell_asleep_with = set(w.contacts.key.tolist())
+    for _ in range(30):
+        w.step(DT)
+        assert len(w.contacts) == 0
+    stack[0].awake = True
+    w.step(DT)
+    c = w.contacts
+    assert len(c) > 0 and c.warm_started.all()
+    assert set(c.key.tolist()) <= fell_asleep_with
+
+
+def test_a_kept_cache_larger_than_the_buffers_grows_them() -> None:
+    """An island that slept while the buffers held fewer contacts than it and the awake bodies
+    together: putting its cache back grows them, and every contact still warm starts."""
+    w = phys2d.World(sleep=True)
+    w.add_box((0.0, -0.5), half_extents=(40.0, 0.5), static=True)
+    boxes = [w.add_box((2.0 * k - 30.0, 0.5), half_extents=(0.5, 0.5)) for k in range(30)]
+    for _ in range(5):
+        w.step(DT)
+    pipeline = w._pipeline
+    keys, lambda_n, lambda_t, pushed = pipeline.cache_of(np.sort(w.body_uids))
+    far = (np.int64(1) << 22) << 39  # pairs of uids no body has: entries no contact will match
+    extra = far + np.arange(4 * pipeline.buffers.pairs, dtype=np.int64)
+    pipeline.warm(extra, np.ones(extra.size), np.zeros(extra.size), np.zeros(extra.size, np.bool_))
+    assert pipeline.cached == keys.size + extra.size > 2 * 30
+    w.step(DT)
+    assert len(w.contacts) == keys.size and w.contacts.warm_started.all()
+    assert all(b.position[1] == pytest.approx(0.5, abs=0.01) for b in boxes)
+
+
 def test_a_velocity_of_zero_and_settings_do_not_wake() -> None:
     """As Box2D: setting a zero velocity, friction or damping leaves the island asleep."""
     w, _, (stack, other) = two_stacks()

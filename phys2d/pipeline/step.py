@@ -25,7 +25,7 @@ from ..collision.recycle import ManifoldStore, collide_recycling
 from ..constraints.joints import start_joint_rows
 from ..constraints.order import colour_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
-from ..contacts import Contacts, impulses_to_contacts_and_cache
+from ..contacts import FEATURE_BITS, UID_BITS, Contacts, impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
 from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepReport
 from ..responders.pgs import PGS
@@ -211,6 +211,38 @@ class Pipeline:
         np.logical_or(bodies.static, asleep, out=static)
         M_inv[:] = bodies.M_inv
         M_inv[asleep] = 0.0
+
+    def cache_of(self, uids: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The cache entries (keys, lambda_n, lambda_t, pushed) of the pairs with a body among
+        ``uids``: an island's, kept while it sleeps (``warm`` puts them back)."""
+        c, k = self.buffers.sides[self.side], self.cached
+        keys = c.key[:k]
+        pair = keys >> FEATURE_BITS
+        mine = np.isin(pair >> UID_BITS, uids) | np.isin(pair & ((1 << UID_BITS) - 1), uids)
+        return tuple(a[:k][mine].copy() for a in (c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed))
+
+    def warm(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, pushed: np.ndarray) -> None:
+        """Put cache entries back (``cache_of``: a woken island's), merged in by key, so the next
+        step warm starts its contacts as if it had never slept. The world's contacts must be
+        copied out first: they share the cache's keys."""
+        c, k = self.buffers.sides[self.side], self.cached
+        fresh = ~np.isin(keys, c.key[:k])
+        merged = [np.concatenate([a[:k], b[fresh]]) for a, b in zip(
+            (c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed), (keys, lambda_n, lambda_t, pushed), strict=True
+        )]  # fmt: skip
+        n = merged[0].shape[0]
+        t = self.buffers
+        if (n + 1) // 2 > t.pairs:  # more entries than the buffers hold: grow them, keeping the manifolds
+            self.buffers = Buffers(max((n + 1) // 2, 2 * t.pairs), t.joint_rows)
+            m, new = self.manifolds, self.buffers.sides[self.side]
+            new.manifold_key[:m], new.manifold_row[:m] = c.manifold_key[:m], c.manifold_row[:m]
+            self._forget_state()
+            self.coloured = False
+            c = new
+        by_key = np.argsort(merged[0], kind="stable")
+        for a, values in zip((c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed), merged, strict=True):
+            a[:n] = values[by_key]
+        self.cached = n
 
     def forget_manifolds(self) -> None:
         """Collide every pair anew (the contact margin changed: the points were found with the old)."""
