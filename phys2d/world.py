@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from . import sleep as sleeping
-from .bodies import Body, BodyArrays, BodyOptions, body_settings, should_collide
+from .bodies import Body, BodyArrays, BodyOptions, body_settings
 from .collision import queries
 from .collision.queries import RayHit
 from .constraints.joints import (
@@ -116,9 +116,7 @@ class World:
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self._sleep = check_bool(sleep, "sleep")
-        self._some_asleep = False  # a body sleeps (then the pipeline steps it as immovable)
-        self._next_island = 0  # the id the next island to fall asleep gets
-        self._island_cache: dict[int, tuple] = {}  # a sleeping island's contact cache, by island id
+        self._islands = sleeping.Islands()  # which bodies sleep, and what their islands keep
         self.tick = 0
         self.time = 0.0
 
@@ -208,7 +206,7 @@ class World:
     def sleep(self, value: bool) -> None:
         self._sleep = check_bool(value, "sleep")
         if not self._sleep:
-            self._wake_all()
+            self._islands.wake_all(self)
 
     def _settings_changed(self) -> None:
         """The next step reads the world's settings and joints anew."""
@@ -451,11 +449,11 @@ class World:
         responder = self._responder
         if self._joints:
             self._check_joints_supported(responder)
-        if self._some_asleep or self._pipeline.sleep_masks is not None:
-            self._before_step(dt)
+        if self._islands.some_asleep or self._pipeline.sleep_masks is not None:
+            self._islands.before_step(self, dt)
         report = self._pipeline.step(self, dt, self._one_call_tick)
         if self._sleep:
-            self._after_step(dt)
+            self._islands.after_step(self, dt)
         self._last_step = report
         self.tick += 1
         self.time += dt
@@ -493,137 +491,20 @@ class World:
                 joint._rows_offset, joint._has_rows = joint._offset, True
             self._joints_placed = True
 
-    # -- sleeping (``phys2d.sleep``) --------------------------------------------------------
-    def _links(self) -> np.ndarray:
-        """(L, 2) the body pairs an island holds together: the last step's touching contacts
-        (separation <= contact_margin) and the joints."""
-        if self._pending_contacts is not None:
-            buffers, k = self._pending_contacts
-            a, b, separation = buffers.body_a[:k], buffers.body_b[:k], buffers.separation[:k]
-        else:
-            c = self._contacts
-            a, b, separation = c.body_a, c.body_b, c.separation
-        touching = separation <= self._contact_margin
-        pairs = [np.stack([a[touching], b[touching]], axis=1).astype(np.int64)]
-        if self._joints:
-            pairs.append(np.array([(q.body_a._index, q.body_b._index) for q in self._joints], np.int64))
-        return np.concatenate(pairs) if len(pairs) > 1 else pairs[0]
-
-    def _before_step(self, dt: float) -> None:
-        """Wake the sleeping islands an awake body could touch within the step or pulls on
-        through a joint, then tell the pipeline which bodies sleep (it steps them as immovable)."""
-        b = self._bodies
-        movers = (~b.static | (b.kinematic & np.any(b.V != 0.0, axis=1))) & (b.island < 0)
-        if self._some_asleep and movers.any():  # (a world all asleep skips this)
-            aabb = np.empty((b.n, 4))
-            queries.tight_aabbs(self._geometry(), aabb)
-            reach = sleeping.grown_by_travel(aabb, b, self._gravity, dt, self._contact_margin)
-            while self._some_asleep and movers.any():
-                movers = self._wake_reached(movers, reach, aabb)  # the woken may reach further (rarely)
-        self._pipeline.sleepers(b.island >= 0 if self._some_asleep else None, b)
-
-    def _wake_reached(self, movers: np.ndarray, reach: np.ndarray, aabb: np.ndarray) -> np.ndarray:
-        """Wake the islands of the sleeping bodies whose box (``aabb``) a mover's ``reach`` overlaps
-        (when the filter lets the two touch), or that a mover is joined to; returns the woken."""
-        b = self._bodies
-        asleep, moving = np.flatnonzero(b.island >= 0), np.flatnonzero(movers)
-        m, s = np.nonzero(sleeping.overlapping(reach[moving], aabb[asleep]))
-        reached = [
-            int(j)
-            for i, j in zip(moving[m], asleep[s], strict=True)
-            if should_collide(*self._filter(i), *self._filter(j))
-        ]
-        if self._joints:  # a moving kinematic body's joint partners (dynamic ones share its islands)
-            ja = self._joint_arrays
-            for one, other in ((ja.body_a, ja.body_b), (ja.body_b, ja.body_a)):
-                reached += [int(j) for j in other[movers[one] & (b.island[other] >= 0)]]
-        woken = np.zeros(b.n, np.bool_)
-        for j in reached:
-            if not woken[j]:
-                woken |= b.island == b.island[j]
-                self._wake_island_of(j)
-        return woken
-
-    def _filter(self, i: int) -> tuple[int, int, int]:
-        b = self._bodies
-        return int(b.category[i]), int(b.mask[i]), int(b.group[i])
-
-    def _after_step(self, dt: float) -> None:
-        """Each awake dynamic body's rest time, then the islands that rested long enough sleep."""
-        b = self._bodies
-        dynamic = ~b.static & (b.island < 0)
-        b.sleep_time[:] = np.where(dynamic & sleeping.rests(b.V), b.sleep_time + dt, 0.0)
-        links = self._links()
-        if b.kinematic.any() and links.shape[0]:  # a moving kinematic body keeps what it touches awake
-            pushing = b.kinematic & np.any(b.V != 0.0, axis=1)
-            b.sleep_time[links[pushing[links[:, 0]], 1]] = 0.0
-            b.sleep_time[links[pushing[links[:, 1]], 0]] = 0.0
-        if not np.any(b.sleep_time >= sleeping.TIME_TO_SLEEP):
-            return
-        island = sleeping.find_islands(links, dynamic)
-        for root in sleeping.islands_falling_asleep(island, b.sleep_time):
-            self._fall_asleep(island == root)
-
-    def _fall_asleep(self, members: np.ndarray) -> None:
-        """The bodies ``members`` (an island) sleep: V = 0, and the island's id."""
-        b = self._bodies
-        b.V[members] = 0.0
-        b.island[members] = self._next_island
-        self._island_cache[self._next_island] = self._pipeline.cache_of(np.sort(b.uid[members]))
-        self._next_island += 1
-        self._some_asleep = True
-        self._pipeline.bodies_changed()  # their pairs with static and sleeping bodies go
-
-    def _put_to_sleep(self, i: int) -> None:
-        """Body i's island (as the last step's contacts and the joints link it) sleeps now."""
-        b = self._bodies
-        if b.island[i] >= 0:
-            return
-        island = sleeping.find_islands(self._links(), ~b.static & (b.island < 0))
-        self._fall_asleep(island == island[i])
-
+    # -- sleeping (``phys2d.sleep``: the islands, their rest and their waking) ---------------
     def _wake_island_of(self, i: int) -> None:
-        """Wake body i's island, if it sleeps: its bodies rest from 0 s again."""
-        b = self._bodies
-        if not self._some_asleep or b.island[i] < 0:
-            return
-        island = int(b.island[i])
-        members = b.island == island
-        b.island[members] = -1
-        b.sleep_time[members] = 0.0
-        self._warm(island)
-        self._some_asleep = bool(np.any(b.island >= 0))
-        self._pipeline.bodies_changed()
+        """Wake body i's island, if it sleeps."""
+        if self._islands.some_asleep:
+            self._islands.wake_island_of(self, i)
 
     def _wake(self, i: int) -> None:
-        """Wake body i's island and the sleeping islands within contact_margin of its shape (a
-        static body moved or removed, say, leaves nothing asleep in the air)."""
-        if not self._some_asleep:
-            return
-        self._wake_island_of(i)
-        b = self._bodies
-        aabb = np.empty((b.n, 4))
-        queries.tight_aabbs(self._geometry(), aabb)
-        grow = self._contact_margin
-        near = sleeping.overlapping(aabb[i : i + 1] + (-grow, -grow, grow, grow), aabb)[0] & (b.island >= 0)
-        for j in np.flatnonzero(near):
-            self._wake_island_of(int(j))
+        """Wake body i's island and the sleeping islands within contact_margin of its shape."""
+        if self._islands.some_asleep:
+            self._islands.wake_near(self, i)
 
-    def _warm(self, island: int) -> None:
-        """Put a woken island's contact cache back: its first step warm starts, as if awake."""
-        kept = self._island_cache.pop(island, None)
-        if kept is not None and kept[0].size:
-            self.contacts  # noqa: B018  (copied out now: the cache shares their keys)
-            self._pipeline.warm(*kept)
-
-    def _wake_all(self) -> None:
-        if self._some_asleep:
-            for island in np.unique(self._bodies.island[self._bodies.island >= 0]):
-                self._warm(int(island))
-            self._bodies.island[:] = -1
-            self._bodies.sleep_time[:] = 0.0
-            self._some_asleep = False
-            self._pipeline.bodies_changed()
+    def _put_to_sleep(self, i: int) -> None:
+        """Body i's island sleeps now (``Body.awake = False``)."""
+        self._islands.put_to_sleep(self, i)
 
     # -- queries -------------------------------------------------------------------------
     # Each reads the bodies where they are now (between steps: where the last step left them).
