@@ -313,7 +313,8 @@ class Body:
     (1/s), and the collision filter ``category``, ``mask`` and ``group``; ``mass``
     (kg), ``inertia`` (kg m^2), ``static`` and ``kinematic`` are read-only.
     ``apply_force`` and ``apply_torque`` act for the next step only,
-    ``apply_impulse`` at once. ``index`` is the body's row in the world's arrays and
+    ``apply_impulse`` at once (each wakes the body's island, as a non-zero velocity does);
+    ``awake`` tells whether it sleeps (``World(sleep=True)``). ``index`` is the body's row in the world's arrays and
     in ``w.bodies``; it shifts down when an earlier body is removed.
     """
 

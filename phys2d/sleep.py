@@ -2,19 +2,21 @@
 
 An island is a set of dynamic bodies linked by touching contacts (separation <= the world's
 contact_margin) and by joints; static and kinematic bodies link nothing, so two stacks on
-one ground are two islands, but a kinematic body that moves (at any speed) keeps the islands
-it touches awake and wakes those it comes near. After each step a dynamic body slower than LINEAR_SLEEP (m/s)
-and ANGULAR_SLEEP (rad/s) adds dt to its ``sleep_time``, any other resets it to 0; an island
-whose every body has rested TIME_TO_SLEEP (s) falls asleep: its velocities are set to 0 and
-its bodies get the island's id (``BodyArrays.island``, -1 while awake).
+one ground are two islands. After each step a dynamic body slower than LINEAR_SLEEP (m/s)
+and ANGULAR_SLEEP (rad/s) adds dt to its ``sleep_time``, any other resets it to 0 (as does
+touching a kinematic body that moves, at any speed); an island whose every body has rested
+TIME_TO_SLEEP (s) falls asleep: its velocities are set to 0, its bodies get the island's id
+(``BodyArrays.island``, -1 while awake) and its entries of the contact cache are kept.
 
 A sleeping body is stepped as an immovable one: the pipeline reads it as static (no pairs
 with static or other sleeping bodies, so none of their contacts are solved) with M^-1 = 0
 (no gravity), and V = 0 leaves its x and theta exactly as they are (``Pipeline.sleepers``).
-It wakes with its whole island (sleep_time back to 0) when an awake body could touch it in
-the coming step (``near_sleepers``: its box grown by how far it may move), a joint is added
-or removed on it, an impulse, force, torque or velocity is given to one of its bodies, a
-body touching it is removed, or sleeping is switched off (``World.sleep``).
+It wakes with its whole island (sleep_time back to 0, its kept cache back, so its first step
+warm starts) when an awake body could touch it in the coming step (``Islands.before_step``:
+the mover's box grown by how far it may move), a moving kinematic body is joined to it, a
+joint is added or removed on it, an impulse, force, torque, non-zero velocity, move or
+filter change is given to one of its bodies, a body touching it is removed, or sleeping is
+switched off (``World.sleep``). ``Body.awake`` reads and sets it by hand.
 """
 
 from __future__ import annotations
