@@ -196,6 +196,30 @@ def test_a_kept_cache_larger_than_the_buffers_grows_them() -> None:
     assert all(b.position[1] == pytest.approx(0.5, abs=0.01) for b in boxes)
 
 
+@pytest.mark.parametrize("responder", ["pgs", "pgs-block", "pgs-matrix", "soft-step"])
+def test_a_sleeping_chain_of_joints_stays_put(responder: str) -> None:
+    """A damped chain hanging from a static anchor sleeps as one island; its joint rows then join
+    bodies of M^-1 = 0 (A_kk = 0), which every responder that takes joints leaves alone: nothing
+    moves, nothing turns NaN, and an impulse wakes the whole chain."""
+    w = phys2d.World(sleep=True, responder=phys2d.make_responder(responder))
+    anchor = w.add_box((0.0, 5.0), half_extents=(0.2, 0.2), static=True)
+    links, previous = [], anchor
+    for k in range(4):
+        link = w.add_circle((0.0, 4.5 - 0.5 * k), radius=0.1, linear_damping=2.0, angular_damping=2.0)
+        w.add_pin_joint(previous, link, anchor=(0.0, 4.75 - 0.5 * k))
+        links.append(link)
+        previous = link
+    run_until_asleep(w, steps=600)
+    x = w.x.copy()
+    for _ in range(60):
+        w.step(DT)
+    assert np.array_equal(w.x, x) and np.all(np.isfinite(w.V)) and not np.any(w.V)
+    links[-1].apply_impulse((0.1, 0.0))
+    assert not any(asleep(links))
+    w.step(DT)
+    assert np.all(np.isfinite(w.x)) and links[0].velocity[0] != 0.0  # the joints pull the chain along
+
+
 def test_a_velocity_of_zero_and_settings_do_not_wake() -> None:
     """As Box2D: setting a zero velocity, friction or damping leaves the island asleep."""
     w, _, (stack, other) = two_stacks()
