@@ -19,6 +19,7 @@ first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.chec
 from . import kernel_cache, scenes  # noqa: F401  (kernel_cache: imported for what it installs)
 from .bodies import Body
 from .collision import describe_feature
+from .collision.queries import RayHit
 from .constraints.joints import AngleJoint, DistanceJoint, Joint, MouseJoint, PinJoint, SliderJoint, WeldJoint
 from .contacts import Contacts
 from .responders import REGISTRY, make_responder
@@ -43,6 +44,7 @@ __all__ = [
     "NaiveImpulse",
     "PGS",
     "PinJoint",
+    "RayHit",
     "REGISTRY",
     "Recorder",
     "Responder",

@@ -160,6 +160,8 @@ class BodyArrays:
     category: np.ndarray  # (N,) uint64 the categories the body belongs to
     mask: np.ndarray  # (N,) uint64 the categories it collides with
     group: np.ndarray  # (N,) int32 collision group (0: none)
+    sleep_time: np.ndarray  # (N,) s the body has rested (``phys2d.sleep``)
+    island: np.ndarray  # (N,) int64 id of the sleeping island it is in; -1: awake
     local_v: np.ndarray  # (n_verts, 2) polygon vertices in the body frame, m
     local_n: np.ndarray  # (n_verts, 2) unit outward edge normals in the body frame
     # the storage behind them, grown by doubling
@@ -184,6 +186,8 @@ class BodyArrays:
     _category: np.ndarray
     _mask: np.ndarray
     _group: np.ndarray
+    _sleep_time: np.ndarray
+    _island: np.ndarray
     _local_v: np.ndarray
     _local_n: np.ndarray
 
@@ -209,6 +213,8 @@ class BodyArrays:
         "category": ((), np.uint64),
         "mask": ((), np.uint64),
         "group": ((), np.int32),
+        "sleep_time": ((), np.float64),
+        "island": ((), np.int64),
     }
 
     def __init__(self) -> None:
@@ -267,6 +273,8 @@ class BodyArrays:
         self._category[i] = o.category
         self._mask[i] = o.mask
         self._group[i] = o.group
+        self._sleep_time[i] = 0.0
+        self._island[i] = -1  # awake
         self.next_uid += 1
         self.n_verts += nv
         self.n += 1
@@ -305,7 +313,8 @@ class Body:
     (1/s), and the collision filter ``category``, ``mask`` and ``group``; ``mass``
     (kg), ``inertia`` (kg m^2), ``static`` and ``kinematic`` are read-only.
     ``apply_force`` and ``apply_torque`` act for the next step only,
-    ``apply_impulse`` at once. ``index`` is the body's row in the world's arrays and
+    ``apply_impulse`` at once (each wakes the body's island, as a non-zero velocity does);
+    ``awake`` tells whether it sleeps (``World(sleep=True)``). ``index`` is the body's row in the world's arrays and
     in ``w.bodies``; it shifts down when an earlier body is removed.
     """
 
@@ -346,7 +355,10 @@ class Body:
     @position.setter
     def position(self, value: ArrayLike) -> None:
         v = vec2(value, "position")
-        self._arrays().x[self._index] = v
+        a = self._arrays()
+        self._world._wake(self._index)  # its island, and the islands it leaves
+        a.x[self._index] = v
+        self._world._wake(self._index)  # and those it comes to
 
     @property
     def angle(self) -> float:
@@ -356,7 +368,10 @@ class Body:
     @angle.setter
     def angle(self, value: float) -> None:
         v = finite_float(value, "angle")
-        self._arrays().theta[self._index] = v
+        a = self._arrays()
+        self._world._wake(self._index)
+        a.theta[self._index] = v
+        self._world._wake(self._index)
 
     @property
     def velocity(self) -> np.ndarray:
@@ -367,6 +382,8 @@ class Body:
     def velocity(self, value: ArrayLike) -> None:
         v = vec2(value, "velocity")
         self._arrays().V[self._index, :2] = v
+        if v[0] != 0.0 or v[1] != 0.0:  # (as Box2D: setting a velocity of 0 does not wake it)
+            self._world._wake_island_of(self._index)
 
     @property
     def angular_velocity(self) -> float:
@@ -377,6 +394,8 @@ class Body:
     def angular_velocity(self, value: float) -> None:
         v = finite_float(value, "angular_velocity")
         self._arrays().V[self._index, 2] = v
+        if v != 0.0:
+            self._world._wake_island_of(self._index)
 
     @property
     def mass(self) -> float:
@@ -430,6 +449,30 @@ class Body:
         v = non_negative_float(value, "angular_damping")
         self._arrays().damping[self._index, 1] = v
 
+    @property
+    def awake(self) -> bool:
+        """Whether the body is stepped: False while its island sleeps (``World(sleep=True)``,
+        ``phys2d.sleep``) and for static bodies, which never move; kinematic bodies are always
+        awake. Set True to wake its island, False to put its island (the dynamic bodies it
+        touches or is joined to, and theirs) to sleep now: velocities 0, as Box2D's
+        b2Body_SetAwake. Setting it on a static or kinematic body changes nothing."""
+        a = self._arrays()
+        i = self._index
+        if a.static[i]:
+            return bool(a.kinematic[i])
+        return bool(a.island[i] < 0)
+
+    @awake.setter
+    def awake(self, value: bool) -> None:
+        v = check_bool(value, "awake")
+        a = self._arrays()
+        if a.static[self._index]:
+            return
+        if v:
+            self._world._wake_island_of(self._index)
+        else:
+            self._world._put_to_sleep(self._index)
+
     # -- collision filter (Box2D's) -------------------------------------------
     @property
     def category(self) -> int:
@@ -462,6 +505,7 @@ class Body:
     def _set_filter(self, field: str, value: int) -> None:
         getattr(self._arrays(), field)[self._index] = value
         self._world._pipeline.bodies_changed()  # the broadphase's pairs are found anew
+        self._world._wake(self._index)
 
     @property
     def friction(self) -> float:
@@ -530,6 +574,7 @@ class Body:
             raise ValueError("force: the total force on the body would not be finite")
         a.force[self._index] = total
         a.forces_applied = True
+        self._world._wake_island_of(self._index)
 
     def apply_impulse(self, impulse: ArrayLike, point: ArrayLike | None = None) -> None:
         """Apply an impulse (N s) at a world point (m), the centre of mass by default.
@@ -547,13 +592,14 @@ class Body:
         if not finite:
             raise ValueError("impulse: the resulting velocity would not be finite")
         a.V[self._index] += dv
+        self._world._wake_island_of(self._index)
 
     def __repr__(self) -> str:
         if self._index < 0:
             return f"<Body #{self._uid} removed>"
         a = self._world._bodies
         i = self._index
-        kind = "kinematic " if a.kinematic[i] else "static " if a.static[i] else ""
+        kind = "kinematic " if a.kinematic[i] else "static " if a.static[i] else "asleep " if a.island[i] >= 0 else ""
         shape = f"circle r={a.radius[i]:.3g}" if a.kind[i] == CIRCLE else f"polygon {a.vcount[i]} vertices"
         x, y = a.x[i]
         return (

@@ -20,7 +20,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import shapes
+from . import sleep as sleeping
 from .bodies import Body, BodyArrays, BodyOptions, body_settings
+from .collision import queries
+from .collision.queries import RayHit
 from .constraints.joints import (
     AngleJoint,
     DistanceJoint,
@@ -80,6 +83,10 @@ class World:
     one_call_tick  run a step in one kernel call when the responder has one (PGS in
                 impulse form, SoftStep; default True); False calls each stage's kernel
                 from Python, with bit-identical results (to time or watch the stages)
+    sleep       let islands of bodies at rest fall asleep (Box2D's rules, ``phys2d.sleep``):
+                an island whose every body stayed under 0.05 m/s and 2 deg/s for 0.5 s
+                stops moving and costs almost nothing to step until something wakes it
+                (``Body.awake``); default False, settable between steps (False wakes all)
     """
 
     def __init__(
@@ -90,6 +97,7 @@ class World:
         contact_margin: float = 0.02,
         max_speed: float = 1e4,
         contact_recycle_distance: float = 0.05,
+        sleep: bool = False,
     ) -> None:
         self.gravity = gravity
         self._responder = self._check_responder(PGS() if responder is None else responder)
@@ -111,6 +119,8 @@ class World:
         self._joints_placed = True  # every joint knows where its rows stood in the last step
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
+        self._sleep = check_bool(sleep, "sleep")
+        self._islands = sleeping.Islands()  # which bodies sleep, and what their islands keep
         self.tick = 0
         self.time = 0.0
 
@@ -195,6 +205,17 @@ class World:
     def max_speed(self, value: float) -> None:
         self._max_speed = positive_float(value, "max_speed")
         self._settings_changed()
+
+    @property
+    def sleep(self) -> bool:
+        """Whether islands at rest fall asleep (``phys2d.sleep``); setting False wakes every body."""
+        return self._sleep
+
+    @sleep.setter
+    def sleep(self, value: bool) -> None:
+        self._sleep = check_bool(value, "sleep")
+        if not self._sleep:
+            self._islands.wake_all(self)
 
     def _settings_changed(self) -> None:
         """The next step reads the world's settings and joints anew."""
@@ -292,6 +313,7 @@ class World:
         if not isinstance(item, Body):
             raise TypeError(f"item must be a phys2d Body or Joint, got {type(item).__name__}")
         i = self._own(item)
+        self._wake(i)  # its island, and the sleeping islands it touches
         for joint in [q for q in self._joints if i in (q.body_a._index, q.body_b._index)]:
             self._remove_joint(joint)
         self._bodies.delete(i)
@@ -477,6 +499,8 @@ class World:
         return self._add_joint(AngleJoint(self, body_a, body_b, theta_0, lower, upper, collide))
 
     def _add_joint(self, joint: _J) -> _J:
+        self._wake_island_of(joint.body_a._index)
+        self._wake_island_of(joint.body_b._index)
         self._joints.append(joint)
         self._joints_changed()
         return joint
@@ -486,6 +510,8 @@ class World:
             raise ValueError("joint belongs to another world")
         if not joint.alive:
             raise ValueError("joint was removed from this world")
+        self._wake_island_of(joint.body_a._index)
+        self._wake_island_of(joint.body_b._index)
         joint._impulse = joint.impulse  # its last reactions, kept by the handle from now on
         joint._offset = None
         self._joints.remove(joint)
@@ -540,7 +566,11 @@ class World:
         responder = self._responder
         if self._joints:
             self._check_joints_supported(responder)
+        if self._islands.some_asleep or self._pipeline.sleep_masks is not None:
+            self._islands.before_step(self, dt)
         report = self._pipeline.step(self, dt, self._one_call_tick)
+        if self._sleep:
+            self._islands.after_step(self, dt)
         self._last_step = report
         self.tick += 1
         self.time += dt
@@ -577,6 +607,67 @@ class World:
                 assert joint._offset is not None  # placed by _joints_changed
                 joint._rows_offset, joint._has_rows = joint._offset, True
             self._joints_placed = True
+
+    # -- sleeping (``phys2d.sleep``: the islands, their rest and their waking) ---------------
+    def _wake_island_of(self, i: int) -> None:
+        """Wake body i's island, if it sleeps."""
+        if self._islands.some_asleep:
+            self._islands.wake_island_of(self, i)
+
+    def _wake(self, i: int) -> None:
+        """Wake body i's island and the sleeping islands within contact_margin of its shape."""
+        if self._islands.some_asleep:
+            self._islands.wake_near(self, i)
+
+    def _put_to_sleep(self, i: int) -> None:
+        """Body i's island sleeps now (``Body.awake = False``)."""
+        self._islands.put_to_sleep(self, i)
+
+    # -- queries -------------------------------------------------------------------------
+    # Each reads the bodies where they are now (between steps: where the last step left them).
+    def _geometry(self) -> tuple:
+        """The arrays the query kernels read (``collision.queries``)."""
+        b = self._bodies
+        return (b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v)
+
+    def ray_cast(self, start: ArrayLike, end: ArrayLike) -> list[RayHit]:
+        """The bodies the segment from ``start`` to ``end`` (m) enters, nearest first: one
+        ``RayHit`` per body (where the ray first enters its shape: ``point``, the unit outward
+        ``normal`` there, and ``fraction`` t in [0, 1] with point = start + t (end - start)),
+        sorted by fraction, equal fractions in creation order.
+
+        As in Box2D, a ray that starts inside a shape (or on its surface) does not hit that
+        shape: cast from a point on a body's surface, it finds what lies beyond (``query_point``
+        tells which bodies hold a point). A ray of length 0 hits nothing."""
+        p_start, p_end = vec2(start, "start"), vec2(end, "end")
+        n = self._bodies.n
+        fraction, normal = np.empty(n), np.empty((n, 2))
+        queries.ray_cast_bodies(self._geometry(), p_start, p_end, fraction, normal)
+        hit = np.flatnonzero(fraction <= 1.0)
+        hit = hit[np.argsort(fraction[hit], kind="stable")]
+        d = p_end - p_start
+        return [RayHit(self._handles[i], p_start + fraction[i] * d, normal[i].copy(), float(fraction[i])) for i in hit]
+
+    def query_point(self, point: ArrayLike) -> list[Body]:
+        """The bodies whose shape holds ``point`` (m), its surface included, in creation order."""
+        p = vec2(point, "point")
+        inside = np.zeros(self._bodies.n, np.bool_)
+        queries.bodies_containing(self._geometry(), p, inside)
+        return [self._handles[i] for i in np.flatnonzero(inside)]
+
+    def query_aabb(self, lower: ArrayLike, upper: ArrayLike) -> list[Body]:
+        """The bodies whose shape's axis-aligned bounding box overlaps the box from ``lower`` to
+        ``upper`` (m; corners (min x, min y) and (max x, max y)), touching included, in creation
+        order. As Box2D's b2World_OverlapAABB, it tests the shapes' boxes (tight, as the bodies
+        are now), not the shapes: a body near a corner of the box may be returned though its
+        shape lies outside it."""
+        lo, hi = vec2(lower, "lower"), vec2(upper, "upper")
+        if np.any(lo > hi):
+            raise ValueError(f"lower must be <= upper in x and in y, got lower={lo.tolist()}, upper={hi.tolist()}")
+        aabb = np.empty((self._bodies.n, 4))
+        queries.tight_aabbs(self._geometry(), aabb)
+        overlap = (aabb[:, 0] <= hi[0]) & (aabb[:, 1] <= hi[1]) & (aabb[:, 2] >= lo[0]) & (aabb[:, 3] >= lo[1])
+        return [self._handles[i] for i in np.flatnonzero(overlap)]
 
     # -- energy and momentum ---------------------------------------------------------
     def kinetic_energy(self) -> float:
@@ -622,6 +713,12 @@ class World:
     body_inertias = _read_only_view(
         "inertia", "(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."
     )
+
+    @property
+    def body_asleep(self) -> np.ndarray:
+        """(N,) bool, True for the bodies that sleep now (``Body.awake`` is False for them), a copy."""
+        return self._bodies.island >= 0
+
     vertex_start = _read_only_view("vstart", "(N,) int32 first row of each body's polygon in ``local_vertices``.")
     vertex_count = _read_only_view("vcount", "(N,) int32 number of polygon vertices of each body (0 for circles).")
     local_vertices = _read_only_view(

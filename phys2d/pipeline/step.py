@@ -25,7 +25,7 @@ from ..collision.recycle import ManifoldStore, collide_recycling
 from ..constraints.joints import start_joint_rows
 from ..constraints.order import colour_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
-from ..contacts import Contacts, impulses_to_contacts_and_cache
+from ..contacts import FEATURE_BITS, UID_BITS, Contacts, impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
 from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepReport
 from ..responders.pgs import PGS
@@ -184,6 +184,7 @@ class Pipeline:
         self._state_over: Any = None  # the bodies' x it was made with (x is replaced when bodies are)
         self._compiled: tuple = (None, None, None)  # (spec, argument types, machine code) of the last call
         self._ready: tuple | None = None  # (spec, dt, step settings, row settings, joints) of the last step
+        self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
 
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the records: numba structrefs, made anew when needed."""
@@ -196,6 +197,56 @@ class Pipeline:
         """Bodies or joints were added or removed: sweep anew before the next step."""
         self.sweep_again = True
         self._forget_state()
+
+    def sleepers(self, asleep: np.ndarray | None, bodies: Any) -> None:
+        """Step the bodies ``asleep`` (N,) bool as immovable: the kernels read a copy of the static
+        flags and of M^-1 in which they are static with M^-1 = 0 (``phys2d.sleep``), so no pair
+        of two of them or with a static body is swept, and no force moves them. None: nobody
+        sleeps, and the kernels read the world's own arrays again."""
+        if asleep is None:
+            if self.sleep_masks is not None:
+                self.sleep_masks = None
+                self._forget_state()
+            return
+        if self.sleep_masks is None or self.sleep_masks[0].shape[0] != bodies.n:
+            self.sleep_masks = (np.empty(bodies.n, np.bool_), np.empty((bodies.n, 3)))
+            self._forget_state()
+        static, M_inv = self.sleep_masks
+        np.logical_or(bodies.static, asleep, out=static)
+        M_inv[:] = bodies.M_inv
+        M_inv[asleep] = 0.0
+
+    def cache_of(self, uids: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The cache entries (keys, lambda_n, lambda_t, pushed) of the pairs with a body among
+        ``uids``: an island's, kept while it sleeps (``warm`` puts them back)."""
+        c, k = self.buffers.sides[self.side], self.cached
+        keys = c.key[:k]
+        pair = keys >> FEATURE_BITS
+        mine = np.isin(pair >> UID_BITS, uids) | np.isin(pair & ((1 << UID_BITS) - 1), uids)
+        return tuple(a[:k][mine].copy() for a in (c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed))
+
+    def warm(self, keys: np.ndarray, lambda_n: np.ndarray, lambda_t: np.ndarray, pushed: np.ndarray) -> None:
+        """Put cache entries back (``cache_of``: a woken island's), merged in by key, so the next
+        step warm starts its contacts as if it had never slept. The world's contacts must be
+        copied out first: they share the cache's keys."""
+        c, k = self.buffers.sides[self.side], self.cached
+        fresh = ~np.isin(keys, c.key[:k])
+        merged = [np.concatenate([a[:k], b[fresh]]) for a, b in zip(
+            (c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed), (keys, lambda_n, lambda_t, pushed), strict=True
+        )]  # fmt: skip
+        n = merged[0].shape[0]
+        t = self.buffers
+        if (n + 1) // 2 > t.pairs:  # more entries than the buffers hold: grow them, keeping the manifolds
+            self.buffers = Buffers(max((n + 1) // 2, 2 * t.pairs), t.joint_rows)
+            m, new = self.manifolds, self.buffers.sides[self.side]
+            new.manifold_key[:m], new.manifold_row[:m] = c.manifold_key[:m], c.manifold_row[:m]
+            self._forget_state()
+            self.coloured = False
+            c = new
+        by_key = np.argsort(merged[0], kind="stable")
+        for a, values in zip((c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed), merged, strict=True):
+            a[:n] = values[by_key]
+        self.cached = n
 
     def forget_manifolds(self) -> None:
         """Collide every pair anew (the contact margin changed: the points were found with the old)."""
@@ -233,13 +284,14 @@ class Pipeline:
             if self.undo[1].shape[0] != b.n:
                 self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
             world_v, world_n, aabb, travel, rotation, fat = self._geometry(world)
+            static, M_inv = (b.static, b.M_inv) if self.sleep_masks is None else self.sleep_masks
             shapes = (
-                b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
+                static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
                 rotation, world_v, world_n, aabb, fat, travel, self.pairs, t.pair_order, world._excluded, b.category,
                 b.mask, b.group,
             )  # fmt: skip
             self._state, *self._records = records.new_state(
-                (b.x, b.theta, b.V, b.M_inv, self.undo[2]),
+                (b.x, b.theta, b.V, M_inv, self.undo[2]),
                 shapes,
                 records.arrays_of(store, records.MANIFOLD_FIELDS),
                 tuple(records.arrays_of(c, records.CONTACT_FIELDS) for c in t.sides),
@@ -497,20 +549,21 @@ class Pipeline:
         else:
             found = tuple(f[:k] for f in found)
         body_a, body_b, point, normal, separation, restitution, anchor = found
+        M_inv = b.M_inv if self.sleep_masks is None else self.sleep_masks[1]  # sleeping bodies: M^-1 = 0
         return StepContext(
-            step.dt, b.x, b.theta, b.V, self.undo[2], b.M_inv, rows, k, body_a, body_b, point, normal, separation,
+            step.dt, b.x, b.theta, b.V, self.undo[2], M_inv, rows, k, body_a, body_b, point, normal, separation,
             restitution, gravity=world._gravity, joints=world._joint_arrays, anchor=anchor,
-            forces=self._forces(b, step.dt),
+            forces=self._forces(b, M_inv, step.dt),
         )  # fmt: skip
 
-    def _forces(self, b: Any, dt: float) -> np.ndarray | None:
+    def _forces(self, b: Any, M_inv: np.ndarray, dt: float) -> np.ndarray | None:
         """F_ext of the step (``StepContext.F_ext``) when a body has more than m g on it: the force
         that took V1 to V over dt, forces applied and damping included; None otherwise."""
         if not (b.forces_applied or np.any(b.gravity_scale != 1.0) or np.any(b.damping)):
             return None
         F = np.zeros(b.V.shape)
-        dyn = b.M_inv[:, 0] > 0.0
-        F[dyn] = (b.V[dyn] - self.undo[2][dyn]) / (dt * b.M_inv[dyn])
+        dyn = M_inv[:, 0] > 0.0
+        F[dyn] = (b.V[dyn] - self.undo[2][dyn]) / (dt * M_inv[dyn])
         return F
 
     def _commit(self, world: World, spec: TickSpec, done: tuple, dt: float) -> StepReport:

@@ -213,6 +213,7 @@ class RunBuffer:
     # remembered between writes
     sweeps: int = 0  # solver sweeps written so far: the sweep timeline
     labelled: int | None = None  # the layout version whose labels and classes were written last
+    body_classes: np.ndarray | None = None  # the dynamic bodies' class ids as last written
     static_state: tuple | None = None  # (layout version, static bodies' x, theta, V) as last written
     styled: set[int] = field(default_factory=set)  # plotted contacts whose legend entry is written
     colours: dict[int, tuple[int, int, int]] = field(default_factory=dict)

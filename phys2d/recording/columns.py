@@ -183,9 +183,11 @@ def _labels(rec: Stream, path: str, t: np.ndarray, tm: np.ndarray, classes: np.n
 def _write_bodies(rec: Stream, b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:
     lay = ss[0].layout
     path = f"{b.prefix}{schema.BODIES}"
-    if lay.version != b.labelled:
-        _labels(rec, path, t, tm, lay.dynamic_class, lay.dynamic_labels)
-        b.labelled = lay.version
+    for i, s in enumerate(ss):  # classes where they change: a new layout, a body falling asleep or waking
+        classes = s.dynamic_classes()
+        if lay.version != b.labelled or b.body_classes is None or not np.array_equal(classes, b.body_classes):
+            _labels(rec, path, t[i:], tm[i:], classes, lay.dynamic_labels)
+            b.labelled, b.body_classes = lay.version, classes
     X = np.stack([s.x for s in ss])
     TH = np.stack([s.theta for s in ss])
     VV = np.stack([s.V for s in ss])

@@ -143,6 +143,17 @@ class Sample:
     joint_ends: np.ndarray | None = None
     joint_keys: np.ndarray | None = None
     joint_impulses: np.ndarray | None = None
+    asleep: np.ndarray | None = None  # (N,) bool: the body sleeps; None when none does
+
+    def dynamic_classes(self) -> np.ndarray:
+        """(D,) the class ids of the dynamic bodies this tick: a sleeping one's dimmed."""
+        lay = self.layout
+        if self.asleep is None:
+            return lay.dynamic_class
+        dimmed = np.where(
+            lay.dynamic_class == schema.CLASS_CIRCLE, schema.CLASS_ASLEEP_CIRCLE, schema.CLASS_ASLEEP_BODY
+        )
+        return np.where(self.asleep[lay.dynamic], dimmed, lay.dynamic_class).astype(np.uint16)
 
 
 class Sampler:
@@ -179,6 +190,9 @@ class Sampler:
             step=step,
             residuals=np.array(s.residuals, dtype=np.float64),
         )
+        asleep = getattr(w, "body_asleep", None)  # (a world of phys2d's; an observer's stand-in may lack it)
+        if asleep is not None and asleep.any():
+            out.asleep = np.array(asleep, dtype=np.bool_)
         joints = w.joints
         if joints or self.had_joints:
             self.had_joints = True
@@ -242,6 +256,7 @@ _PACKED = (
     "joint_ends",
     "joint_keys",
     "joint_impulses",
+    "asleep",
 )
 
 

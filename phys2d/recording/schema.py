@@ -21,7 +21,8 @@ solver sweeps, on which they read as one continuous curve.
     <run>world/sim               the y-flip (physics is y-up, a 2D view is y-down) (static)
     <run>world/sim/bodies        every dynamic body, one LineStrips2D per body (a polygon's closed
                                  outline; a circle's rim, drawn from its centre along its angle),
-                                 and the table BODY_FIELDS (float64), every tick
+                                 and the table BODY_FIELDS (float64), every tick; its class ids
+                                 (sleeping bodies dimmed) on the ticks where they change
     <run>world/sim/static        the same for static bodies, written when they change (latest-at)
     <run>world/sim/contacts      Arrows2D from each contact point along its normal (NORMAL_LENGTH),
                                  coloured by class (warm-started or new), and CONTACT_FIELDS
@@ -148,6 +149,7 @@ LINE_RADIUS = 0.02  # m, half width of outlines
 ARROW_RADIUS = 0.012  # m
 
 CLASS_BODY, CLASS_CIRCLE, CLASS_STATIC, CLASS_WARM, CLASS_COLD, CLASS_JOINT = 1, 2, 3, 4, 5, 6
+CLASS_ASLEEP_BODY, CLASS_ASLEEP_CIRCLE = 7, 8  # a sleeping body: its class's colour, dimmed
 ANNOTATIONS = (
     (CLASS_BODY, "body", (80, 140, 255)),
     (CLASS_CIRCLE, "circle", (255, 160, 40)),
@@ -155,6 +157,8 @@ ANNOTATIONS = (
     (CLASS_WARM, "warm-started contact", (40, 190, 80)),
     (CLASS_COLD, "new contact", (230, 40, 40)),
     (CLASS_JOINT, "joint", (200, 80, 220)),
+    (CLASS_ASLEEP_BODY, "body, asleep", (40, 70, 128)),
+    (CLASS_ASLEEP_CIRCLE, "circle, asleep", (128, 80, 20)),
 )
 
 # distinct colours for plotted series (contacts, runs): Tableau 10, without its greys

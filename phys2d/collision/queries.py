@@ -1,0 +1,312 @@
+"""Queries: a ray, a point or a box against the shapes, one function per shape kind.
+
+A ray is the segment p(t) = start + t d from ``start`` to ``end``, d = end - start, and a hit
+is where it first enters a shape: its fraction t in [0, 1], the point p(t) and the unit
+normal n of the surface there, pointing out of the shape. As in Box2D v3, a ray that starts
+inside a shape (or on its surface) does not hit it: the query says where a ray from outside
+comes in, and ``contains`` tells whether a point is inside.
+
+Each shape is met in its body's frame: the ray (or point) is taken into the frame, so the
+per-shape functions see the local geometry (``local_v``) and never a world copy of it. The
+kinds:
+
+    circle           ray_circle, circle_contains               |p - c| <= r
+    rounded polygon  ray_polygon, polygon_contains             distance(p, polygon) <= radius
+
+A polygon is a rounded polygon of radius 0 (phys2d's polygons and boxes); one of one vertex
+and a radius is a circle, one of two vertices a capsule or, with radius 0, a segment: a new
+kind of that family needs only its branch in ``ray_shape`` and ``shape_contains``.
+
+``ray_cast_bodies``, ``bodies_containing`` and ``tight_aabbs`` run one query over every body
+of a world, for ``World.ray_cast``, ``query_point`` and ``query_aabb``. ``geometry`` is the
+tuple (x, theta, kind, radius, vstart, vcount, local_v) of the world's arrays
+(``bodies.BodyArrays``), read as they are now: the broadphase's boxes are from the start
+of the last step and grown by margins, so they are not used.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numba import njit
+
+from ..shapes import CIRCLE
+
+if TYPE_CHECKING:
+    from ..bodies import Body
+
+MISS = math.inf  # the fraction of no hit
+
+
+# -- a circle ---------------------------------------------------------------------------------
+@njit(cache=True)
+def ray_circle(start, d, centre, radius):
+    """Where the ray start + t d first enters the circle (centre, radius): (t, n_x, n_y), t = MISS
+    when it does not within t in [0, 1] or starts inside or on it.
+
+    |f + t d|^2 = r^2 with f = start - centre: a t^2 + 2 b t + c = 0, a = d.d, b = f.d,
+    c = f.f - r^2. From outside (c > 0) and heading in (b < 0) the smaller root is
+    t = c / (-b + sqrt(b^2 - a c)) (the form without cancellation)."""
+    f_x, f_y = start[0] - centre[0], start[1] - centre[1]
+    a = d[0] * d[0] + d[1] * d[1]
+    b = f_x * d[0] + f_y * d[1]
+    c = f_x * f_x + f_y * f_y - radius * radius
+    if c <= 0.0 or b >= 0.0:  # starts inside or on it, or heads away
+        return MISS, 0.0, 0.0
+    disc = b * b - a * c
+    if disc < 0.0:  # the line passes the circle by
+        return MISS, 0.0, 0.0
+    t = c / (-b + math.sqrt(disc))
+    if t > 1.0:
+        return MISS, 0.0, 0.0
+    p_x, p_y = f_x + t * d[0], f_y + t * d[1]  # the hit, from the centre
+    length = math.sqrt(p_x * p_x + p_y * p_y)
+    return t, p_x / length, p_y / length
+
+
+@njit(cache=True)
+def circle_contains(point, centre, radius):
+    """True when ``point`` is in the circle or on it: |p - c| <= r."""
+    f_x, f_y = point[0] - centre[0], point[1] - centre[1]
+    return f_x * f_x + f_y * f_y <= radius * radius
+
+
+# -- a rounded polygon ------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def edge_normal(vertices, i):
+    """The outward unit normal of edge i = (v_i, v_i+1) of counter-clockwise ``vertices``, and
+    the edge's length (m)."""
+    n = vertices.shape[0]
+    j = i + 1 if i + 1 < n else 0
+    e_x, e_y = vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1]
+    length = math.sqrt(e_x * e_x + e_y * e_y)
+    return e_y / length, -e_x / length, length
+
+
+@njit(cache=True)
+def polygon_separation(vertices, point):
+    """The largest n_i . (p - v_i) over the edges: <= 0 inside the polygon (radius 0), and a
+    lower bound of the distance from p to it outside."""
+    most = -math.inf
+    for i in range(vertices.shape[0]):
+        n_x, n_y, _ = edge_normal(vertices, i)
+        most = max(most, n_x * (point[0] - vertices[i, 0]) + n_y * (point[1] - vertices[i, 1]))
+    return most
+
+
+@njit(cache=True)
+def polygon_distance(vertices, point):
+    """The distance (m) from ``point`` outside the polygon to it: the nearest of its edges
+    (each a segment; one vertex: that point)."""
+    n = vertices.shape[0]
+    nearest = math.inf
+    for i in range(n):
+        j = i + 1 if i + 1 < n else 0
+        e_x, e_y = vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1]
+        w_x, w_y = point[0] - vertices[i, 0], point[1] - vertices[i, 1]
+        ee = e_x * e_x + e_y * e_y
+        s = 0.0 if ee == 0.0 else min(1.0, max(0.0, (w_x * e_x + w_y * e_y) / ee))  # the nearest point's place
+        q_x, q_y = w_x - s * e_x, w_y - s * e_y
+        nearest = min(nearest, math.sqrt(q_x * q_x + q_y * q_y))
+    return nearest
+
+
+@njit(cache=True)
+def polygon_contains(vertices, radius, point):
+    """True when ``point`` is in the polygon of ``vertices`` (counter-clockwise, m) grown by
+    ``radius`` (m), or on it: n_i . (p - v_i) <= 0 for every edge when radius = 0, else the
+    distance from p to the polygon <= radius."""
+    if vertices.shape[0] >= 3:
+        separation = polygon_separation(vertices, point)
+        if separation <= 0.0:
+            return True
+        if separation > radius:  # farther than radius from an edge's line, so from the polygon
+            return False
+    return polygon_distance(vertices, point) <= radius
+
+
+@njit(cache=True)
+def ray_polygon(start, d, vertices, radius):
+    """Where the ray start + t d first enters the convex polygon of ``vertices`` (counter-clockwise,
+    m) grown by ``radius`` (m): (t, n_x, n_y), t = MISS when it does not within t in [0, 1] or
+    starts inside or on it. A polygon of radius 0: ``ray_sharp_polygon``; else (and for a
+    segment, whose two half-planes meet in a line without ends) ``ray_rounded_polygon``."""
+    if radius == 0.0 and vertices.shape[0] >= 3:
+        return ray_sharp_polygon(start, d, vertices)
+    return ray_rounded_polygon(start, d, vertices, radius)
+
+
+@njit(cache=True)
+def ray_sharp_polygon(start, d, vertices):
+    """The ray against a polygon of radius 0 by clipping (Cyrus-Beck): the polygon is the meet of
+    the half-planes n_i . (p - v_i) <= 0, and the ray is inside half-plane i for t past
+    t_i = n_i . (v_i - start) / (n_i . d) when it heads in (n_i . d < 0), before it when it
+    heads out. The entry is the largest t_i of the edges it heads in through, if no exit
+    comes first; a ray starting inside or on the polygon never raises the entry past 0."""
+    lower, upper, entered = 0.0, 1.0, -1
+    for i in range(vertices.shape[0]):
+        n_x, n_y, _ = edge_normal(vertices, i)
+        numerator = n_x * (vertices[i, 0] - start[0]) + n_y * (vertices[i, 1] - start[1])  # > 0: start inside it
+        denominator = n_x * d[0] + n_y * d[1]
+        if denominator == 0.0:  # parallel to the edge: outside its half-plane for good, or inside
+            if numerator < 0.0:
+                return MISS, 0.0, 0.0
+        elif denominator < 0.0 and numerator < lower * denominator:  # heads in, later than the entry so far
+            lower, entered = numerator / denominator, i
+        elif denominator > 0.0 and numerator < upper * denominator:  # heads out, earlier than the exit so far
+            upper = numerator / denominator
+        if upper < lower:
+            return MISS, 0.0, 0.0
+    if entered < 0:  # it starts inside or on the polygon
+        return MISS, 0.0, 0.0
+    n_x, n_y, _ = edge_normal(vertices, entered)
+    return lower, n_x, n_y
+
+
+@njit(cache=True)
+def ray_rounded_polygon(start, d, vertices, radius):
+    """The ray against a polygon grown by radius r >= 0: its surface is each edge pushed out by r
+    along its normal, joined by arcs of radius r about the vertices, so the entry is the first
+    of the ray's crossings of those edges (heading in) and of the vertices' circles."""
+    if polygon_contains(vertices, radius, start):
+        return MISS, 0.0, 0.0
+    best, best_x, best_y = MISS, 0.0, 0.0
+    n = vertices.shape[0]
+    for i in range(n):
+        t, n_x, n_y = ray_circle(start, d, vertices[i], radius)  # the arc about v_i
+        if t < best:
+            best, best_x, best_y = t, n_x, n_y
+        if n < 2:
+            continue
+        n_x, n_y, length = edge_normal(vertices, i)
+        denominator = n_x * d[0] + n_y * d[1]
+        if denominator >= 0.0:  # it crosses this edge's side heading out, if at all
+            continue
+        w_x, w_y = start[0] - vertices[i, 0], start[1] - vertices[i, 1]
+        t = (radius - (n_x * w_x + n_y * w_y)) / denominator  # n . (p(t) - v_i) = r
+        if not 0.0 <= t < best:
+            continue
+        s = (-n_y * (w_x + t * d[0]) + n_x * (w_y + t * d[1])) / length  # along the edge, 0 at v_i
+        if 0.0 <= s <= 1.0:
+            best, best_x, best_y = t, n_x, n_y
+    if best > 1.0:
+        return MISS, 0.0, 0.0
+    return best, best_x, best_y
+
+
+# -- a shape of any kind, in its body's frame -------------------------------------------------
+@njit(cache=True)
+def to_body_frame(x, theta, b, point):
+    """``point`` (world, m) in body b's frame: R(-theta_b) (p - x_b)."""
+    c, s = math.cos(theta[b]), math.sin(theta[b])
+    p_x, p_y = point[0] - x[b, 0], point[1] - x[b, 1]
+    return np.array([c * p_x + s * p_y, -s * p_x + c * p_y])
+
+
+@njit(cache=True)
+def ray_shape(geometry, b, start, d):
+    """The ray (start, d in body b's frame) against body b's shape, by its kind: (t, n_x, n_y),
+    the normal in the body's frame."""
+    _, _, kind, radius, vstart, vcount, local_v = geometry
+    if kind[b] == CIRCLE:
+        return ray_circle(start, d, np.zeros(2), radius[b])
+    return ray_polygon(start, d, local_v[vstart[b] : vstart[b] + vcount[b]], radius[b])
+
+
+@njit(cache=True)
+def shape_contains(geometry, b, point):
+    """Whether body b's shape holds ``point`` (in its frame), by its kind."""
+    _, _, kind, radius, vstart, vcount, local_v = geometry
+    if kind[b] == CIRCLE:
+        return circle_contains(point, np.zeros(2), radius[b])
+    return polygon_contains(local_v[vstart[b] : vstart[b] + vcount[b]], radius[b], point)
+
+
+@njit(cache=True)
+def reach(geometry, b):
+    """The farthest any point of body b's shape lies from its centre (m)."""
+    _, _, kind, radius, vstart, vcount, local_v = geometry
+    if kind[b] == CIRCLE:
+        return radius[b]
+    far = 0.0
+    for k in range(vstart[b], vstart[b] + vcount[b]):
+        far = max(far, local_v[k, 0] * local_v[k, 0] + local_v[k, 1] * local_v[k, 1])
+    return math.sqrt(far) + radius[b]
+
+
+# -- every body of a world --------------------------------------------------------------------
+@njit(cache=True)
+def ray_cast_bodies(geometry, start, end, fraction, normal):
+    """The ray from ``start`` to ``end`` (m) against every body: fraction[b] its entry's t
+    (MISS: none) and normal[b] the unit outward normal there (world frame). A body whose
+    circle of ``reach`` the segment passes by is skipped without looking at its shape."""
+    x, theta = geometry[0], geometry[1]
+    d_x, d_y = end[0] - start[0], end[1] - start[1]
+    dd = d_x * d_x + d_y * d_y
+    for b in range(x.shape[0]):
+        fraction[b] = MISS
+        if dd == 0.0:  # a ray of length 0 enters nothing
+            continue
+        w_x, w_y = x[b, 0] - start[0], x[b, 1] - start[1]
+        s = min(1.0, max(0.0, (w_x * d_x + w_y * d_y) / dd))  # the segment's nearest point to x_b
+        q_x, q_y = w_x - s * d_x, w_y - s * d_y
+        r = reach(geometry, b)
+        if q_x * q_x + q_y * q_y > r * r:
+            continue
+        c, si = math.cos(theta[b]), math.sin(theta[b])
+        local_start = to_body_frame(x, theta, b, start)
+        local_d = np.array([c * d_x + si * d_y, -si * d_x + c * d_y])
+        t, n_x, n_y = ray_shape(geometry, b, local_start, local_d)
+        if t <= 1.0:
+            fraction[b] = t
+            normal[b, 0], normal[b, 1] = c * n_x - si * n_y + 0.0, si * n_x + c * n_y + 0.0  # (+ 0.0: no -0.0)
+
+
+@njit(cache=True)
+def bodies_containing(geometry, point, inside):
+    """inside[b] = whether body b's shape holds ``point`` (m), on its surface included."""
+    x, theta = geometry[0], geometry[1]
+    for b in range(x.shape[0]):
+        w_x, w_y = point[0] - x[b, 0], point[1] - x[b, 1]
+        r = reach(geometry, b)
+        inside[b] = w_x * w_x + w_y * w_y <= r * r and shape_contains(geometry, b, to_body_frame(x, theta, b, point))
+
+
+@njit(cache=True)
+def tight_aabbs(geometry, aabb):
+    """aabb[b] = (min x, min y, max x, max y) of body b's shape now (m), with no margin."""
+    x, theta, kind, radius, vstart, vcount, local_v = geometry
+    for b in range(x.shape[0]):
+        r = radius[b]
+        if kind[b] == CIRCLE:
+            aabb[b, 0], aabb[b, 1], aabb[b, 2], aabb[b, 3] = x[b, 0] - r, x[b, 1] - r, x[b, 0] + r, x[b, 1] + r
+            continue
+        c, s = math.cos(theta[b]), math.sin(theta[b])
+        lo_x, lo_y, hi_x, hi_y = math.inf, math.inf, -math.inf, -math.inf
+        for k in range(vstart[b], vstart[b] + vcount[b]):
+            v_x = x[b, 0] + c * local_v[k, 0] - s * local_v[k, 1]
+            v_y = x[b, 1] + s * local_v[k, 0] + c * local_v[k, 1]
+            lo_x, lo_y, hi_x, hi_y = min(lo_x, v_x), min(lo_y, v_y), max(hi_x, v_x), max(hi_y, v_y)
+        aabb[b, 0], aabb[b, 1], aabb[b, 2], aabb[b, 3] = lo_x - r, lo_y - r, hi_x + r, hi_y + r
+
+
+# -- what World.ray_cast returns --------------------------------------------------------------
+@dataclass(frozen=True, repr=False)
+class RayHit:
+    """Where a ray first enters a body's shape: ``body``, the world ``point`` (m), the unit
+    ``normal`` there (out of the shape) and ``fraction`` t in [0, 1]: point = start + t (end - start)."""
+
+    body: Body
+    point: np.ndarray  # (2,) m
+    normal: np.ndarray  # (2,) unit
+    fraction: float
+
+    def __repr__(self) -> str:
+        (p_x, p_y), (n_x, n_y) = self.point, self.normal
+        return (
+            f"<RayHit body {self.body.index if self.body.alive else 'removed'}: fraction={self.fraction:.4g}, "
+            f"point=({p_x:.4g}, {p_y:.4g}) m, normal=({n_x:.3g}, {n_y:.3g})>"
+        )
