@@ -44,7 +44,7 @@ import numpy as np
 from . import scenes
 from .responders import REGISTRY
 from .responders.base import Responder
-from .verdict import Watch
+from .verdict import watch_for
 from .world import SimulationError, World
 
 RESPONDERS = tuple(REGISTRY)
@@ -590,7 +590,7 @@ def _run(
         raise
     if previous is not None:
         os.unlink(previous)
-    watch = Watch(w)
+    watch = watch_for(args.scene, w)
     deepest = 0.0
     t0 = time.perf_counter()
     bar = None
@@ -657,7 +657,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     tag = f"-{count[1]}{count[0]}" if count else ""
     path = args.out or os.path.join(DEFAULT_DIR, f"{args.scene}-{size}-compare{tag}.rrd")
     failed: dict[str, str] = {}
-    watches = {label: Watch(w) for label, w in worlds.items()}
+    watches = {label: watch_for(args.scene, w) for label, w in worlds.items()}
     bar = None
     # its own application id: the viewer keeps one blueprint per application, and a comparison's
     # layout (a world per run) differs from a single run's

@@ -179,3 +179,24 @@ SCENES = {
     "pendulum_chain": (pendulum_chain, "links in the chain"),
     "heavy_chain": (heavy_chain, "links in the chain (the box at its end is 100x a link's mass)"),
 }
+
+# Box2D's and Solver2D's samples (phys2d/stock_scenes.py)
+from .stock_scenes import (  # noqa: E402, F401
+    STOCK_SCENES,
+    arch,
+    ball_and_chain,
+    bridge,
+    card_house,
+    confined,
+    double_domino,
+    far_pyramid,
+    friction_ramp,
+    high_mass_ratio,
+    joint_grid,
+    large_pyramid,
+    many_pyramids,
+    overlap_recovery,
+    rush,
+)
+
+SCENES.update(STOCK_SCENES)

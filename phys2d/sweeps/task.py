@@ -8,7 +8,9 @@ The row (``ROW_COLUMNS``, in this order):
 
     run_id, scene, size, mass_ratio, responder, iterations, substeps, dt, steps,
     friction, seed, jitter           the task (see grid.py)
-    outcome ... final_residual       ``phys2d.verdict.Verdict.as_row()``: stood/fell/restless,
+    outcome ... final_residual       ``phys2d.verdict.Verdict.as_row()`` of the scene's watch
+                                     (``verdict.watch_for``): stood/fell/restless or the scene's
+                                     own outcome, passed (the scene's claim held),
                                      fell_at (s), largest displacement (m), sideways (m),
                                      turn (rad), deepest overlap (m), final kinetic energy (J),
                                      fastest body at the end (m/s), final residual (m/s);
@@ -36,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from ..responders import REGISTRY
-from ..verdict import Watch
+from ..verdict import Watch, watch_for
 from ..world import SimulationError, World
 from .grid import Task
 from .scenes import COLUMNS, build_scene
@@ -157,7 +159,7 @@ def run_task(task: Task, record_dir: str | None = None) -> dict[str, Any]:
     """Run one task; returns its row (``ROW_COLUMNS``). ``record_dir``: also write <run_id>.rrd there."""
     row: dict[str, Any] = {"run_id": task.run_id, **task.params()}
     w = build(task)
-    watch = Watch(w)
+    watch = watch_for(task.scene, w)
     loads = LoadWatch(w, task.steps) if task.scene in COLUMNS else None
     rec = None
     path = None
@@ -191,7 +193,7 @@ def run_task(task: Task, record_dir: str | None = None) -> dict[str, Any]:
     verdict = watch.verdict().as_row()
     row.update(("steps_run" if k == "steps" else k, v) for k, v in verdict.items())
     if error:  # blown up: the figures are those of the steps before, the outcome is not a verdict
-        row["outcome"], row["stood"] = "error", False
+        row["outcome"], row["stood"], row["passed"] = "error", False, False
     row["load_error_first_tick"] = loads.first_tick if loads is not None else math.nan
     row["load_error_second_half"] = loads.second_half if loads is not None else math.nan
     row["error"] = error

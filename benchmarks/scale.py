@@ -1,0 +1,421 @@
+"""Scale benchmark (issue 28 part 4): the stock scenes and pyramids of base 10 to 100, timed.
+
+    python benchmarks/scale.py --quick                       # a short smoke run, tables to stdout
+    python benchmarks/scale.py --out benchmarks/SCALE.md     # the full run (a quiet machine, ~1 h)
+    python benchmarks/scale.py --box2d-v3 ~/src/box2d        # plus Box2D v3, 1 and 2 workers
+
+Engines:
+
+- ``phys2d-pgs``: ``phys2d.PGS()`` (10 sweeps, warm started), ``phys2d-soft4``: ``phys2d.SoftStep(4)``;
+- ``pymunk``: the same world, translated body by body (``pymunk_space``): iterations 10, sleeping
+  off, each shape's friction sqrt(mu) (Chipmunk multiplies, phys2d mixes sqrt(mu_a mu_b));
+  scenes pymunk cannot express (rush's pull, per-body damping or gravity) are skipped;
+- ``box2d-v3-1w``, ``box2d-v3-2w`` with ``--box2d-v3 PATH``: Box2D v3 built from that source tree
+  (``box2d_v3.build``, as ``peers.py``), on its own benchmark scenes ``large_pyramid`` and
+  ``many_pyramids``, built by shared/benchmarks.c's CreateLargePyramid and CreateManyPyramids,
+  compiled with ``box2d_v3_scale.c`` into one library; 4 sub-steps, sleeping off, 1 or 2 workers.
+
+Each (scene, engine) runs in a fresh process: build, ``--warmup`` steps (phys2d compiles or
+loads its kernels in the first), then ``--steps`` timed steps of 1/60 s. Reported:
+
+    us/step      mean wall time of a timed step, microseconds (and the median)
+    ns/contact   us/step over the contact points of the last step, nanoseconds (Box2D v3:
+                 over phys2d-soft4's count on the same scene, marked *: the harness does not
+                 count v3's points)
+    build s      building the scene (World.add_* per body, or the engine's own calls)
+    peak MB      the process's peak resident memory (ru_maxrss), and the part of it the
+                 scene added: peak minus the resident memory before building (for phys2d
+                 this includes the compiled kernels its first step loads, about 70 MB)
+
+Box2D v3's 2 workers run each of its tasks on a thread started for it (box2d_v3_scale.c): a
+few thread starts per step, which a pooled task system (Box2D's samples use enkiTS) avoids.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+BENCH_DIR = Path(__file__).resolve().parent
+sys.path.insert(0, str(BENCH_DIR))
+
+DT = 1.0 / 60.0
+PYRAMIDS = tuple(range(10, 101, 10))
+QUICK_PYRAMIDS = (10, 50, 100)
+PHYS2D_ENGINES = ("phys2d-pgs", "phys2d-soft4")
+V3_SCENES = {"large_pyramid": 0, "many_pyramids": 1}  # scale_create's scene argument
+V3_ENGINES = {"box2d-v3-1w": 1, "box2d-v3-2w": 2}
+V3_SUBSTEPS = 4
+SCALE_LIBRARY = "libbox2d_v3_scale.so"
+
+
+class Unsupported(Exception):
+    """An engine that cannot run a scene: its row says why."""
+
+
+# -- the scenes ----------------------------------------------------------------------------
+def scene_names(quick: bool) -> list[str]:
+    """The stock scenes of phys2d.stock_scenes, then the pyramids."""
+    from phys2d import stock_scenes
+
+    pyramids = QUICK_PYRAMIDS if quick else PYRAMIDS
+    return list(stock_scenes.STOCK_SCENES) + [f"pyramid_{n}" for n in pyramids]
+
+
+def build_phys2d(scene: str, responder):
+    """The phys2d world of ``scene`` (a stock scene at its default size, or ``pyramid_N``)."""
+    from phys2d import scenes
+
+    if scene.startswith("pyramid_"):
+        return scenes.pyramid(int(scene.split("_")[1]), responder=responder)
+    return scenes.SCENES[scene][0](responder=responder)
+
+
+def make_responder(engine: str):
+    import phys2d
+
+    return phys2d.PGS() if engine == "phys2d-pgs" else phys2d.SoftStep(substeps=4)
+
+
+# -- pymunk ----------------------------------------------------------------------------------
+def _shared(values, what: str) -> float:
+    """The one value every dynamic body has, or Unsupported."""
+    import numpy as np
+
+    if values.size and not np.all(values == values[0]):
+        raise Unsupported(f"bodies with different {what}: pymunk has one per space")
+    return float(values[0]) if values.size else 0.0
+
+
+def pymunk_space(w):
+    """A pymunk Space with w's bodies, shapes and pin joints, in w's body order.
+
+    Each shape gets friction sqrt(mu) (pymunk multiplies the pair's), elasticity e (the
+    scenes use 0), phys2d's filter as a ShapeFilter (categories and mask, 32 bits); the
+    space gets w's gravity times the bodies' shared gravity_scale and their shared
+    damping c as pymunk's per-second factor (1 + c dt)^(-1/dt).
+    """
+    import numpy as np
+    import pymunk
+
+    import phys2d
+    from phys2d.constraints.joints import PinJoint
+
+    if type(w) is not phys2d.World:
+        raise Unsupported(f"a {type(w).__name__} (a pull applied every step)")
+    a = w._bodies
+    dynamic = a.M_inv[:, 0] > 0.0
+    scale = _shared(a.gravity_scale[dynamic], "gravity_scale")
+    linear = _shared(a.damping[dynamic, 0], "linear damping")
+    angular = _shared(a.damping[dynamic, 1], "angular damping")
+    if linear != angular:
+        raise Unsupported("linear and angular damping differ: pymunk has one damping")
+    if np.any(a.group != 0):
+        raise Unsupported("collision groups")
+    space = pymunk.Space()
+    space.gravity = (float(w.gravity[0]) * scale, float(w.gravity[1]) * scale)
+    space.iterations = 10
+    space.sleep_time_threshold = math.inf
+    space.damping = (1.0 + linear * DT) ** (-1.0 / DT)
+    bodies = []
+    for i in range(len(w)):
+        if a.kinematic[i]:
+            raise Unsupported("kinematic bodies")
+        body = pymunk.Body(body_type=pymunk.Body.STATIC) if a.static[i] else pymunk.Body()
+        body.position = (float(a.x[i, 0]), float(a.x[i, 1]))
+        body.angle = float(a.theta[i])
+        if a.kind[i] == 0:
+            shape = pymunk.Circle(body, float(a.radius[i]))
+        else:
+            s, c = int(a.vstart[i]), int(a.vcount[i])
+            shape = pymunk.Poly(body, [tuple(map(float, v)) for v in a.local_v[s : s + c]])
+        if not a.static[i]:
+            shape.mass = float(a.mass[i])  # pymunk's moment follows from the shape and mass
+            body.velocity = (float(a.V[i, 0]), float(a.V[i, 1]))
+            body.angular_velocity = float(a.V[i, 2])
+        shape.friction = math.sqrt(float(a.friction[i]))
+        shape.elasticity = float(a.restitution[i])
+        shape.filter = pymunk.ShapeFilter(categories=int(a.category[i]) & 0xFFFFFFFF, mask=int(a.mask[i]) & 0xFFFFFFFF)
+        space.add(body, shape)
+        bodies.append(body)
+    for joint in w.joints:
+        if not isinstance(joint, PinJoint):
+            raise Unsupported(f"{joint.name} joints")
+        pj = pymunk.PivotJoint(
+            bodies[joint.body_a.index],
+            bodies[joint.body_b.index],
+            tuple(map(float, joint.local_a)),
+            tuple(map(float, joint.local_b)),
+        )
+        pj.collide_bodies = joint.collide_connected
+        space.add(pj)
+    return space
+
+
+def pymunk_contacts(space) -> int:
+    """Contact points of the space's arbiters now (an arbiter between two dynamic bodies is on
+    both bodies' lists: counted once, as engines.PymunkAdapter does)."""
+    seen: set[tuple[int, int]] = set()
+    count = 0
+
+    def visit(arbiter) -> None:
+        nonlocal count
+        a, b = arbiter.shapes
+        key = (min(id(a), id(b)), max(id(a), id(b)))
+        if key not in seen:
+            seen.add(key)
+            count += len(arbiter.contact_point_set.points)
+
+    for body in space.bodies:
+        body.each_arbiter(visit)
+    return count
+
+
+# -- Box2D v3 --------------------------------------------------------------------------------
+def build_v3(source: str, log=print) -> tuple[Path, str]:
+    """(the scale library, a label) built from the Box2D v3 tree at ``source``."""
+    import box2d_v3
+
+    v3 = box2d_v3.build(Path(source), log=log)
+    shared = v3.source / "shared"
+    parts = sorted(shared.glob("*.c"))
+    if not (shared / "benchmarks.c").is_file():
+        raise box2d_v3.BuildError(f"{shared}/benchmarks.c not found: this Box2D v3 has no benchmark scenes")
+    static = next((v3.library.parent / "cmake").rglob("libbox2d*.a"))
+    library = v3.library.parent / SCALE_LIBRARY
+    types = (v3.source / "include" / "box2d" / "types.h").read_text(errors="replace")
+    ranges = ["-DSCALE_RANGE_TASKS"] if "int itemCount" in types else []
+    cc = os.environ.get("CC", "cc")
+    cmd = [
+        cc, "-O2", "-DNDEBUG", "-fPIC", "-shared", "-pthread", "-std=gnu17", *ranges,
+        "-I", str(v3.source / "include"), "-I", str(shared),
+        str(BENCH_DIR / "box2d_v3_scale.c"), *map(str, parts), str(static), "-lm", "-o", str(library),
+    ]  # fmt: skip
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise box2d_v3.BuildError(f"compiling box2d_v3_scale.c with shared/*.c failed:\n{done.stderr[-2000:]}")
+    return library, v3.label()
+
+
+def load_v3(path: str):
+    import ctypes
+
+    lib = ctypes.CDLL(path)
+    p, i, d = ctypes.c_void_p, ctypes.c_int, ctypes.c_double
+    for name, res, args in (
+        ("scale_create", p, [i, i, i]),
+        ("scale_step", None, [p, d]),
+        ("scale_body_count", i, [p]),
+        ("scale_contact_pairs", i, [p]),
+        ("scale_destroy", None, [p]),
+    ):
+        f = getattr(lib, name)
+        f.restype, f.argtypes = res, args
+    return lib
+
+
+# -- one measurement, in a process of its own ---------------------------------------------
+def resident_mb() -> float:
+    """The process's resident memory now (MB)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def peak_mb() -> float:
+    """The process's peak resident memory so far (MB; ru_maxrss is in kB on Linux)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def measure(scene: str, engine: str, steps: int, warmup: int, v3_library: str | None) -> dict:
+    """Build ``scene`` in ``engine``, run ``warmup`` then ``steps`` timed steps: one result row."""
+    row: dict = {"scene": scene, "engine": engine}
+    if engine in PHYS2D_ENGINES:
+        import phys2d  # noqa: F401  (imported before the baseline is read)
+
+        base = resident_mb()
+        t0 = time.perf_counter()
+        w = build_phys2d(scene, make_responder(engine))
+        row["build_s"] = time.perf_counter() - t0
+        step = lambda: w.step(DT)  # noqa: E731
+        bodies = len(w)
+        contacts = lambda: len(w.contacts)  # noqa: E731
+    elif engine == "pymunk":
+        import pymunk  # noqa: F401
+
+        import phys2d  # noqa: F401
+
+        w = build_phys2d(scene, None)
+        base = resident_mb()
+        t0 = time.perf_counter()
+        space = pymunk_space(w)
+        row["build_s"] = time.perf_counter() - t0
+        del w
+        step = lambda: space.step(DT)  # noqa: E731
+        bodies = len(space.shapes)  # one shape per body, as in phys2d
+        contacts = lambda: pymunk_contacts(space)  # noqa: E731
+    else:
+        if scene not in V3_SCENES:
+            raise Unsupported("Box2D v3 runs its own benchmark scenes only")
+        if v3_library is None:
+            raise Unsupported("no --box2d-v3")
+        lib = load_v3(v3_library)
+        base = resident_mb()
+        t0 = time.perf_counter()
+        h = lib.scale_create(V3_SCENES[scene], V3_ENGINES[engine], V3_SUBSTEPS)
+        if not h:
+            raise MemoryError("scale_create failed")
+        row["build_s"] = time.perf_counter() - t0
+        step = lambda: lib.scale_step(h, DT)  # noqa: E731
+        bodies = lib.scale_body_count(h)
+        contacts = lambda: -1  # noqa: E731  (filled from phys2d-soft4's count)
+        row["contact_pairs"] = None
+    for _ in range(warmup):
+        step()
+    times = []
+    for _ in range(steps):
+        t = time.perf_counter()
+        step()
+        times.append(time.perf_counter() - t)
+    row["bodies"] = bodies
+    row["contacts"] = contacts()
+    if engine in V3_ENGINES:
+        row["contact_pairs"] = lib.scale_contact_pairs(h)
+    row["us_per_step"] = 1e6 * sum(times) / len(times)
+    row["median_us"] = 1e6 * sorted(times)[len(times) // 2]
+    row["peak_mb"] = peak_mb()
+    row["scene_mb"] = peak_mb() - base
+    return row
+
+
+def run_child(args: argparse.Namespace) -> int:
+    try:
+        row = measure(args.one[0], args.one[1], args.steps, args.warmup, args.v3_library)
+    except Unsupported as e:
+        row = {"scene": args.one[0], "engine": args.one[1], "unsupported": str(e)}
+    print("ROW " + json.dumps(row))
+    return 0
+
+
+# -- the parent: every (scene, engine) in a fresh process, then the tables -------------------
+def run_one(scene: str, engine: str, args: argparse.Namespace, v3_library: str | None) -> dict:
+    cmd = [sys.executable, __file__, "--one", scene, engine, "--steps", str(args.steps), "--warmup", str(args.warmup)]
+    if v3_library:
+        cmd += ["--v3-library", v3_library]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
+    rows = [line[4:] for line in done.stdout.splitlines() if line.startswith("ROW ")]
+    if done.returncode != 0 or not rows:
+        return {"scene": scene, "engine": engine, "error": (done.stderr.strip().splitlines() or ["?"])[-1]}
+    return json.loads(rows[-1])
+
+
+def fill_v3_contacts(rows: list[dict]) -> None:
+    """Box2D v3's ns/contact over phys2d-soft4's contact points on the same scene (marked)."""
+    soft = {r["scene"]: r.get("contacts") for r in rows if r["engine"] == "phys2d-soft4"}
+    for r in rows:
+        if r["engine"] in V3_ENGINES and "us_per_step" in r:
+            r["contacts"] = soft.get(r["scene"])
+            r["contacts_from"] = "phys2d-soft4"
+
+
+def table(rows: list[dict]) -> str:
+    head = "| scene | engine | bodies | contacts | us/step | median us | ns/contact | build s | peak MB | scene MB |"
+    lines = [head, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        if "us_per_step" not in r:
+            why = r.get("unsupported") or f"error: {r.get('error')}"
+            lines.append(f"| {r['scene']} | {r['engine']} | | | {why} | | | | | |")
+            continue
+        contacts = r.get("contacts")
+        mark = "*" if r.get("contacts_from") else ""
+        per = f"{1e3 * r['us_per_step'] / contacts:,.0f}{mark}" if contacts else ""
+        lines.append(
+            f"| {r['scene']} | {r['engine']} | {r['bodies']:,} | {f'{contacts:,}' if contacts else ''} | "
+            f"{r['us_per_step']:,.0f} | {r['median_us']:,.0f} | {per} | {r['build_s']:.2f} | "
+            f"{r['peak_mb']:,.0f} | {r['scene_mb']:,.0f} |"
+        )
+    return "\n".join(lines)
+
+
+def header(args: argparse.Namespace, v3_label: str | None) -> str:
+    import numba
+    import numpy
+
+    import phys2d
+
+    try:
+        import pymunk
+
+        pm = pymunk.version
+    except ImportError:
+        pm = "not installed"
+    return "\n".join(
+        [
+            "# Scale benchmark (benchmarks/scale.py)",
+            "",
+            f"- {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()}, "
+            f"{os.cpu_count()} CPUs, Python {platform.python_version()}, numpy {numpy.__version__}, "
+            f"numba {numba.__version__}, phys2d {getattr(phys2d, '__version__', '?')}, pymunk {pm}",
+            f"- Box2D v3: {v3_label}" if v3_label else "- Box2D v3: not run (no --box2d-v3)",
+            f"- {args.warmup} warm-up steps, then {args.steps} timed steps of 1/60 s; each (scene, engine) "
+            "in a fresh process" + (" (--quick)" if args.quick else ""),
+            "",
+        ]
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0], formatter_class=argparse.RawTextHelpFormatter)
+    p.add_argument("--quick", action="store_true", help="10 timed steps, pyramids 10, 50 and 100 only")
+    p.add_argument("--steps", type=int, default=None, help="timed steps (default 300; --quick: 10)")
+    p.add_argument("--warmup", type=int, default=None, help="steps before timing (default 30; --quick: 2)")
+    p.add_argument("--scenes", default=None, help="comma-separated scenes (default: all)")
+    p.add_argument("--engines", default=None, help="comma-separated engines (default: all available)")
+    p.add_argument("--box2d-v3", default=None, metavar="PATH", help="a Box2D v3 source tree to build and run")
+    p.add_argument("--out", default=None, help="also write the tables to this Markdown file")
+    p.add_argument("--timeout", type=float, default=3600.0, help="seconds per (scene, engine)")
+    p.add_argument("--one", nargs=2, metavar=("SCENE", "ENGINE"), help=argparse.SUPPRESS)
+    p.add_argument("--v3-library", default=None, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.steps is None:
+        args.steps = 10 if args.quick else 300
+    if args.warmup is None:
+        args.warmup = 2 if args.quick else 30
+    if args.steps < 1 or args.warmup < 1:
+        p.error("--steps and --warmup must be >= 1 (the first step compiles)")
+    if args.one:
+        return run_child(args)
+    v3_library = v3_label = None
+    if args.box2d_v3:
+        library, v3_label = build_v3(args.box2d_v3, log=lambda m: print(m, file=sys.stderr))
+        v3_library = str(library)
+    names = scene_names(args.quick) if args.scenes is None else args.scenes.split(",")
+    engines = [*PHYS2D_ENGINES, "pymunk", *(V3_ENGINES if v3_library else ())]
+    if args.engines is not None:
+        engines = args.engines.split(",")
+    rows = []
+    for scene in names:
+        for engine in engines:
+            if engine in V3_ENGINES and scene not in V3_SCENES:
+                continue
+            row = run_one(scene, engine, args, v3_library)
+            rows.append(row)
+            done = f"{row['us_per_step']:,.0f} us/step" if "us_per_step" in row else row.get("unsupported", "error")
+            print(f"{scene} / {engine}: {done}", file=sys.stderr, flush=True)
+    fill_v3_contacts(rows)
+    text = header(args, v3_label) + "\n" + table(rows) + "\n"
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
