@@ -28,7 +28,6 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from .bodies import ALL_CATEGORIES, Body
-from .constraints.joints import PinJoint, local_anchor
 from .responders.base import Responder, StepReport
 from .scenes import _check_count
 from .validation import positive_float
@@ -48,7 +47,6 @@ __all__ = [
     "STOCK_SCENES",
     "WATCHES",
     "PulledWorld",
-    "add_pin_joints",
     "arch",
     "ball_and_chain",
     "bridge",
@@ -100,33 +98,6 @@ def _hull(w: World, points: Sequence[tuple[float, float]], **options) -> Body:
 def _anchor_post(w: World, point: tuple[float, float]) -> Body:
     """A static point to pin to (Box2D's shapeless ground body): a 5 cm circle that collides with nothing."""
     return w.add_circle(position=point, radius=0.05, static=True, category=0, mask=0)
-
-
-def add_pin_joints(
-    w: World, pairs: Sequence[tuple[Body, Body]], anchors: ArrayLike, *, collide_connected: bool = False
-) -> list[PinJoint]:
-    """Pin each pair (a, b) at its anchor (m, world frame): ``World.add_pin_joint`` for many at once.
-
-    Each joint is checked as ``add_pin_joint`` checks it, then the world packs its joints
-    once, not once per joint (which grows as the square of the count: 19,800 joints of
-    ``joint_grid`` one by one take minutes). The world ends as if each had been added in
-    turn. A bad pair or anchor raises before any joint is added.
-    """
-    p = np.asarray(anchors, np.float64)
-    if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] != len(pairs):
-        raise ValueError(f"anchors must have shape ({len(pairs)}, 2), one per pair; got shape {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("anchors must be finite")
-    joints = []
-    for (a, b), point in zip(pairs, p):
-        body_a, body_b = w._joint_bodies(a, b)
-        la, lb = local_anchor(body_a, point, "anchor"), local_anchor(body_b, point, "anchor")
-        joints.append(PinJoint(w, body_a, body_b, la, lb, bool(collide_connected)))
-    if joints:
-        w._check_joints_supported(w.responder, adding=True)
-        w._joints.extend(joints)
-        w._joints_changed()
-    return joints
 
 
 def _ratio_in(value, name: str, low: float, high: float) -> float:
@@ -441,7 +412,8 @@ def bridge(planks: int = 160, responder: Responder | None = None) -> World:
             )
         )
     bodies.append(posts[1])
-    add_pin_joints(w, list(zip(bodies[:-1], bodies[1:])), [(xbase + i, 20.0) for i in range(planks + 1)])
+    for i, (a, b) in enumerate(zip(bodies[:-1], bodies[1:])):
+        w.add_pin_joint(a, b, anchor=(xbase + i, 20.0))
     return w
 
 
@@ -469,7 +441,8 @@ def ball_and_chain(links: int = 30, responder: Responder | None = None, radius: 
     bodies.append(
         w.add_circle(position=((1.0 + 2.0 * links) * hx + r - hx, y), radius=r, density=20.0, category=2, mask=1)
     )
-    add_pin_joints(w, list(zip(bodies[:-1], bodies[1:])), [(2.0 * i * hx, y) for i in range(links + 1)])
+    for i, (a, b) in enumerate(zip(bodies[:-1], bodies[1:])):
+        w.add_pin_joint(a, b, anchor=(2.0 * i * hx, y))
     return w
 
 
@@ -500,7 +473,8 @@ def joint_grid(n: int = 100, responder: Responder | None = None) -> World:
                 pairs.append((grid[-n], body))
                 anchors.append((k - 0.5, -i))
             grid.append(body)
-    add_pin_joints(w, pairs, anchors)
+    for (a, b), anchor in zip(pairs, anchors):
+        w.add_pin_joint(a, b, anchor=anchor)
     return w
 
 

@@ -107,14 +107,15 @@ class World:
         self.contact_recycle_distance = contact_recycle_distance
         self._bodies = BodyArrays()
         self._handles: list[Body] = []
-        self._excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
         self._joints: list[Joint] = []
-        self._joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt on changes
+        self._joints_packed = True  # _joint_arrays, _joint_lam and _excluded hold the joints as they are
+        self._packed_excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
+        self._packed_joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt after changes
         self._mice = 0  # how many of them are mouse joints
         self._contacts = Contacts().read_only()
         self._contacts_sealed = True
         self._pending_contacts: tuple | None = None  # (buffers, K) of the last step's contacts, read lazily
-        self._joint_lam = np.zeros(0)  # the joints' last reactions, in joint order: each step's warm start
+        self._packed_joint_lam = np.zeros(0)  # the joints' last reactions, in joint order: each step's warm start
         self._joint_rows_first = 0  # the first joint row of the last step
         self._joints_placed = True  # every joint knows where its rows stood in the last step
         self._one_call_tick = True
@@ -502,6 +503,7 @@ class World:
         self._wake_island_of(joint.body_a._index)
         self._wake_island_of(joint.body_b._index)
         self._joints.append(joint)
+        self._mice += isinstance(joint, MouseJoint)
         self._joints_changed()
         return joint
 
@@ -515,6 +517,7 @@ class World:
         joint._impulse = joint.impulse  # its last reactions, kept by the handle from now on
         joint._offset = None
         self._joints.remove(joint)
+        self._mice -= isinstance(joint, MouseJoint)
         joint.alive = False
         joint._has_rows = False
         self._joints_changed()
@@ -532,28 +535,54 @@ class World:
         self._joint_arrays.params[self._joints.index(joint), : len(values)] = values
 
     def _joints_changed(self, pairs: bool = True) -> None:
+        """Joints were added, removed or changed: the next step (or the next read of the packed
+        joints) repacks them, once however many changed, so a scene of n joints builds in O(n)
+        (``pairs``: bodies' pairs may have changed, so the broadphase sweeps again)."""
+        self._joints_packed = False
+        if pairs:
+            self._pipeline.bodies_changed()
+        self._settings_changed()
+
+    @property
+    def _joint_arrays(self) -> JointArrays:
+        """The joints packed into flat arrays, in creation order."""
+        if not self._joints_packed:
+            self._pack_joints()
+        return self._packed_joint_arrays
+
+    @property
+    def _joint_lam(self) -> np.ndarray:
+        """The joints' last reactions, in joint order (each step's warm start)."""
+        if not self._joints_packed:
+            self._pack_joints()
+        return self._packed_joint_lam
+
+    @property
+    def _excluded(self) -> np.ndarray:
+        """The sorted keys of the pairs of bodies that must not collide (joined, not collide_connected)."""
+        if not self._joints_packed:
+            self._pack_joints()
+        return self._packed_excluded
+
+    def _pack_joints(self) -> None:
         """Repack the joints (each keeps its last reactions) and rebuild the sorted keys of pairs
-        that must not collide (``pairs``: bodies' pairs may have changed, so the broadphase
-        sweeps again)."""
-        self._joint_arrays = ja = JointArrays(self._joints)
-        self._mice = sum(isinstance(q, MouseJoint) for q in self._joints)
-        lam = np.zeros(ja.n_rows)
+        that must not collide."""
+        self._packed_joint_arrays = ja = JointArrays(self._joints)
+        lam, old = np.zeros(ja.n_rows), self._packed_joint_lam
         for q, joint in enumerate(self._joints):
             offset = int(ja.row_offset[q])
-            if joint._offset is not None:
-                lam[offset : offset + joint.row_count] = joint.impulse
+            if joint._offset is not None:  # its reactions in the old packing (``Joint.impulse``)
+                lam[offset : offset + joint.row_count] = old[joint._offset : joint._offset + joint.row_count]
             joint._offset = offset
-        self._joint_lam = lam
+        self._packed_joint_lam = lam
         self._joints_placed = False
         keys = [
             (min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
             for q in self._joints
             if not q.collide_connected
         ]
-        if pairs:
-            self._excluded = np.unique(np.asarray(keys, np.int64))
-            self._pipeline.bodies_changed()
-        self._settings_changed()
+        self._packed_excluded = np.unique(np.asarray(keys, np.int64))
+        self._joints_packed = True
 
     # -- one tick ----------------------------------------------------------------
     def step(self, dt: float) -> StepReport:

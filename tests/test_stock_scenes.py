@@ -251,38 +251,16 @@ def test_joint_grid_builds_as_box2d_and_holds():
     assert watch.verdict().passed and np.all(np.isfinite(w.x))
 
 
-def test_add_pin_joints_is_add_pin_joint_many_times():
-    def grid(bulk: bool) -> phys2d.World:
-        w = phys2d.World(responder=phys2d.SoftStep())
-        bodies = [w.add_circle(position=(float(k), 0.0), radius=0.4, static=k == 0) for k in range(6)]
-        pairs = list(zip(bodies[:-1], bodies[1:]))
-        anchors = [(k + 0.5, 0.0) for k in range(5)]
-        if bulk:
-            stock_scenes.add_pin_joints(w, pairs, anchors)
-        else:
-            for (a, b), p in zip(pairs, anchors):
-                w.add_pin_joint(a, b, anchor=p)
-        return w
-
-    one, many = grid(False), grid(True)
-    for _ in range(30):
-        one.step(DT)
-        many.step(DT)
-    assert one.x.tobytes() == many.x.tobytes() and one.V.tobytes() == many.V.tobytes()
-    assert one.last_step.joint_impulses.tobytes() == many.last_step.joint_impulses.tobytes()
-
-
-def test_add_pin_joints_refuses_bad_input_and_adds_nothing():
-    w = phys2d.World()
-    a, b = w.add_circle(position=(0.0, 0.0)), w.add_circle(position=(1.0, 0.0))
-    s1, s2 = w.add_circle(position=(3.0, 0.0), static=True), w.add_circle(position=(5.0, 0.0), static=True)
-    with pytest.raises(ValueError, match="anchors must have shape"):
-        stock_scenes.add_pin_joints(w, [(a, b)], [(0.5, 0.0), (1.0, 0.0)])
-    with pytest.raises(ValueError, match="both static"):
-        stock_scenes.add_pin_joints(w, [(a, b), (s1, s2)], [(0.5, 0.0), (4.0, 0.0)])
-    with pytest.raises(ValueError, match="anchors must be finite"):
-        stock_scenes.add_pin_joints(w, [(a, b)], [(math.nan, 0.0)])
-    assert w.joints == ()
+def test_twenty_thousand_pins_are_packed_once_when_next_read():
+    """The world packs its joints when a step (or a read) next needs them, not once per joint
+    (a repack per joint made the joint grid's 20,000 pins take minutes): packed, every joint
+    has its two rows and a new joint's impulse is zero."""
+    w = phys2d.World(responder=phys2d.SoftStep())
+    bodies = [w.add_circle(position=(float(k), 0.0), radius=0.4, static=k == 0) for k in range(20_001)]
+    for k in range(20_000):
+        w.add_pin_joint(bodies[k], bodies[k + 1], anchor=(k + 0.5, 0.0))
+    assert len(w.joints) == 20_000 and w._joint_arrays.n_rows == 40_000
+    assert w.joints[-1].impulse.tolist() == [0.0, 0.0]
 
 
 # -- pyramids -------------------------------------------------------------------------------
