@@ -39,8 +39,9 @@ now: an impulse acts at one point of both bodies.
 Fast pairs (whose velocities could carry them further than contact_margin within
 the step) are always collided anew, so speculative contacts still see what is
 coming; so is a pair that had no points, one whose recycled points would lie
-further apart than the narrowphase keeps them, and any pair with a circle (a
-rolling circle's point moves over its surface as it turns).
+further apart than the narrowphase keeps them, and any pair with a circle or a
+rounded shape, a capsule (a rolling circle's point moves over its surface as it
+turns). Segments and chain segments of radius 0 recycle as polygons do.
 """
 
 from __future__ import annotations
@@ -66,7 +67,7 @@ def body_extent(b, shapes):
     local_v = shapes.local_v
     for v in range(shapes.vstart[b], shapes.vstart[b] + shapes.vcount[b]):
         r2 = max(r2, local_v[v, 0] ** 2 + local_v[v, 1] ** 2)
-    return np.sqrt(r2)
+    return np.sqrt(r2) + shapes.radius[b]  # a capsule's rounding (0 for polygons)
 
 
 @njit(cache=True, inline="always")
@@ -223,7 +224,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     x, rotation, travel, pairs = bodies.x, shapes.rotation, shapes.travel, shapes.pairs
     cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
     new_key, new_row, pair_start = out.manifold_key, out.manifold_row, out.pair_start
-    kind, uid, friction, restitution = shapes.kind, shapes.uid, shapes.friction, shapes.restitution
+    radius, uid, friction, restitution = shapes.radius, shapes.uid, shapes.friction, shapes.restitution
     found_pose, found_rotation = store.found_pose, store.found_rotation
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
@@ -237,7 +238,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
         key = pair_key(uid, a, b)
         pair = (a, b, key, *pair_friction(friction, restitution, a, b))
         slot = -1
-        polygons = kind[a] != CIRCLE and kind[b] != CIRCLE  # a circle rolls: its point moves
+        polygons = radius[a] == 0.0 and radius[b] == 0.0  # a circle or capsule rolls: its point moves
         if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
             look = next_slot(cached_key, key, look)
             if look < n_cached and cached_key[look] == key:
