@@ -71,7 +71,7 @@ def pair_kind(kind_a: int, kind_b: int) -> str:
     "circle-polygon" (a circle and anything else) or "polygons" (boxes, polygons, capsules,
     segments and chain segments: all polygons, some rounded)."""
     circles = (kind_a == CIRCLE) + (kind_b == CIRCLE)
-    return PAIR_KINDS[2 - circles] if circles else "polygons"
+    return PAIR_KINDS[circles]
 
 
 class Feature(NamedTuple):

@@ -39,9 +39,10 @@ now: an impulse acts at one point of both bodies.
 Fast pairs (whose velocities could carry them further than contact_margin within
 the step) are always collided anew, so speculative contacts still see what is
 coming; so is a pair that had no points, one whose recycled points would lie
-further apart than the narrowphase keeps them, and any pair with a circle or a
-rounded shape, a capsule (a rolling circle's point moves over its surface as it
-turns). Segments and chain segments of radius 0 recycle as polygons do.
+further apart than the narrowphase keeps them, and any pair but two polygons: with
+a circle or a capsule (a rolling circle's point moves over its surface as it
+turns), or a segment or chain segment (a body rocking over a chain's vertex turns
+a corner onto the next segment, which the points it had do not hold).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..shapes import CIRCLE
+from ..shapes import CIRCLE, POLYGON
 from .narrowphase import FLIP_BIT, manifold, manifold_point, pair_friction, pair_key, write_point
 from .sort import lower_bound
 
@@ -224,7 +225,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     x, rotation, travel, pairs = bodies.x, shapes.rotation, shapes.travel, shapes.pairs
     cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
     new_key, new_row, pair_start = out.manifold_key, out.manifold_row, out.pair_start
-    radius, uid, friction, restitution = shapes.radius, shapes.uid, shapes.friction, shapes.restitution
+    kind, uid, friction, restitution = shapes.kind, shapes.uid, shapes.friction, shapes.restitution
     found_pose, found_rotation = store.found_pose, store.found_rotation
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     n_new = 0
@@ -238,7 +239,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
         key = pair_key(uid, a, b)
         pair = (a, b, key, *pair_friction(friction, restitution, a, b))
         slot = -1
-        polygons = radius[a] == 0.0 and radius[b] == 0.0  # a circle or capsule rolls: its point moves
+        polygons = kind[a] == POLYGON and kind[b] == POLYGON  # a circle or capsule rolls: its point moves
         if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
             look = next_slot(cached_key, key, look)
             if look < n_cached and cached_key[look] == key:
