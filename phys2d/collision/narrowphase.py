@@ -286,34 +286,37 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
-def manifold(a, b, x, shapes, margin):
+def manifold(a, b, x, shapes, margin, rounded=None):
     """The manifold of bodies a and b (at centres x), points up to ``margin`` (m) apart, normal
-    from a to b: (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2)."""
+    from a to b: (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2).
+
+    ``rounded``: None in a world of circles and polygons only, True when it has capsules,
+    segments or chains. numba prunes the branch on None when it compiles, so a world
+    without them compiles none of ``rounded``'s code."""
     kind, radius, vstart, vcount = shapes.kind, shapes.radius, shapes.vstart, shapes.vcount
     world_v, world_n = shapes.world_v, shapes.world_n
-    if kind[a] == POLYGON and kind[b] == POLYGON:
-        return collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
+    if rounded is not None:
+        if kind[a] > POLYGON or kind[b] > POLYGON:
+            return rounded_manifold(a, b, x, shapes, margin)
     if kind[a] != CIRCLE and kind[b] != CIRCLE:
-        return rounded_manifold(a, b, x, shapes, margin)
+        return collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
     if kind[a] == CIRCLE and kind[b] == CIRCLE:
         c = collide_circles(x[a, 0], x[a, 1], radius[a], x[b, 0], x[b, 1], radius[b], margin)
         sign = 1.0
-    elif kind[a] == CIRCLE:  # the other shape b, normal from b to a: flip it
-        c = circle_against(b, a, x, shapes, margin)
+    elif kind[a] == CIRCLE:  # polygon b, normal from b to a: flip it
+        c = collide_circle_polygon(world_v, world_n, vstart[b], vcount[b], x[a, 0], x[a, 1], radius[a], margin)
         sign = -1.0
     else:
-        c = circle_against(a, b, x, shapes, margin)
+        c = collide_circle_polygon(world_v, world_n, vstart[a], vcount[a], x[b, 0], x[b, 1], radius[b], margin)
         sign = 1.0
     return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
 
 
 @njit(cache=True)
 def circle_against(p, c, x, shapes, margin):
-    """Circle body c against body p (a polygon, capsule, segment or chain segment): (count, nx, ny,
-    px, py, sep, feature) with the normal from p to the circle."""
+    """Circle body c against body p, a capsule, segment or chain segment: (count, nx, ny, px, py,
+    sep, feature) with the normal from p to the circle."""
     world_v, world_n, s, r = shapes.world_v, shapes.world_n, shapes.vstart[p], shapes.radius[c]
-    if shapes.kind[p] == POLYGON:
-        return collide_circle_polygon(world_v, world_n, s, shapes.vcount[p], x[c, 0], x[c, 1], r, margin)
     if shapes.kind[p] == CHAIN:
         pose = chain_geometry(p, x, shapes.rotation, shapes.local_v, shapes.vstart)
         return collide_circle_chain(pose, (x[c, 0], x[c, 1]), r, margin)
@@ -322,10 +325,15 @@ def circle_against(p, c, x, shapes, margin):
 
 @njit(cache=True)
 def rounded_manifold(a, b, x, shapes, margin):
-    """Bodies a and b, neither a circle and one a capsule, segment or chain segment (``rounded``):
-    the manifold, normal from a to b."""
+    """Bodies a and b, one a capsule, segment or chain segment (``rounded``): the manifold, normal
+    from a to b."""
     kind, radius, vstart, vcount = shapes.kind, shapes.radius, shapes.vstart, shapes.vcount
     world_v, world_n = shapes.world_v, shapes.world_n
+    if kind[a] == CIRCLE or kind[b] == CIRCLE:  # normal from the other shape to the circle
+        circle_first = kind[a] == CIRCLE
+        c = circle_against(b, a, x, shapes, margin) if circle_first else circle_against(a, b, x, shapes, margin)
+        sign = -1.0 if circle_first else 1.0
+        return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
     if kind[a] == CHAIN or kind[b] == CHAIN:  # the chain first, then swapped back if it is b
         c, o = (a, b) if kind[a] == CHAIN else (b, a)
         pose = chain_geometry(c, x, shapes.rotation, shapes.local_v, vstart)
@@ -378,7 +386,7 @@ def pair_friction(friction, restitution, a, b):
 
 
 @njit(cache=True)
-def collide_pairs(bodies, shapes, n_pairs, contact_margin, out):
+def collide_pairs(bodies, shapes, n_pairs, contact_margin, out, rounded=None):
     """Manifolds of the first n_pairs candidate pairs (``shapes.pairs``) into ``out``; returns
     the number of points K.
 
@@ -387,14 +395,15 @@ def collide_pairs(bodies, shapes, n_pairs, contact_margin, out):
     bring together within the step (``travel``, see broadphase). Each point also
     gets its contact key (uid_a << 39 | uid_b << 16 | feature), the pair's friction
     sqrt(mu_a mu_b) and restitution max(e_a, e_b). ``out`` needs room for 2 n_pairs
-    points; pair q's points are out.pair_start[q] up to out.pair_start[q + 1].
+    points; pair q's points are out.pair_start[q] up to out.pair_start[q + 1]. ``rounded``: as
+    ``manifold``'s.
     """
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     travel = shapes.travel
     for q in range(n_pairs):
         out.pair_start[q] = k
         a, b = shapes.pairs[q, 0], shapes.pairs[q, 1]
-        m = manifold(a, b, bodies.x, shapes, contact_margin + travel[a] + travel[b])
+        m = manifold(a, b, bodies.x, shapes, contact_margin + travel[a] + travel[b], rounded)
         pair = (pair_key(shapes.uid, a, b), *pair_friction(shapes.friction, shapes.restitution, a, b))
         for point in range(m[0]):  # one or two points
             write_point(out, k, a, b, manifold_point(m, point), pair)

@@ -204,7 +204,7 @@ def store_manifold(store, row, points_used, out, k, m, pair, x, rotation):
 
 
 @njit(cache=True)
-def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
+def collide_recycling(bodies, shapes, store, cached, out, counts, margins, rounded=None):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
     counts = (n_pairs, n_cached, rows_used, points_used); margins = (contact_margin,
@@ -214,7 +214,8 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     bodies' (cos, sin)) and span (its points: span[r, 0] up to span[r, 1] of anchor, normal,
     separation, feature), as the manifold was found. A recycled manifold keeps its row, not
     copied; a new one is appended after rows_used and points_used (room for n_pairs rows and
-    2 n_pairs points). ``out`` gets the step's points (and their lever arms as found, anchor),
+    2 n_pairs points). ``rounded``: None without capsules, segments or chains in the world, else
+    True (``narrowphase.manifold``). ``out`` gets the step's points (and their lever arms as found, anchor),
     pair_start, and the step's manifolds' keys and rows (manifold_key, manifold_row).
 
     Returns (points K, manifolds cached, recycled, rows_used, points_used, whether the
@@ -256,7 +257,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
             k = recycled
         else:
             row = rows_used  # a new row of the store, its points after points_used
-            m = manifold(a, b, x, shapes, margin)
+            m = manifold(a, b, x, shapes, margin, rounded)
             if m[0] == 0:
                 continue
             k, points_used = store_manifold(store, row, points_used, out, k, m, pair, x, rotation)
