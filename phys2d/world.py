@@ -579,7 +579,8 @@ class World:
     local_vertices = _read_only_view(
         "local_v",
         "(V, 2) float64 every polygon vertex in its body's frame, m, counter-clockwise; body i's are rows "
-        "``vertex_start[i] : vertex_start[i] + vertex_count[i]``.",
+        "``vertex_start[i] : vertex_start[i] + vertex_count[i]`` (a chain segment's two ghost vertices, its "
+        "neighbours' far ends, follow them).",
     )
 
     def __repr__(self) -> str:

@@ -286,7 +286,7 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
-def manifold(a, b, x, shapes, margin, rounded=None):
+def manifold(a, b, x, shapes, margin, rounded):
     """The manifold of bodies a and b (at centres x), points up to ``margin`` (m) apart, normal
     from a to b: (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2).
 
@@ -386,7 +386,7 @@ def pair_friction(friction, restitution, a, b):
 
 
 @njit(cache=True)
-def collide_pairs(bodies, shapes, n_pairs, contact_margin, out, rounded=None):
+def collide_pairs(bodies, shapes, n_pairs, contact_margin, out, rounded):
     """Manifolds of the first n_pairs candidate pairs (``shapes.pairs``) into ``out``; returns
     the number of points K.
 

@@ -204,7 +204,7 @@ def store_manifold(store, row, points_used, out, k, m, pair, x, rotation):
 
 
 @njit(cache=True)
-def collide_recycling(bodies, shapes, store, cached, out, counts, margins, rounded=None):
+def collide_recycling(bodies, shapes, store, cached, out, counts, margins, rounded):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
     counts = (n_pairs, n_cached, rows_used, points_used); margins = (contact_margin,

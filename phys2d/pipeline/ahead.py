@@ -23,7 +23,7 @@ import sys
 from typing import Any
 
 import numpy as np
-from numba import config, typeof, types
+from numba import config, typeof
 
 
 def cold(kernel: Any, args: tuple) -> bool:
@@ -68,7 +68,7 @@ def start(responder: Any, joints: bool, rounded: bool = False) -> subprocess.Pop
 def compile_from_the_end(pipeline: Any, args: tuple) -> None:
     """Compile the stages ``pipeline.tick.tick`` calls, from the last one up, for the types the
     tick calls them with: ``args`` are the tick's own (state, joints, stage, counts, step,
-    row_settings, pgs, soft, and rounded in a world with capsules, segments or chains)."""
+    row_settings, pgs, soft, rounded)."""
     from ..collision.recycle import collide_recycling
     from ..constraints.joints import start_joint_rows
     from ..constraints.rows import contact_rows
@@ -78,8 +78,7 @@ def compile_from_the_end(pipeline: Any, args: tuple) -> None:
     from ..responders.soft_step import soft_step_solve
     from .stages import head_of_rows, order_contacts
 
-    _, joints, _, counts, step, row_settings, pgs, soft = args[:8]
-    rounded = typeof(args[8]) if len(args) > 8 else types.Omitted(None)  # as the tick passes it on
+    _, joints, _, counts, step, row_settings, pgs, soft, rounded = args
     bodies, shapes, store, sides, rows = (typeof(r) for r in pipeline._records)
     found = typeof(pipeline._records[3][0])
     i64, f64, i32 = typeof(0), typeof(0.0), typeof(np.zeros(0, np.int32))
@@ -100,7 +99,10 @@ def compile_from_the_end(pipeline: Any, args: tuple) -> None:
         (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings))),
         (head_of_rows, (rows, i64, i64)),
         (order_contacts, (shapes, found, i64, typeof((0, 0, True)), typeof(True))),
-        (collide_recycling, (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0)), rounded)),
+        (
+            collide_recycling,
+            (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0)), typeof(rounded)),
+        ),
     ]
     del sides, counts, step, i32
     for kernel, sig in jobs:

@@ -181,7 +181,7 @@ class Pipeline:
         self._state_over: Any = None  # the bodies' x it was made with (x is replaced when bodies are)
         self._compiled: tuple = (None, None, None)  # (spec, argument types, machine code) of the last call
         self._ready: tuple | None = None  # (spec, dt, step settings, row settings, joints) of the last step
-        self.rounded: tuple = ()  # (True,) when the world has capsules, segments or chains: the tick's last argument
+        self.rounded: bool | None = None  # True with capsules, segments or chains (the tick's last argument)
 
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the records: numba structrefs, made anew when needed."""
@@ -250,7 +250,7 @@ class Pipeline:
                 ),  # fmt: skip
             )
             self._state_over = b.x
-            self.rounded = (True,) if bool(np.any(b.kind > POLYGON)) else ()
+            self.rounded = True if bool(np.any(b.kind > POLYGON)) else None
         return self._state
 
     def _forget_state(self) -> None:
@@ -376,7 +376,7 @@ class Pipeline:
                 self._colour(world)
             s = self.state(world)
             counts = self._counts(colour_order)
-            args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, *self.rounded)
+            args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded)
             types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded)
             spec_was, types_was, code = self._compiled
             kernel = code if spec_was is spec and types_was == types_now else tick
@@ -408,7 +408,7 @@ class Pipeline:
         Returns the child (None when the cache is warm, or it cannot help)."""
         if not ahead.wanted() or not ahead.cold(tick, args):
             return None
-        child = ahead.start(world._responder, args[1] is not None, len(args) > 8)
+        child = ahead.start(world._responder, args[1] is not None, args[8] is not None)
         if child is not None:
             ahead.compile_from_the_end(self, args)
         return child
@@ -434,10 +434,8 @@ class Pipeline:
         now = (self.n_pairs, self.manifolds, store.rows_used, store.points_used)
         margins = (step.contact_margin, step.recycle_distance)
         old_record, new_record = self.side_records[self.side], self.side_records[1 - self.side]
-        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(
-            self.bodies_record, self.shapes_record, self.store_record, old_record, new_record, now, margins,
-            *self.rounded,
-        )  # fmt: skip
+        records_in = (self.bodies_record, self.shapes_record, self.store_record, old_record, new_record)
+        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(*records_in, now, margins, self.rounded)
         order_contacts(self.shapes_record, new_record, self.n_pairs, (k, n_new, ascends), colour_order)
         # contacts and cache -> constraint rows
         n = 2 * k + world._joint_lam.shape[0]

@@ -22,12 +22,12 @@ from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, or
 
 
 @njit(cache=True)
-def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded=None):
+def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded):
     """One tick in one call, the stages in order; the responder's solve is PGS's (``pgs_step``)
     when ``pgs`` holds its settings, the soft step's (``soft_step_solve``) when ``soft`` does
     (the other is None: numba compiles only the one given). ``rounded`` is True in a world with
-    capsules, segments or chains, else left out (None): the collision of those shapes is then not
-    compiled either (``narrowphase.manifold``).
+    capsules, segments or chains, else None: the collision of those shapes is then not compiled
+    either (``narrowphase.manifold``).
 
     Stage 0 starts the tick (``begin``); when a body left its fat box it sweeps (``sweep``), or
     returns NEED_SWEEP when the bodies or joints changed or the pairs outgrow the buffers (Python
