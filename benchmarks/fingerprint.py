@@ -26,6 +26,7 @@ SCENES = {
     "mass_ratio": lambda r: scenes.mass_ratio(100.0, responder=r),
     "dominoes": lambda r: scenes.dominoes(12, responder=r),
     "leaning_stack": lambda r: scenes.vertical_stack(10, responder=r, lean=0.001),
+    "capsules_on_chain": lambda r: scenes.capsules_on_chain(8, responder=r),
 }
 RESPONDERS = ("pgs", "pgs-block", "pgs-matrix", "soft-step", "naive", "iterative")
 STEPS = 150

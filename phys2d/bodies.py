@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, NamedTuple, TypedDict
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .shapes import CIRCLE, ShapeSpec
+from .shapes import CHAIN, CIRCLE, KIND_NAMES, ShapeSpec
 from .validation import (
     MAX_BITS,
     check_bool,
@@ -49,10 +49,10 @@ MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
 ALL_CATEGORIES = MAX_BITS  # the default mask: collide with every category
 
 
-class BodyOptions(TypedDict, total=False):
-    """The keyword arguments every ``World.add_*`` takes besides the shape (SI units)."""
+class PlacedBodyOptions(TypedDict, total=False):
+    """``BodyOptions`` but the angle: what a shape placed by its points (a segment, a chain) takes,
+    and what an ``add_*`` that names ``angle`` itself takes besides it."""
 
-    angle: float  # rad
     density: float  # kg/m^2 (2D)
     friction: float  # mu >= 0 (pairs mix sqrt(mu_a mu_b))
     restitution: float  # e in [0, 1] (pairs take max(e_a, e_b))
@@ -66,6 +66,12 @@ class BodyOptions(TypedDict, total=False):
     category: int  # the categories it belongs to, a 64-bit mask
     mask: int  # the categories it collides with, a 64-bit mask
     group: int  # a shared negative group never collides, a shared positive group always does
+
+
+class BodyOptions(PlacedBodyOptions, total=False):
+    """The keyword arguments every ``World.add_*`` takes besides the shape (SI units)."""
+
+    angle: float  # rad
 
 
 class BodySettings(NamedTuple):
@@ -124,6 +130,12 @@ def should_collide(category_a: int, mask_a: int, group_a: int, category_b: int, 
     return (mask_a & category_b) != 0 and (category_a & mask_b) != 0
 
 
+def stored_rows(kind: int, vcount: int) -> int:
+    """Rows of ``local_v`` a body of this kind and vertex count takes: its vertices, and a chain
+    segment's two ghost vertices after them."""
+    return vcount + 2 if kind == CHAIN else vcount
+
+
 def _grown(a: np.ndarray, capacity: int) -> np.ndarray:
     out = np.zeros((capacity,) + a.shape[1:], dtype=a.dtype)
     out[: a.shape[0]] = a
@@ -145,8 +157,8 @@ class BodyArrays:
     M_inv: np.ndarray  # (N, 3) diagonal of M^-1: 1/kg, 1/kg, 1/(kg m^2); 0 for static bodies
     mass: np.ndarray  # (N,) kg
     inertia: np.ndarray  # (N,) kg m^2
-    kind: np.ndarray  # (N,) int32 shapes.CIRCLE or shapes.POLYGON
-    radius: np.ndarray  # (N,) circle radius, m (0 for polygons)
+    kind: np.ndarray  # (N,) int32 shapes.CIRCLE, POLYGON, CAPSULE, SEGMENT or CHAIN
+    radius: np.ndarray  # (N,) circle radius, or a capsule's or segment's rounding, m (0 for polygons)
     vstart: np.ndarray  # (N,) int32 first row of the body's vertices in local_v
     vcount: np.ndarray  # (N,) int32 number of vertices (0 for circles)
     friction: np.ndarray  # (N,) friction coefficient mu
@@ -162,7 +174,8 @@ class BodyArrays:
     group: np.ndarray  # (N,) int32 collision group (0: none)
     sleep_time: np.ndarray  # (N,) s the body has rested (``phys2d.sleep``)
     island: np.ndarray  # (N,) int64 id of the sleeping island it is in; -1: awake
-    local_v: np.ndarray  # (n_verts, 2) polygon vertices in the body frame, m
+    local_v: np.ndarray  # (n_verts, 2) polygon vertices in the body frame, m (a chain segment's two
+    # ghost vertices follow its two vertices: ``stored_rows``)
     local_n: np.ndarray  # (n_verts, 2) unit outward edge normals in the body frame
     # the storage behind them, grown by doubling
     _x: np.ndarray
@@ -245,12 +258,16 @@ class BodyArrays:
             for name in self._PER_BODY:
                 setattr(self, "_" + name, _grown(getattr(self, "_" + name), 2 * i))
         nv = spec.vertices.shape[0]
-        if self.n_verts + nv > self._local_v.shape[0]:
-            cap = max(2 * self._local_v.shape[0], self.n_verts + nv)
+        rows = nv + spec.ghosts.shape[0]
+        if self.n_verts + rows > self._local_v.shape[0]:
+            cap = max(2 * self._local_v.shape[0], self.n_verts + rows)
             self._local_v = _grown(self._local_v, cap)
             self._local_n = _grown(self._local_n, cap)
         self._local_v[self.n_verts : self.n_verts + nv] = spec.vertices
         self._local_n[self.n_verts : self.n_verts + nv] = spec.normals
+        if rows > nv:  # a chain segment's ghosts, after its vertices (their normals unused)
+            self._local_v[self.n_verts + nv : self.n_verts + rows] = spec.ghosts
+            self._local_n[self.n_verts + nv : self.n_verts + rows] = 0.0
         infinite_mass = o.static or o.kinematic
         self._x[i] = x
         self._theta[i] = o.angle
@@ -276,14 +293,14 @@ class BodyArrays:
         self._sleep_time[i] = 0.0
         self._island[i] = -1  # awake
         self.next_uid += 1
-        self.n_verts += nv
+        self.n_verts += rows
         self.n += 1
         self._refresh_views()
         return i
 
     def delete(self, i: int) -> None:
         """Remove row i, shifting later rows (and their vertex slices) down by one."""
-        s, c = int(self._vstart[i]), int(self._vcount[i])
+        s, c = int(self._vstart[i]), stored_rows(int(self._kind[i]), int(self._vcount[i]))
         for name in ("_local_v", "_local_n"):
             a = getattr(self, name)
             a[s : self.n_verts - c] = a[s + c : self.n_verts].copy()
@@ -530,17 +547,19 @@ class Body:
     # -- shape ------------------------------------------------------------
     @property
     def shape(self) -> str:
-        """'circle' or 'polygon' (boxes are polygons)."""
-        return "circle" if self._arrays().kind[self._index] == CIRCLE else "polygon"
+        """'circle', 'polygon' (boxes are polygons), 'capsule', 'segment' or 'chain' (one segment
+        of a chain)."""
+        return KIND_NAMES[int(self._arrays().kind[self._index])]
 
     @property
     def radius(self) -> float:
-        """Circle radius (m); 0 for polygons."""
+        """Circle radius, or the rounding of a capsule or segment (m); 0 for polygons and chains."""
         return float(self._arrays().radius[self._index])
 
     @property
     def local_vertices(self) -> np.ndarray:
-        """Polygon vertices in the body frame (m), counter-clockwise; (0, 2) for circles."""
+        """Polygon vertices in the body frame (m), counter-clockwise; (0, 2) for circles; a capsule's,
+        segment's or chain segment's two core ends."""
         a = self._arrays()
         s, c = a.vstart[self._index], a.vcount[self._index]
         return a.local_v[s : s + c].copy()
@@ -600,7 +619,13 @@ class Body:
         a = self._world._bodies
         i = self._index
         kind = "kinematic " if a.kinematic[i] else "static " if a.static[i] else "asleep " if a.island[i] >= 0 else ""
-        shape = f"circle r={a.radius[i]:.3g}" if a.kind[i] == CIRCLE else f"polygon {a.vcount[i]} vertices"
+        if a.kind[i] == CIRCLE:
+            shape = f"circle r={a.radius[i]:.3g}"
+        elif a.vcount[i] == 2:  # capsule, segment or chain segment: its core's length and rounding
+            v = a.local_v[a.vstart[i] : a.vstart[i] + 2]
+            shape = f"{KIND_NAMES[a.kind[i]]} length={float(np.hypot(*(v[1] - v[0]))):.3g} r={a.radius[i]:.3g}"
+        else:
+            shape = f"polygon {a.vcount[i]} vertices"
         x, y = a.x[i]
         return (
             f"<Body {i}: {kind}{shape}, position=({x:.4g}, {y:.4g}) m, "

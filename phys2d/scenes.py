@@ -170,6 +170,35 @@ def heavy_chain(
     return w
 
 
+def terrain_height(x: float) -> float:
+    """The height (m) of ``capsules_on_chain``'s rolling terrain at x (m): 0.25 sin(x / 2), slopes
+    up to 0.125, well below the friction 0.6."""
+    return 0.25 * math.sin(0.5 * x)
+
+
+def capsules_on_chain(n: int = 8, responder: Responder | None = None) -> World:
+    """n bodies dropped from 5 cm onto a rolling chain terrain: capsules lying on their sides
+    (half length 0.4 m, radius 0.2 m) and 0.6 m boxes in turn, 1.5 m apart, so that some
+    land across the joins of its 1 m segments. The terrain is one static chain through
+    (x, terrain_height(x)) at every metre, listed right to left so that its colliding
+    (right) side faces up, reaching 3 m past the bodies on each side. They should come
+    to rest where they land (friction 0.6): the chain meets them with its faces only.
+    """
+    n = _check_count(n, "n")
+    w = World(responder=responder)
+    reach = math.ceil(0.75 * n) + 3
+    w.add_chain([(float(x), terrain_height(x)) for x in range(reach, -reach - 1, -1)], friction=0.6)
+    for k in range(n):
+        x = (k - 0.5 * (n - 1)) * 1.5
+        ground_y = terrain_height(x)
+        slope = math.atan(0.125 * math.cos(0.5 * x))  # the terrain's angle under x
+        if k % 2 == 0:
+            w.add_capsule((x, ground_y + 0.25), half_length=0.4, radius=0.2, angle=slope, friction=0.6)
+        else:
+            w.add_box((x, ground_y + 0.35), half_extents=(0.3, 0.3), angle=slope, friction=0.6)
+    return w
+
+
 SCENES = {
     "pyramid": (pyramid, "rows of the pyramid"),
     "vertical_stack": (vertical_stack, "boxes in the stack"),
@@ -178,6 +207,7 @@ SCENES = {
     "mixed_shapes": (mixed_shapes, "bodies dropped"),
     "pendulum_chain": (pendulum_chain, "links in the chain"),
     "heavy_chain": (heavy_chain, "links in the chain (the box at its end is 100x a link's mass)"),
+    "capsules_on_chain": (capsules_on_chain, "capsules and boxes dropped on the chain terrain"),
 }
 
 # Box2D's and Solver2D's samples (phys2d/stock_scenes.py)

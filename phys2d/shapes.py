@@ -1,6 +1,13 @@
-"""Shapes: circles and convex polygons, their validation and mass properties.
+"""Shapes: circles, convex polygons, capsules, segments and chain segments; their validation
+and mass properties.
 
-Every body has exactly one shape. A shape is described in the body frame, whose
+Every body has exactly one shape. A capsule, a segment and a chain segment are rounded
+two-vertex polygons: a core segment v_0 v_1 (edge 0 runs v_0 -> v_1, edge 1 back) swept by a
+disc of ``radius`` (0 for a bare segment), so the polygon narrowphase serves them with a
+radius (docs/formulation.md#rounded-polygons-capsules-segments-and-chains). A chain segment
+also keeps its neighbours' far ends, its ghost vertices, which make it one-sided and smooth.
+
+A shape is described in the body frame, whose
 origin is the body's centre of mass ``x_b`` (docs/formulation.md#symbols-arrays-and-units): a polygon
 given with its centroid elsewhere is re-centred, so the body's position is always
 the centre of mass the lecture integrates.
@@ -12,16 +19,23 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from .validation import positive_float, vec2
+from .validation import non_negative_float, positive_float, vec2
 
-__all__ = ["CIRCLE", "POLYGON", "ShapeSpec", "box", "circle", "mass_properties", "polygon", "positive_float"]
+__all__ = [
+    "CAPSULE", "CHAIN", "CIRCLE", "KIND_NAMES", "POLYGON", "SEGMENT", "ShapeSpec", "box", "capsule", "chain",
+    "circle", "mass_properties", "polygon", "positive_float", "rounded_area_properties", "segment",
+]  # fmt: skip
 
 CIRCLE = 0
 POLYGON = 1
+CAPSULE = 2  # a rounded segment, dynamic like any body
+SEGMENT = 3  # a static segment, two-sided, optionally rounded
+CHAIN = 4  # a static segment of a chain: one-sided, with ghost vertices
+KIND_NAMES = ("circle", "polygon", "capsule", "segment", "chain")  # by kind
 
 MAX_POLYGON_VERTICES = 64
 MIN_EDGE_LENGTH = 1e-4  # m: shorter edges make normals meaningless
@@ -32,13 +46,15 @@ _COLLINEAR_TOL = 1e-7  # sin of the smallest turn accepted between two edges
 class ShapeSpec:
     """A validated shape in its body frame, ready to be stored in the world's arrays."""
 
-    kind: int  # CIRCLE or POLYGON
-    radius: float  # m (0 for polygons)
+    kind: int  # CIRCLE, POLYGON, CAPSULE, SEGMENT or CHAIN
+    radius: float  # m: the circle's, or the rounding of a capsule or segment (0 for polygons)
     vertices: np.ndarray  # (n, 2) counter-clockwise, centroid at the origin (empty for circles)
     normals: np.ndarray  # (n, 2) outward unit normal of edge k = (v_k, v_k+1)
     centroid: np.ndarray  # (2,) where the given vertices' centroid was, in the given frame
     area: float  # m^2
     unit_inertia: float  # m^4: polar second moment of area about the centroid
+    ghosts: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (2, 2) chain segments only:
+    # the previous segment's first point and the next one's last, in the body frame
 
 
 def circle(radius) -> ShapeSpec:
@@ -138,8 +154,122 @@ def _convex_polygon(v: np.ndarray, name: str) -> ShapeSpec:
     return ShapeSpec(POLYGON, 0.0, a.copy(), normals, centroid, area, float(second))
 
 
+def rounded_area_properties(half_length: float, radius: float) -> tuple[float, float]:
+    """Area (m^2) and polar second moment about the centre (m^4) of a capsule: a rectangle
+    2 h x 2 r and two half discs of radius r on its ends (h = half_length, r = radius, m).
+
+    A = 4 h r + pi r^2. J = 4 h r (4 h^2 + 4 r^2) / 12 for the rectangle, and for the discs
+    pi r^2 (r^2 / 2 + h^2 + 2 h l_c) by the parallel axis theorem, each half's centroid
+    l_c = 4 r / (3 pi) beyond its end of the core.
+    """
+    h, r = half_length, radius
+    rectangle = 4.0 * h * r
+    disc = math.pi * r * r
+    j_rectangle = rectangle * (4.0 * h * h + 4.0 * r * r) / 12.0
+    j_discs = disc * (0.5 * r * r + h * h + 2.0 * h * (4.0 * r / (3.0 * math.pi)))
+    return rectangle + disc, j_rectangle + j_discs
+
+
+def _core(a: np.ndarray, b: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The core segment a -> b as a two-vertex polygon centred on its midpoint: (vertices, normals,
+    midpoint, half length m); edge 0 runs a -> b with its normal on the right, edge 1 back."""
+    d = b - a
+    with np.errstate(over="ignore", invalid="ignore"):
+        length = float(np.hypot(d[0], d[1]))
+    if not math.isfinite(length):
+        raise ValueError(f"{name} is too large: its length overflows a float")
+    if length < MIN_EDGE_LENGTH:
+        raise ValueError(
+            f"{name}: its points are {length:.3g} m apart (closer than {MIN_EDGE_LENGTH} m): "
+            "repeated or too-close points"
+        )
+    mid = 0.5 * (a + b)
+    n = np.array([d[1], -d[0]]) / length
+    return np.stack([a - mid, b - mid]), np.stack([n, -n]), mid, 0.5 * length
+
+
+def _rounded(kind: int, vertices: np.ndarray, normals: np.ndarray, centre: np.ndarray, h: float, r: float) -> ShapeSpec:
+    area, second = rounded_area_properties(h, r)
+    if not (math.isfinite(area) and math.isfinite(second)):
+        raise ValueError(f"radius {r:g} m and half_length {h:g} m are too large for a finite area and inertia")
+    return ShapeSpec(kind, r, vertices, normals, centre, area, second)
+
+
+def capsule(half_length, radius) -> ShapeSpec:
+    """A capsule along the body's x axis: the core from (-half_length, 0) to (half_length, 0) (m),
+    rounded by ``radius`` (m): a stadium 2 (half_length + radius) long and 2 radius wide."""
+    h = positive_float(half_length, "half_length")
+    r = positive_float(radius, "radius")
+    if 2.0 * h < MIN_EDGE_LENGTH:
+        raise ValueError(f"half_length must be >= {0.5 * MIN_EDGE_LENGTH} m, got {h:g}: use add_circle for a disc")
+    vertices, normals, _, _ = _core(np.array([-h, 0.0]), np.array([h, 0.0]), "half_length")
+    spec = _rounded(CAPSULE, vertices, normals, np.zeros(2), h, r)
+    if not spec.unit_inertia > 0.0:
+        raise ValueError(f"radius {r:g} m is too small for a non-zero inertia")
+    return spec
+
+
+def segment(a, b, radius=0.0) -> ShapeSpec:
+    """A static segment from world point ``a`` to ``b`` (m), rounded by ``radius`` (m, >= 0); its
+    centroid (the body's position) is their midpoint. Two-sided."""
+    pa, pb = vec2(a, "a"), vec2(b, "b")
+    r = non_negative_float(radius, "radius")
+    vertices, normals, mid, h = _core(pa, pb, "a, b")
+    return _rounded(SEGMENT, vertices, normals, mid, h, r)
+
+
+def chain(points, loop: bool = False) -> list[ShapeSpec]:
+    """The segments of a chain through ``points`` (m, world), each a CHAIN spec whose centroid is
+    its midpoint and whose ghosts are its neighbours' far ends.
+
+    A chain segment collides from its right only (the side its normal, the right-hand
+    perpendicular of p_k -> p_k+1, points to): the outside of a counter-clockwise loop,
+    the top of a ground listed right to left. An open chain's free ends get a ghost a
+    quarter turn back (p_0 - n_0 and p_n - n_last): a quarter-round end on the colliding side.
+    """
+    if isinstance(points, (str, bytes)):
+        raise TypeError("points must be a sequence of (x, y) points")
+    try:
+        p = np.asarray(points)
+    except Exception as exc:
+        raise TypeError(f"points must be a sequence of (x, y) points: {exc}") from None
+    if p.dtype == object or p.dtype.kind not in "iuf":
+        raise TypeError("points must be a sequence of (x, y) points of numbers")
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"points must have shape (n, 2), got shape {p.shape}")
+    p = p.astype(np.float64)
+    n = p.shape[0]
+    if n < (3 if loop else 2):
+        need = 3 if loop else 2
+        raise ValueError(f"points needs at least {need} points for {'a loop' if loop else 'a chain'}, got {n}")
+    if not np.all(np.isfinite(p)):
+        k = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
+        raise ValueError(f"points must be finite: point {k} is {p[k].tolist()}")
+    ends = [(k, (k + 1) % n) for k in range(n if loop else n - 1)]
+    cores = []
+    for k, (i, j) in enumerate(ends):
+        cores.append(_core(p[i], p[j], f"points {i} and {j} (segment {k})"))
+    specs = []
+    for k, (i, j) in enumerate(ends):
+        vertices, normals, mid, h = cores[k]
+        if loop or k > 0:
+            before = p[(i - 1) % n]
+        else:  # a free end: a quarter turn back along the normal
+            before = p[i] - normals[0]
+        if loop or k < len(ends) - 1:
+            after = p[(j + 1) % n]
+        else:
+            after = p[j] - normals[0]
+        ghosts = np.stack([before - mid, after - mid])
+        specs.append(ShapeSpec(CHAIN, 0.0, vertices, normals, mid, 0.0, 0.0, ghosts))
+    return specs
+
+
 def mass_properties(spec: ShapeSpec, density: float) -> tuple[float, float]:
-    """Mass (kg) and moment of inertia about the centre of mass (kg m^2)."""
+    """Mass (kg) and moment of inertia about the centre of mass (kg m^2); (0, 0) for a bare
+    segment or chain segment, which has no area (it is always static)."""
+    if spec.kind in (SEGMENT, CHAIN) and spec.area == 0.0:
+        return 0.0, 0.0
     mass = density * spec.area
     inertia = density * spec.unit_inertia
     # M^-1 = (1/m, 1/m, 1/I) must be finite too: a subnormal mass would give an infinite one

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from . import shapes
 from . import sleep as sleeping
-from .bodies import Body, BodyArrays, BodyOptions, body_settings
+from .bodies import MAX_BODY_UID, Body, BodyArrays, BodyOptions, PlacedBodyOptions, body_settings
 from .collision import queries
 from .collision.queries import RayHit
 from .constraints.joints import (
@@ -58,6 +58,23 @@ def _read_only_view(field: str, doc: str) -> property:
         return view
 
     return property(get, doc=doc)
+
+
+def _given(spec: shapes.ShapeSpec) -> Callable[[], shapes.ShapeSpec]:
+    """A maker of the shape ``spec``, made already."""
+    return lambda: spec
+
+
+def _static_options(options: PlacedBodyOptions, method: str) -> BodyOptions:
+    """The body options of a segment or chain: static, whatever ``options`` say of it (False, or
+    kinematic, or an angle, is refused: its points place it)."""
+    if "static" in options and options["static"] is not True:
+        raise ValueError(f"static: {method} makes static bodies only, got static={options['static']!r}")
+    if options.get("kinematic", False) is not False:
+        raise ValueError(f"kinematic: {method} makes static bodies only, got kinematic={options['kinematic']!r}")
+    if "angle" in options:
+        raise TypeError(f"angle: {method} takes no angle, its points place it")
+    return BodyOptions(**{**options, "static": True})
 
 
 class World:
@@ -280,6 +297,50 @@ class World:
         ``position`` (m): a body's position is always its centre of mass.
         """
         return self._add(lambda: shapes.polygon(vertices), position, options)
+
+    def add_capsule(
+        self,
+        position: ArrayLike = (0.0, 0.0),
+        *,
+        half_length: float,
+        radius: float,
+        angle: float = 0.0,
+        **options: Unpack[PlacedBodyOptions],
+    ) -> Body:
+        """A capsule centred at ``position`` (m): the core segment from (-half_length, 0) to
+        (half_length, 0) in the body frame (m), rotated by ``angle`` (rad), swept by a disc of
+        ``radius`` (m). Mass and inertia are the stadium's (``shapes.rounded_area_properties``)."""
+        return self._add(lambda: shapes.capsule(half_length, radius), position, BodyOptions(**options, angle=angle))
+
+    def add_segment(
+        self, a: ArrayLike, b: ArrayLike, *, radius: float = 0.0, **options: Unpack[PlacedBodyOptions]
+    ) -> Body:
+        """A static segment from world point ``a`` to ``b`` (m), rounded by ``radius`` (m, >= 0),
+        two-sided. Its body sits at the midpoint, angle 0; it takes the body options but for
+        static (always True), kinematic and angle."""
+        spec = shapes.segment(a, b, radius)
+        return self._add(lambda: spec, spec.centroid, _static_options(options, "add_segment"))
+
+    def add_chain(
+        self, points: ArrayLike, *, loop: bool = False, **options: Unpack[PlacedBodyOptions]
+    ) -> tuple[Body, ...]:
+        """A static chain through ``points`` (m, world; a closed one with ``loop``): one static body
+        per segment p_k -> p_k+1, returned as a tuple in that order (remove each to remove it).
+
+        A chain is one-sided, as Box2D's: a segment collides only from its right, the side
+        of its normal n_k (the right-hand perpendicular of p_k -> p_k+1): the outside of a
+        counter-clockwise loop, the top of a ground listed from right to left. It is also
+        smooth: a body sliding along collinear segments meets no bump at the joins, for a
+        segment ignores contact normals that belong to its neighbours (their ghost vertices,
+        ``collision.rounded``). It takes the body options but static, kinematic and angle.
+        """
+        loop = check_bool(loop, "loop")
+        specs = shapes.chain(points, loop)
+        o = _static_options(options, "add_chain")
+        body_settings(o)  # checked before any segment is added: a rejected call changes nothing
+        if self._bodies.next_uid + len(specs) - 1 > MAX_BODY_UID:
+            raise ValueError(f"a world can create at most {MAX_BODY_UID + 1} bodies in its lifetime")
+        return tuple(self._add(_given(spec), spec.centroid, o) for spec in specs)
 
     def _add(self, make_shape: Callable[[], shapes.ShapeSpec], position: ArrayLike, options: BodyOptions) -> Body:
         # validate everything before touching the arrays: a rejected call changes nothing
@@ -736,8 +797,14 @@ class World:
     body_static = _read_only_view(
         "static", "(N,) bool, True for bodies of infinite mass (M^-1 = 0): static and kinematic ones."
     )
-    body_kinds = _read_only_view("kind", "(N,) int32 shape kind of each body: ``phys2d.shapes.CIRCLE`` or ``POLYGON``.")
-    body_radii = _read_only_view("radius", "(N,) float64 circle radius of each body, m (0 for polygons).")
+    body_kinds = _read_only_view(
+        "kind",
+        "(N,) int32 shape kind of each body: ``phys2d.shapes.CIRCLE``, ``POLYGON``, ``CAPSULE``, ``SEGMENT`` "
+        "or ``CHAIN``.",
+    )
+    body_radii = _read_only_view(
+        "radius", "(N,) float64 circle radius, or a capsule's or segment's rounding, of each body, m (0 for polygons)."
+    )
     body_masses = _read_only_view("mass", "(N,) float64 mass m of each body, kg (also for static bodies).")
     body_inertias = _read_only_view(
         "inertia", "(N,) float64 moment of inertia I of each body about its centre of mass, kg m^2."
@@ -749,11 +816,14 @@ class World:
         return self._bodies.island >= 0
 
     vertex_start = _read_only_view("vstart", "(N,) int32 first row of each body's polygon in ``local_vertices``.")
-    vertex_count = _read_only_view("vcount", "(N,) int32 number of polygon vertices of each body (0 for circles).")
+    vertex_count = _read_only_view(
+        "vcount", "(N,) int32 number of polygon vertices of each body (0 for circles, 2 for capsules and segments)."
+    )
     local_vertices = _read_only_view(
         "local_v",
         "(V, 2) float64 every polygon vertex in its body's frame, m, counter-clockwise; body i's are rows "
-        "``vertex_start[i] : vertex_start[i] + vertex_count[i]``.",
+        "``vertex_start[i] : vertex_start[i] + vertex_count[i]`` (a chain segment's two ghost vertices, its "
+        "neighbours' far ends, follow them).",
     )
 
     def __repr__(self) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import phys2d
+from phys2d import shapes as shapes_module
 from phys2d.collision.broadphase import update_geometry
 from phys2d.collision.narrowphase import collide_pairs
 from phys2d.pipeline import records
@@ -32,8 +33,9 @@ def records_now(w: phys2d.World, V: np.ndarray, pairs: np.ndarray, dt: float = 1
 def manifolds_of(w: phys2d.World, bodies, shapes, n_pairs: int) -> phys2d.Contacts:
     """The narrowphase's contacts (``collide_pairs``) of the first n_pairs pairs of ``shapes``."""
     out = ContactBuffers(n_pairs)
+    rounded = True if bool(np.any(w.body_kinds > shapes_module.POLYGON)) else None  # as the tick's
     k = collide_pairs(bodies, shapes, n_pairs, w.contact_margin, records.new_contacts(
-        records.arrays_of(out, records.CONTACT_FIELDS)))  # fmt: skip
+        records.arrays_of(out, records.CONTACT_FIELDS)), rounded)  # fmt: skip
     return out.contacts(k)
 
 

@@ -31,6 +31,9 @@ ADDERS = {
     "add_box": "position",
     "add_circle": "position",
     "add_polygon": "position",
+    "add_capsule": "position",
+    "add_segment": "b",
+    "add_chain": "points",
     "add_distance_joint": "b",
     "add_pin_joint": "b",
     "add_angle_joint": "b",
@@ -60,8 +63,11 @@ TRIANGLE = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]
         lambda w: w.add_circle((0.0, 0.0), 0.5),
         lambda w: w.add_polygon((0.0, 0.0), TRIANGLE),
         lambda w: w.add_box((0.0, 0.0), (0.5, 0.5), 0.0, 1.0),
+        lambda w: w.add_capsule((0.0, 0.0), 0.5, 0.2),
+        lambda w: w.add_segment((0.0, 0.0), (1.0, 0.0), 0.1),
+        lambda w: w.add_chain([(0.0, 0.0), (1.0, 0.0)], True),
     ],
-    ids=["box", "circle", "polygon", "box-four"],
+    ids=["box", "circle", "polygon", "box-four", "capsule", "segment", "chain"],
 )
 def test_positional_arguments_past_position_are_refused(call) -> None:
     w = phys2d.World()

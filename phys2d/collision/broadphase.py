@@ -21,7 +21,8 @@ from .sort import lower_bound, stable_argsort
 
 @njit(cache=True)
 def update_geometry(bodies, shapes, dt, margin):
-    """World-frame vertices and edge normals of every polygon, every body's AABB and rotation;
+    """World-frame vertices and edge normals of every polygon (capsules', segments' and chain segments'
+    two core ends too), every body's AABB (a rounded one's grown by its radius) and rotation;
     returns whether every tight box still lies inside its fat box (``fits_inside``: last step's
     pairs still hold).
 
@@ -69,8 +70,9 @@ def update_geometry(bodies, shapes, dt, margin):
             lo_y = min(lo_y, vy)
             hi_x = max(hi_x, vx)
             hi_y = max(hi_y, vy)
-        travel[b] = dt * (speed + abs(V[b, 2]) * np.sqrt(r2))
-        grow = margin + travel[b]
+        rounding = shapes.radius[b]  # a capsule's or segment's (0 for polygons): its surface lies that far out
+        travel[b] = dt * (speed + abs(V[b, 2]) * (np.sqrt(r2) + rounding))
+        grow = margin + travel[b] + rounding
         aabb[b, 0] = lo_x - grow
         aabb[b, 1] = lo_y - grow
         aabb[b, 2] = hi_x + grow

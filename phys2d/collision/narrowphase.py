@@ -21,6 +21,12 @@ Polygon-polygon (SAT plus clipping of the incident edge, as in Box2D-Lite):
 Circle-polygon: bit 7 is 0 for the polygon's edge region (bits 0-6: edge),
     1 for a vertex region (bits 0-6: vertex). Circle-circle: 0.
 
+Capsules, segments and chain segments are rounded two-vertex polygons (``rounded``):
+against a polygon or one another they make polygon-pair ids (a capsule's edge 0 runs
+from its vertex 0 to 1, edge 1 back), and against a circle circle-polygon ids. A single
+point from the closest features of two cores sets bit 7 in a polygon-pair id: bits 8-13
+a's vertex (bit 14: a's edge instead), bits 1-6 b's vertex (bit 0: b's edge).
+
 Points whose surfaces are still up to a small margin apart (separation > 0) are
 kept as speculative contacts: their rows let the gap close within the step and
 no further, so a resting box that tilts by a hair keeps both corners supported.
@@ -33,16 +39,39 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..shapes import CIRCLE
-
-FLIP_BIT = 1 << 15
-VERTEX_BIT = 1 << 7
-EDGE_MASK = 63  # 6 bits: an edge or vertex index
-REFERENCE_SHIFT = 8
-INCIDENT_SHIFT = 1
-END_BIT = 1
+from ..shapes import CHAIN, CIRCLE, POLYGON
+from .rounded import (
+    A_EDGE_BIT,
+    B_EDGE_BIT,
+    CLOSEST_BIT,
+    chain_geometry,
+    collide_capsules,
+    collide_chain,
+    collide_circle_capsule,
+    collide_circle_chain,
+    collide_rounded,
+    swapped,
+)
+from .sat import (
+    EDGE_MASK,
+    END_BIT,
+    FLIP_BIT,
+    INCIDENT_SHIFT,
+    REFERENCE_FACE_TOL,
+    REFERENCE_SHIFT,
+    VERTEX_BIT,
+    max_separation,
+)
 
 PAIR_KINDS = ("polygons", "circle-polygon", "circles")
+
+
+def pair_kind(kind_a: int, kind_b: int) -> str:
+    """Which ``describe_feature`` pair two shape kinds (``shapes.CIRCLE``, ...) make: "circles",
+    "circle-polygon" (a circle and anything else) or "polygons" (boxes, polygons, capsules,
+    segments and chain segments: all polygons, some rounded)."""
+    circles = (kind_a == CIRCLE) + (kind_b == CIRCLE)
+    return PAIR_KINDS[circles]
 
 
 class Feature(NamedTuple):
@@ -55,6 +84,9 @@ class Feature(NamedTuple):
     end             polygons: 0 if the point lies towards the reference edge's first vertex, 1 its second
     edge            circle-polygon: the polygon edge whose region holds the circle's centre
     vertex          circle-polygon: the polygon vertex whose region holds it
+    closest_a       polygons, one point from the closest features of two rounded cores:
+                    a's feature, ("vertex", k) or ("edge", k)
+    closest_b       ... and b's
     """
 
     pair: str
@@ -64,8 +96,13 @@ class Feature(NamedTuple):
     end: int | None = None
     edge: int | None = None
     vertex: int | None = None
+    closest_a: tuple[str, int] | None = None
+    closest_b: tuple[str, int] | None = None
 
     def __repr__(self) -> str:
+        if self.closest_a is not None and self.closest_b is not None:
+            (kind_a, index_a), (kind_b, index_b) = self.closest_a, self.closest_b
+            return f"Feature(closest features: {kind_a} {index_a} of a, {kind_b} {index_b} of b)"
         if self.pair == "polygons":
             other = "a" if self.reference == "b" else "b"
             return (
@@ -89,6 +126,13 @@ def describe_feature(feature: int, pair: str = "polygons") -> Feature:
     feature = int(feature)
     if pair not in PAIR_KINDS:
         raise ValueError(f"pair must be one of {', '.join(PAIR_KINDS)}, got {pair!r}")
+    if pair == "polygons" and 0 <= feature < FLIP_BIT and feature & CLOSEST_BIT:
+        a_index, b_index = feature >> REFERENCE_SHIFT & EDGE_MASK, feature >> INCIDENT_SHIFT & EDGE_MASK
+        return Feature(
+            pair,
+            closest_a=("edge" if feature & A_EDGE_BIT else "vertex", a_index),
+            closest_b=("edge" if feature & B_EDGE_BIT else "vertex", b_index),
+        )
     if pair == "polygons":
         if not 0 <= feature < 2 * FLIP_BIT or feature & (VERTEX_BIT | 1 << 14):
             raise ValueError(f"feature {feature:#x} is not a polygon-polygon feature id")
@@ -109,32 +153,6 @@ def describe_feature(feature: int, pair: str = "polygons") -> Feature:
     return Feature(pair)
 
 
-# Prefer the first polygon's face unless the second's separates clearly more:
-# nearly equal faces then never trade places from one tick to the next.
-REFERENCE_FACE_TOL = 5e-4  # m
-
-
-@njit(cache=True)
-def _max_separation(world_v, world_n, sa, na, sb, nb, margin):
-    """Edge of polygon A whose outward normal separates B the most: (edge, separation m)."""
-    best_edge = 0
-    best = -np.inf
-    for e in range(na):
-        nx, ny = world_n[sa + e, 0], world_n[sa + e, 1]
-        vx, vy = world_v[sa + e, 0], world_v[sa + e, 1]
-        deepest = np.inf  # support point of B against this face
-        for k in range(nb):
-            d = nx * (world_v[sb + k, 0] - vx) + ny * (world_v[sb + k, 1] - vy)
-            if d < deepest:
-                deepest = d
-        if deepest > best:
-            best = deepest
-            best_edge = e
-            if best > margin:
-                break  # a separating axis: no contact, whatever the other edges say
-    return best_edge, best
-
-
 @njit(cache=True)
 def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     """Polygon-polygon manifold of polygons A (vertices sa..sa+na) and B.
@@ -143,10 +161,10 @@ def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     the normal from A to B and count in 0..2 (the first ``count`` points are valid).
     """
     none = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0)
-    edge_a, sep_a = _max_separation(world_v, world_n, sa, na, sb, nb, margin)
+    edge_a, sep_a = max_separation(world_v, world_n, sa, na, sb, nb, margin)
     if sep_a > margin:
         return none
-    edge_b, sep_b = _max_separation(world_v, world_n, sb, nb, sa, na, margin)
+    edge_b, sep_b = max_separation(world_v, world_n, sb, nb, sa, na, margin)
     if sep_b > margin:
         return none
     # reference face: the one that separates most, with a bias towards A's
@@ -268,11 +286,18 @@ def collide_circles(xa, ya, ra, xb, yb, rb, margin):
 
 
 @njit(cache=True)
-def manifold(a, b, x, shapes, margin):
+def manifold(a, b, x, shapes, margin, rounded):
     """The manifold of bodies a and b (at centres x), points up to ``margin`` (m) apart, normal
-    from a to b: (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2)."""
+    from a to b: (count, nx, ny, p1x, p1y, sep1, feature1, p2x, p2y, sep2, feature2).
+
+    ``rounded``: None in a world of circles and polygons only, True when it has capsules,
+    segments or chains. numba prunes the branch on None when it compiles, so a world
+    without them compiles none of ``rounded``'s code."""
     kind, radius, vstart, vcount = shapes.kind, shapes.radius, shapes.vstart, shapes.vcount
     world_v, world_n = shapes.world_v, shapes.world_n
+    if rounded is not None:
+        if kind[a] > POLYGON or kind[b] > POLYGON:
+            return rounded_manifold(a, b, x, shapes, margin)
     if kind[a] != CIRCLE and kind[b] != CIRCLE:
         return collide_polygons(world_v, world_n, vstart[a], vcount[a], vstart[b], vcount[b], margin)
     if kind[a] == CIRCLE and kind[b] == CIRCLE:
@@ -285,6 +310,40 @@ def manifold(a, b, x, shapes, margin):
         c = collide_circle_polygon(world_v, world_n, vstart[a], vcount[a], x[b, 0], x[b, 1], radius[b], margin)
         sign = 1.0
     return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
+
+
+@njit(cache=True)
+def circle_against(p, c, x, shapes, margin):
+    """Circle body c against body p, a capsule, segment or chain segment: (count, nx, ny, px, py,
+    sep, feature) with the normal from p to the circle."""
+    world_v, world_n, s, r = shapes.world_v, shapes.world_n, shapes.vstart[p], shapes.radius[c]
+    if shapes.kind[p] == CHAIN:
+        pose = chain_geometry(p, x, shapes.rotation, shapes.local_v, shapes.vstart)
+        return collide_circle_chain(pose, (x[c, 0], x[c, 1]), r, margin)
+    return collide_circle_capsule(world_v, world_n, s, shapes.radius[p], (x[c, 0], x[c, 1]), r, margin)
+
+
+@njit(cache=True)
+def rounded_manifold(a, b, x, shapes, margin):
+    """Bodies a and b, one a capsule, segment or chain segment (``rounded``): the manifold, normal
+    from a to b."""
+    kind, radius, vstart, vcount = shapes.kind, shapes.radius, shapes.vstart, shapes.vcount
+    world_v, world_n = shapes.world_v, shapes.world_n
+    if kind[a] == CIRCLE or kind[b] == CIRCLE:  # normal from the other shape to the circle
+        circle_first = kind[a] == CIRCLE
+        c = circle_against(b, a, x, shapes, margin) if circle_first else circle_against(a, b, x, shapes, margin)
+        sign = -1.0 if circle_first else 1.0
+        return (c[0], sign * c[1], sign * c[2], c[3], c[4], c[5], c[6], c[3], c[4], c[5], c[6])
+    if kind[a] == CHAIN or kind[b] == CHAIN:  # the chain first, then swapped back if it is b
+        c, o = (a, b) if kind[a] == CHAIN else (b, a)
+        pose = chain_geometry(c, x, shapes.rotation, shapes.local_v, vstart)
+        shape_o = (vstart[o], vcount[o], radius[o], (x[o, 0], x[o, 1]))
+        m = collide_chain(world_v, world_n, vstart[c], pose, shape_o, margin)
+        return m if c == a else swapped(m, True)
+    if kind[a] != POLYGON and kind[b] != POLYGON:  # capsules and segments
+        return collide_capsules(world_v, world_n, vstart[a], vstart[b], (radius[a], radius[b]), margin)
+    radii = (radius[a], radius[b])  # a polygon's is 0
+    return collide_rounded(world_v, world_n, (vstart[a], vcount[a]), (vstart[b], vcount[b]), radii, margin)
 
 
 @njit(cache=True, inline="always")
@@ -327,7 +386,7 @@ def pair_friction(friction, restitution, a, b):
 
 
 @njit(cache=True)
-def collide_pairs(bodies, shapes, n_pairs, contact_margin, out):
+def collide_pairs(bodies, shapes, n_pairs, contact_margin, out, rounded):
     """Manifolds of the first n_pairs candidate pairs (``shapes.pairs``) into ``out``; returns
     the number of points K.
 
@@ -336,14 +395,15 @@ def collide_pairs(bodies, shapes, n_pairs, contact_margin, out):
     bring together within the step (``travel``, see broadphase). Each point also
     gets its contact key (uid_a << 39 | uid_b << 16 | feature), the pair's friction
     sqrt(mu_a mu_b) and restitution max(e_a, e_b). ``out`` needs room for 2 n_pairs
-    points; pair q's points are out.pair_start[q] up to out.pair_start[q + 1].
+    points; pair q's points are out.pair_start[q] up to out.pair_start[q + 1]. ``rounded``: as
+    ``manifold``'s.
     """
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
     travel = shapes.travel
     for q in range(n_pairs):
         out.pair_start[q] = k
         a, b = shapes.pairs[q, 0], shapes.pairs[q, 1]
-        m = manifold(a, b, bodies.x, shapes, contact_margin + travel[a] + travel[b])
+        m = manifold(a, b, bodies.x, shapes, contact_margin + travel[a] + travel[b], rounded)
         pair = (pair_key(shapes.uid, a, b), *pair_friction(shapes.friction, shapes.restitution, a, b))
         for point in range(m[0]):  # one or two points
             write_point(out, k, a, b, manifold_point(m, point), pair)

@@ -39,8 +39,10 @@ now: an impulse acts at one point of both bodies.
 Fast pairs (whose velocities could carry them further than contact_margin within
 the step) are always collided anew, so speculative contacts still see what is
 coming; so is a pair that had no points, one whose recycled points would lie
-further apart than the narrowphase keeps them, and any pair with a circle (a
-rolling circle's point moves over its surface as it turns).
+further apart than the narrowphase keeps them, and any pair but two polygons: with
+a circle or a capsule (a rolling circle's point moves over its surface as it
+turns), or a segment or chain segment (a body rocking over a chain's vertex turns
+a corner onto the next segment, which the points it had do not hold).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..shapes import CIRCLE
+from ..shapes import CIRCLE, POLYGON
 from .narrowphase import FLIP_BIT, manifold, manifold_point, pair_friction, pair_key, write_point
 from .sort import lower_bound
 
@@ -66,7 +68,7 @@ def body_extent(b, shapes):
     local_v = shapes.local_v
     for v in range(shapes.vstart[b], shapes.vstart[b] + shapes.vcount[b]):
         r2 = max(r2, local_v[v, 0] ** 2 + local_v[v, 1] ** 2)
-    return np.sqrt(r2)
+    return np.sqrt(r2) + shapes.radius[b]  # a capsule's rounding (0 for polygons)
 
 
 @njit(cache=True, inline="always")
@@ -202,7 +204,7 @@ def store_manifold(store, row, points_used, out, k, m, pair, x, rotation):
 
 
 @njit(cache=True)
-def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
+def collide_recycling(bodies, shapes, store, cached, out, counts, margins, rounded):
     """As ``narrowphase.collide_pairs``, reusing the cached manifolds that may be recycled.
 
     counts = (n_pairs, n_cached, rows_used, points_used); margins = (contact_margin,
@@ -212,7 +214,8 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
     bodies' (cos, sin)) and span (its points: span[r, 0] up to span[r, 1] of anchor, normal,
     separation, feature), as the manifold was found. A recycled manifold keeps its row, not
     copied; a new one is appended after rows_used and points_used (room for n_pairs rows and
-    2 n_pairs points). ``out`` gets the step's points (and their lever arms as found, anchor),
+    2 n_pairs points). ``rounded``: None without capsules, segments or chains in the world, else
+    True (``narrowphase.manifold``). ``out`` gets the step's points (and their lever arms as found, anchor),
     pair_start, and the step's manifolds' keys and rows (manifold_key, manifold_row).
 
     Returns (points K, manifolds cached, recycled, rows_used, points_used, whether the
@@ -237,7 +240,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
         key = pair_key(uid, a, b)
         pair = (a, b, key, *pair_friction(friction, restitution, a, b))
         slot = -1
-        polygons = kind[a] != CIRCLE and kind[b] != CIRCLE  # a circle rolls: its point moves
+        polygons = kind[a] == POLYGON and kind[b] == POLYGON  # a circle or capsule rolls: its point moves
         if recycle_distance > 0.0 and polygons and travel[a] + travel[b] <= contact_margin and n_cached > 0:
             look = next_slot(cached_key, key, look)
             if look < n_cached and cached_key[look] == key:
@@ -254,7 +257,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins):
             k = recycled
         else:
             row = rows_used  # a new row of the store, its points after points_used
-            m = manifold(a, b, x, shapes, margin)
+            m = manifold(a, b, x, shapes, margin, rounded)
             if m[0] == 0:
                 continue
             k, points_used = store_manifold(store, row, points_used, out, k, m, pair, x, rotation)

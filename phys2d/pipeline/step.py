@@ -31,6 +31,7 @@ from ..responders.base import EMPTY, Responder, SolveResult, StepContext, StepRe
 from ..responders.pgs import PGS
 from ..responders.restitution import bounce_after_moving
 from ..responders.soft_step import SoftStep
+from ..shapes import POLYGON
 from . import ahead, records
 from .stages import (
     NEED_ROOM,
@@ -185,6 +186,7 @@ class Pipeline:
         self._compiled: tuple = (None, None, None)  # (spec, argument types, machine code) of the last call
         self._ready: tuple | None = None  # (spec, dt, step settings, row settings, joints) of the last step
         self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
+        self.rounded: bool | None = None  # True with capsules, segments or chains (the tick's last argument)
 
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the records: numba structrefs, made anew when needed."""
@@ -304,6 +306,7 @@ class Pipeline:
                 ),  # fmt: skip
             )
             self._state_over = b.x
+            self.rounded = True if bool(np.any(b.kind > POLYGON)) else None
         return self._state
 
     def _forget_state(self) -> None:
@@ -430,8 +433,9 @@ class Pipeline:
             if colour_order and not self.sweep_again:
                 self._colour(world)
             s = self.state(world)
-            args = (s, joints, stage, self._counts(colour_order), step, row_settings, spec.pgs, spec.soft)
-            types_now = (getattr(s, "_numba_type_", None), joints is None)
+            counts = self._counts(colour_order)
+            args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded)
+            types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded)
             spec_was, types_was, code = self._compiled
             kernel = code if spec_was is spec and types_was == types_now else tick
             if kernel is tick and self._behind(world, spec, args, types_now):
@@ -466,7 +470,7 @@ class Pipeline:
         if child is None:
             if ahead.plan(self, tick, args) != "behind":
                 return False
-            child = ahead.start(world._responder, args[1] is not None)
+            child = ahead.start(world._responder, args[1] is not None, args[8] is not None)
             if child is None:
                 return False
             _BEHIND[key] = child
@@ -480,7 +484,7 @@ class Pipeline:
         if ahead.plan(self, tick, args) != "ahead":
             return None
         ahead.last_plan = "ahead"
-        child = ahead.start(world._responder, args[1] is not None)
+        child = ahead.start(world._responder, args[1] is not None, args[8] is not None)
         if child is not None:
             ahead.compile_from_the_end(self, args)
         return child
@@ -506,9 +510,8 @@ class Pipeline:
         now = (self.n_pairs, self.manifolds, store.rows_used, store.points_used)
         margins = (step.contact_margin, step.recycle_distance)
         old_record, new_record = self.side_records[self.side], self.side_records[1 - self.side]
-        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(
-            self.bodies_record, self.shapes_record, self.store_record, old_record, new_record, now, margins
-        )
+        records_in = (self.bodies_record, self.shapes_record, self.store_record, old_record, new_record)
+        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(*records_in, now, margins, self.rounded)
         order_contacts(self.shapes_record, new_record, self.n_pairs, (k, n_new, ascends), colour_order)
         # contacts and cache -> constraint rows
         n = 2 * k + world._joint_lam.shape[0]

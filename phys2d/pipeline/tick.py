@@ -22,10 +22,12 @@ from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, or
 
 
 @njit(cache=True)
-def tick(s, joints, stage, counts, step, row_settings, pgs, soft):
+def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded):
     """One tick in one call, the stages in order; the responder's solve is PGS's (``pgs_step``)
     when ``pgs`` holds its settings, the soft step's (``soft_step_solve``) when ``soft`` does
-    (the other is None: numba compiles only the one given).
+    (the other is None: numba compiles only the one given). ``rounded`` is True in a world with
+    capsules, segments or chains, else None: the collision of those shapes is then not compiled
+    either (``narrowphase.manifold``).
 
     Stage 0 starts the tick (``begin``); when a body left its fat box it sweeps (``sweep``), or
     returns NEED_SWEEP when the bodies or joints changed or the pairs outgrow the buffers (Python
@@ -49,7 +51,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft):
     old, new = s.sides[counts.side], s.sides[1 - counts.side]
     now = (n_pairs, counts.manifolds, counts.rows_used, counts.points_used)
     k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(
-        s.bodies, s.shapes, store, old, new, now, (step.contact_margin, step.recycle_distance)
+        s.bodies, s.shapes, store, old, new, now, (step.contact_margin, step.recycle_distance), rounded
     )
     order_contacts(s.shapes, new, n_pairs, (k, n_new, ascends), counts.colour_order)
     # contacts and cache -> constraint rows

@@ -10,6 +10,7 @@ what it keeps, so the world may step on at once.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +44,12 @@ class Strips:
         for i in rows:
             if kinds[i] == CIRCLE:  # the spoke from the centre along the body's angle, then the rim
                 pts = rim * radii[i]
+            elif count[i] == 2 and radii[i] > 0.0:  # a capsule or rounded segment: its stadium
+                s = int(start[i])
+                pts = stadium(verts[s], verts[s + 1], float(radii[i]))
+            elif count[i] == 2:  # a bare segment or chain segment: the line
+                s = int(start[i])
+                pts = verts[s : s + 2].copy()
             else:  # the closed outline
                 s, c = int(start[i]), int(count[i])
                 pts = np.concatenate([verts[s : s + c], verts[s : s + 1]])
@@ -63,6 +70,18 @@ class Strips:
         out[..., 0] = x[:, self.body, 0] + c * lx - s * ly
         out[..., 1] = x[:, self.body, 1] + s * lx + c * ly
         return on_grid(out, schema.DRAW_GRID)
+
+
+def stadium(v0: np.ndarray, v1: np.ndarray, radius: float) -> np.ndarray:
+    """The closed outline of the core v0 -> v1 (m, body frame) rounded by ``radius`` (m): its right
+    side, the half circle around v1, its left side, the half circle around v0."""
+    half = schema.CIRCLE_SEGMENTS // 2
+    d = v1 - v0
+    base = math.atan2(d[1], d[0]) - 0.5 * math.pi  # the right-hand normal's angle
+    phi = base + math.pi * np.arange(half + 1) / half
+    arc = radius * np.stack([np.cos(phi), np.sin(phi)], axis=1)
+    outline = np.concatenate([v1 + arc, v0 - arc])  # each arc turns counter-clockwise by pi
+    return np.concatenate([outline, outline[:1]])
 
 
 def on_grid(a: np.ndarray, grid: float) -> np.ndarray:
