@@ -29,10 +29,11 @@ from numpy.typing import ArrayLike
 from . import shapes
 from .bodies import ALL_CATEGORIES, Body
 from .responders.base import Responder, StepReport
-from .scenes import _check_count
-from .validation import positive_float
+from .scenes import _check_count, ground
+from .validation import finite_float, positive_float
 from .verdict import (
     HELD,
+    DriveWatch,
     JointWatch,
     RampWatch,
     RecoveryWatch,
@@ -561,6 +562,92 @@ def many_pyramids(rows: int = 20, responder: Responder | None = None, columns: i
 
 
 # -- the registry ----------------------------------------------------------------------------
+# -- issue 27's scenes: a car on a chain terrain, ragdolls of capsules ---------------------
+def car_terrain_height(x: float) -> float:
+    """The car's hills (m): flat for x < 0, then rolling, slopes under 20 deg."""
+    if x <= 0.0:
+        return 0.0
+    return 0.6 * math.sin(0.25 * x) ** 2 + 0.25 * math.sin(0.8 * x) * min(1.0, 0.1 * x)
+
+
+def car(length: float = 60.0, responder: Responder | None = None, motor_speed: float = -8.0) -> World:
+    """A car with motor wheels on a chain terrain (pymunk's and Box2D's "Car", with rigid axles).
+
+    A 2.5 m x 0.5 m chassis (2 kg/m^2: 2.5 kg) on two wheels of radius 0.4 m (1 kg/m^2,
+    friction 0.9), each on a pin joint at its centre whose motor drives the wheel's spin
+    relative to the chassis to ``motor_speed`` (rad/s; negative turns clockwise and drives
+    right) with at most 20 N m. The terrain is one static chain through a point every 0.5 m
+    from x = -10 m to ``length`` m, listed right to left so that its colliding side faces up;
+    flat to x = 0, rolling hills after. Box2D's car has wheel joints (springs); these axles
+    are rigid. The claim: the car drives right, close to the wheels' rolling speed
+    |motor_speed| r, and stays on its wheels.
+    """
+    length = positive_float(length, "length")
+    motor_speed = finite_float(motor_speed, "motor_speed")
+    w = World(responder=responder)
+    xs = np.arange(length, -10.0 - 1e-9, -0.5)
+    w.add_chain([(float(x), car_terrain_height(float(x))) for x in xs], friction=0.9)
+    chassis = w.add_box((0.0, 1.0), half_extents=(1.25, 0.25), density=2.0, friction=0.6)
+    for x in (-0.9, 0.9):
+        wheel = w.add_circle((x, 0.45), radius=0.4, density=1.0, friction=0.9)
+        w.add_pin_joint(chassis, wheel, anchor=(x, 0.45), motor_speed=motor_speed, max_motor_torque=20.0)
+    return w
+
+
+# a ragdoll's bones: (name, parent, capsule centre (m, from the hips), half_length, radius, angle (rad),
+# the joint's anchor (m, from the hips), the limits of the bone's angle relative to its parent's (rad))
+_BONES = (
+    ("torso", None, (0.0, 0.35), 0.2, 0.12, 0.5 * math.pi, None, None),
+    ("head", "torso", (0.0, 0.82), 0.04, 0.12, 0.5 * math.pi, (0.0, 0.68), (-0.6, 0.6)),
+    ("upper_arm_l", "torso", (-0.18, 0.5), 0.12, 0.05, 0.5 * math.pi, (-0.18, 0.63), (-1.5, 1.5)),
+    ("lower_arm_l", "upper_arm_l", (-0.18, 0.24), 0.1, 0.045, 0.5 * math.pi, (-0.18, 0.37), (0.0, 2.5)),
+    ("upper_arm_r", "torso", (0.18, 0.5), 0.12, 0.05, 0.5 * math.pi, (0.18, 0.63), (-1.5, 1.5)),
+    ("lower_arm_r", "upper_arm_r", (0.18, 0.24), 0.1, 0.045, 0.5 * math.pi, (0.18, 0.37), (0.0, 2.5)),
+    ("upper_leg_l", "torso", (-0.09, -0.2), 0.15, 0.07, 0.5 * math.pi, (-0.09, 0.0), (-0.5, 1.5)),
+    ("lower_leg_l", "upper_leg_l", (-0.09, -0.6), 0.15, 0.06, 0.5 * math.pi, (-0.09, -0.4), (-2.3, 0.0)),
+    ("upper_leg_r", "torso", (0.09, -0.2), 0.15, 0.07, 0.5 * math.pi, (0.09, 0.0), (-0.5, 1.5)),
+    ("lower_leg_r", "upper_leg_r", (0.09, -0.6), 0.15, 0.06, 0.5 * math.pi, (0.09, -0.4), (-2.3, 0.0)),
+)
+
+
+def add_ragdoll(w: World, hips: tuple[float, float], group: int = -1) -> dict[str, Body]:
+    """A ragdoll of capsules (Box2D's human, simplified: 10 bones, 1.9 m tall, 1000 kg/m^2)
+    standing with its hips at ``hips`` (m); each joint a pin with limits on the bone's angle
+    relative to its parent's. Its bones share the negative collision ``group`` and never touch
+    one another, as in Box2D; give each ragdoll its own group."""
+    bones: dict[str, Body] = {}
+    hx, hy = hips
+    for name, parent, centre, half_length, radius, angle, anchor, limits in _BONES:
+        body = w.add_capsule(
+            (hx + centre[0], hy + centre[1]), half_length=half_length, radius=radius, angle=angle,
+            density=1000.0, friction=0.6, group=group,
+        )  # fmt: skip
+        bones[name] = body
+        if parent is not None:
+            assert anchor is not None and limits is not None
+            w.add_pin_joint(
+                bones[parent], body, anchor=(hx + anchor[0], hy + anchor[1]), lower=limits[0], upper=limits[1]
+            )
+    return bones
+
+
+def ragdoll(n: int = 3, responder: Responder | None = None) -> World:
+    """``n`` ragdolls of capsules (``add_ragdoll``) dropped side by side, each tipped a little,
+    from 1 m onto the ground, with a step to fall over. The claim: the joints hold (no pin
+    opens past 5 cm) and every bone keeps within its limits, as the ragdolls crumple and come
+    to rest."""
+    n = _check_count(n, "n")
+    w = World(responder=responder)
+    ground(w)
+    w.add_box((0.0, 0.25), half_extents=(0.6 * n, 0.25), static=True, friction=0.6)
+    for k in range(n):
+        x = (k - 0.5 * (n - 1)) * 1.0
+        add_ragdoll(w, (x, 2.5 + 0.3 * k), group=-(k + 1))
+        for body in w.bodies[-len(_BONES) :]:
+            body.velocity = (0.3 * (k % 2) - 0.15, 0.0)
+    return w
+
+
 STOCK_SCENES: dict[str, tuple[Callable[..., World], str]] = {
     "arch": (arch, "scale of the sample's arch points (the arch is 0.25: 11 m tall)"),
     "card_house": (card_house, "pairs of cards on the bottom level"),
@@ -576,6 +663,8 @@ STOCK_SCENES: dict[str, tuple[Callable[..., World], str]] = {
     "far_pyramid": (far_pyramid, "boxes at the base of the pyramid 100 km out"),
     "large_pyramid": (large_pyramid, "boxes at the base of the pyramid"),
     "many_pyramids": (many_pyramids, "rows of pyramids (20 pyramids of base 10 each)"),
+    "car": (car, "length of the terrain, in m"),
+    "ragdoll": (ragdoll, "ragdolls dropped"),
 }
 
 
@@ -616,4 +705,9 @@ WATCHES: dict[str, Callable[[World], Watch]] = {
     "far_pyramid": lambda w: SettleWatch(w, settle=1.5, dropped=np.flatnonzero(w.M_inv[:, 0] > 0.0)),
     "large_pyramid": lambda w: Watch(w),
     "many_pyramids": lambda w: Watch(w),
+    # drove: the chassis (the first dynamic body) went right at half the wheels' rolling speed
+    # |motor_speed| r = 3.2 m/s or more, on its wheels (it never turned past 60 deg)
+    "car": lambda w: DriveWatch(w, body=int(np.flatnonzero(w.M_inv[:, 0] > 0.0)[0]), min_speed=1.6),
+    # held: no pin opened more than 5 cm as the ragdolls fell and crumpled
+    "ragdoll": _joint_watch(0.05),
 }

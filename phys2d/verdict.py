@@ -27,6 +27,8 @@ from ``phys2d.stock_scenes.WATCHES``), each a Watch with its own outcomes:
     RegionWatch    contained: every centre stayed in a box (and out of a disc); else escaped
     RampWatch      coulomb: after landing, bodies with mu > tan(slope) slowed down (or
                    rested), the rest sped up; else crept or stuck
+    DriveWatch     drove: a vehicle's body went right at ``min_speed`` on average and
+                   never turned past ``flip_turn``; else stalled or flipped
 
 ``Verdict.passed`` is True for the passing outcomes (``PASSED``).
 """
@@ -49,8 +51,9 @@ RECOVERED, BLOWN_APART, OVERLAPPING = "recovered", "blown_apart", "overlapping"
 TOPPLED, STOPPED, OUT_OF_ORDER = "toppled", "stopped", "out_of_order"
 CONTAINED, ESCAPED = "contained", "escaped"
 COULOMB, CREPT, STUCK = "coulomb", "crept", "stuck"
+DROVE, STALLED, FLIPPED = "drove", "stalled", "flipped"
 UNSETTLED = "unsettled"  # the run ended before the watch began to judge
-PASSED = frozenset({STOOD, HELD, RECOVERED, TOPPLED, CONTAINED, COULOMB})  # outcomes that pass
+PASSED = frozenset({STOOD, HELD, RECOVERED, TOPPLED, CONTAINED, COULOMB, DROVE})  # outcomes that pass
 
 
 @dataclass(frozen=True)
@@ -461,6 +464,35 @@ class RampWatch(Watch):
         return COULOMB, f"{int(self.sticks.sum())} slowed down, {int((~self.sticks).sum())} sped up"
 
 
+class DriveWatch(Watch):
+    """A Watch for a vehicle: ``drove`` when its ``body`` (index) went right (+x) at ``min_speed``
+    (m/s) or more on average over the run and never turned past ``flip_turn`` (rad); else
+    ``stalled`` or ``flipped``. Its wheels and the rest may move as they like."""
+
+    def __init__(self, world, *, body: int, min_speed: float, flip_turn: float = math.radians(60.0)) -> None:
+        super().__init__(world)
+        self.body = int(body)
+        self.min_speed = _check_limit(min_speed, "min_speed")
+        self.flip_turn = _check_limit(flip_turn, "flip_turn")
+        self._start = float(world.x[self.body, 0])
+        self.max_tilt = 0.0  # rad, the body's largest turn from its start
+
+    def observe(self) -> None:
+        """Take in the world's state after a step, and the vehicle's tilt."""
+        super().observe()
+        tilt = self.world.theta[self.body] - self._theta0[int(np.searchsorted(self._judged, self.body))]
+        self.max_tilt = max(self.max_tilt, abs(math.atan2(math.sin(tilt), math.cos(tilt))))
+
+    def _judge(self, rows: np.ndarray, speeds: np.ndarray) -> tuple[str, str]:
+        seconds = float(self.world.time) - self._t0
+        speed = (float(self.world.x[self.body, 0]) - self._start) / seconds if seconds > 0.0 else 0.0
+        if self.max_tilt > self.flip_turn:
+            return FLIPPED, f"it turned {math.degrees(self.max_tilt):.0f} deg"
+        if speed < self.min_speed:
+            return STALLED, f"it went {speed:.2f} m/s on average (needed {self.min_speed:.2f})"
+        return DROVE, f"{speed:.2f} m/s on average, tilted {math.degrees(self.max_tilt):.0f} deg at most"
+
+
 def watch_for(scene: str, world) -> Watch:
     """The watch that judges ``scene`` by its own claim (``phys2d.stock_scenes.WATCHES``);
     a plain :class:`Watch` (stood, fell or restless) for every other scene."""
@@ -472,6 +504,10 @@ def watch_for(scene: str, world) -> Watch:
 
 __all__ = [
     "BLOWN_APART",
+    "DROVE",
+    "DriveWatch",
+    "FLIPPED",
+    "STALLED",
     "BROKE",
     "CONTAINED",
     "COULOMB",
