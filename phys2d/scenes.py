@@ -216,6 +216,7 @@ from .stock_scenes import (  # noqa: E402, F401
     arch,
     ball_and_chain,
     bridge,
+    car,
     card_house,
     confined,
     double_domino,
@@ -226,6 +227,7 @@ from .stock_scenes import (  # noqa: E402, F401
     large_pyramid,
     many_pyramids,
     overlap_recovery,
+    ragdoll,
     rush,
 )
 

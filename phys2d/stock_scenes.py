@@ -30,7 +30,7 @@ from . import shapes
 from .bodies import ALL_CATEGORIES, Body
 from .responders.base import Responder, StepReport
 from .scenes import _check_count, ground
-from .validation import finite_float, positive_float
+from .validation import positive_float
 from .verdict import (
     HELD,
     DriveWatch,
@@ -570,27 +570,28 @@ def car_terrain_height(x: float) -> float:
     return 0.6 * math.sin(0.25 * x) ** 2 + 0.25 * math.sin(0.8 * x) * min(1.0, 0.1 * x)
 
 
-def car(length: float = 60.0, responder: Responder | None = None, motor_speed: float = -8.0) -> World:
-    """A car with motor wheels on a chain terrain (pymunk's and Box2D's "Car", with rigid axles).
+def car(length: float = 60.0, responder: Responder | None = None, wheel_speed: float = 8.0) -> World:
+    """Box2D's "Driving" sample (samples/sample_joints.cpp, samples/car.cpp), with rigid
+    axles: a car with motor wheels on a chain terrain.
 
     A 2.5 m x 0.5 m chassis (2 kg/m^2: 2.5 kg) on two wheels of radius 0.4 m (1 kg/m^2,
-    friction 0.9), each on a pin joint at its centre whose motor drives the wheel's spin
-    relative to the chassis to ``motor_speed`` (rad/s; negative turns clockwise and drives
+    friction 0.9), each on a pin joint at its centre whose motor turns the wheel clockwise
+    relative to the chassis at ``wheel_speed`` (rad/s, > 0: motor_speed = -wheel_speed drives
     right) with at most 20 N m. The terrain is one static chain through a point every 0.5 m
     from x = -10 m to ``length`` m, listed right to left so that its colliding side faces up;
     flat to x = 0, rolling hills after. Box2D's car has wheel joints (springs); these axles
     are rigid. The claim: the car drives right, close to the wheels' rolling speed
-    |motor_speed| r, and stays on its wheels.
+    wheel_speed r, and stays on its wheels.
     """
     length = positive_float(length, "length")
-    motor_speed = finite_float(motor_speed, "motor_speed")
+    wheel_speed = positive_float(wheel_speed, "wheel_speed")
     w = World(responder=responder)
     xs = np.arange(length, -10.0 - 1e-9, -0.5)
     w.add_chain([(float(x), car_terrain_height(float(x))) for x in xs], friction=0.9)
     chassis = w.add_box((0.0, 1.0), half_extents=(1.25, 0.25), density=2.0, friction=0.6)
     for x in (-0.9, 0.9):
         wheel = w.add_circle((x, 0.45), radius=0.4, density=1.0, friction=0.9)
-        w.add_pin_joint(chassis, wheel, anchor=(x, 0.45), motor_speed=motor_speed, max_motor_torque=20.0)
+        w.add_pin_joint(chassis, wheel, anchor=(x, 0.45), motor_speed=-wheel_speed, max_motor_torque=20.0)
     return w
 
 
@@ -632,7 +633,8 @@ def add_ragdoll(w: World, hips: tuple[float, float], group: int = -1) -> dict[st
 
 
 def ragdoll(n: int = 3, responder: Responder | None = None) -> World:
-    """``n`` ragdolls of capsules (``add_ragdoll``) dropped side by side, each tipped a little,
+    """Box2D's "Ragdoll" (samples/sample_joints.cpp, shared/human.c), simplified: ``n`` ragdolls
+    of capsules (``add_ragdoll``) dropped side by side, each tipped a little,
     from 1 m onto the ground, with a step to fall over. The claim: the joints hold (no pin
     opens past 5 cm) and every bone keeps within its limits, as the ragdolls crumple and come
     to rest."""
@@ -706,7 +708,7 @@ WATCHES: dict[str, Callable[[World], Watch]] = {
     "large_pyramid": lambda w: Watch(w),
     "many_pyramids": lambda w: Watch(w),
     # drove: the chassis (the first dynamic body) went right at half the wheels' rolling speed
-    # |motor_speed| r = 3.2 m/s or more, on its wheels (it never turned past 60 deg)
+    # wheel_speed r = 3.2 m/s (the default) or more, on its wheels (it never turned past 60 deg)
     "car": lambda w: DriveWatch(w, body=int(np.flatnonzero(w.M_inv[:, 0] > 0.0)[0]), min_speed=1.6),
     # held: no pin opened more than 5 cm as the ragdolls fell and crumpled
     "ragdoll": _joint_watch(0.05),

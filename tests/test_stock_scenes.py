@@ -59,7 +59,6 @@ def test_every_stock_scene_is_a_scene_with_its_watch_and_its_source():
         assert name in stock_scenes.WATCHES
         doc = make.__doc__ or ""
         assert "Box2D" in doc or "Solver2D" in doc, name
-    assert "ragdoll" not in scenes.SCENES  # needs capsules and joint limits (other branches)
 
 
 def test_watch_for_gives_other_scenes_the_plain_watch():
@@ -367,7 +366,7 @@ def test_run_and_a_sweep_give_the_scene_its_own_verdict(tmp_path):
 # -- issue 27's scenes: the car and the ragdolls ------------------------------------------------
 @pytest.mark.parametrize("responder", RESPONDERS)
 def test_the_car_drives_on_its_motor_wheels_along_the_chain(responder):
-    """Rolling without slipping, the wheels carry the car at |motor_speed| r = 3.2 m/s on the
+    """Rolling without slipping, the wheels carry the car at wheel_speed r = 3.2 m/s on the
     flat: after 2 s it goes at 2.9-3.5 m/s (the motors' 20 N m reach the speed within it), and
     it drives the hills on its wheels (DriveWatch), the axles held (pins < 2 cm)."""
     w = stock_scenes.car(30.0, responder=RESPONDERS[responder]())
