@@ -163,12 +163,13 @@ class _Background:
             parts = [p for ss in runs.values() for p in window_parts(ss)]
             free = self._free_slot() if self.arena.fits(parts) else None
             slot = None if free is None else SlotWriter(self.arena, free)
-            packed = [
-                (label, pack(ss, self.sent.setdefault(label, set()), slot), infos.get(label))
-                for label, ss in runs.items()
-            ]
+            # the layouts the writer will know once this message is in the queue, and not before: an
+            # interrupt (Ctrl-C, SIGTERM) in between must leave them unsent, to go with the next message
+            sent = {label: set(self.sent.get(label, ())) for label in runs}
+            packed = [(label, pack(ss, sent[label], slot), infos.get(label)) for label, ss in runs.items()]
             self.queue.put(("add", packed, None if slot is None else slot.slot))
             self.pending = []
+            self.sent.update(sent)
 
     def close(self) -> dict[str | None, list[str]]:
         reply: tuple = ("error", "the recording's writer process stopped")
