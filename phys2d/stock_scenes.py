@@ -30,7 +30,7 @@ from . import shapes
 from .bodies import ALL_CATEGORIES, Body
 from .responders.base import Responder, StepReport
 from .scenes import _check_count, ground
-from .validation import positive_float
+from .validation import non_negative_float, positive_float
 from .verdict import (
     HELD,
     DriveWatch,
@@ -611,11 +611,15 @@ _BONES = (
 )
 
 
-def add_ragdoll(w: World, hips: tuple[float, float], group: int = -1) -> dict[str, Body]:
+def add_ragdoll(w: World, hips: tuple[float, float], group: int = -1, joint_friction: float = 0.0) -> dict[str, Body]:
     """A ragdoll of capsules (Box2D's human, simplified: 10 bones, 1.9 m tall, 1000 kg/m^2)
     standing with its hips at ``hips`` (m); each joint a pin with limits on the bone's angle
     relative to its parent's. Its bones share the negative collision ``group`` and never touch
-    one another, as in Box2D; give each ragdoll its own group."""
+    one another, as in Box2D; give each ragdoll its own group. ``joint_friction`` (N m, >= 0):
+    each pin's friction torque, as Box2D's human has it: a motor toward omega_b - omega_a = 0
+    of at most that torque; 0: frictionless pins (a limb hanging free then swings on)."""
+    friction = non_negative_float(joint_friction, "joint_friction")
+    motor_speed = 0.0 if friction > 0.0 else None  # (None: no motor, the pins as without friction)
     bones: dict[str, Body] = {}
     hx, hy = hips
     for name, parent, centre, half_length, radius, angle, anchor, limits in _BONES:
@@ -627,24 +631,28 @@ def add_ragdoll(w: World, hips: tuple[float, float], group: int = -1) -> dict[st
         if parent is not None:
             assert anchor is not None and limits is not None
             w.add_pin_joint(
-                bones[parent], body, anchor=(hx + anchor[0], hy + anchor[1]), lower=limits[0], upper=limits[1]
-            )
+                bones[parent], body, anchor=(hx + anchor[0], hy + anchor[1]), lower=limits[0], upper=limits[1],
+                motor_speed=motor_speed, max_motor_torque=friction,
+            )  # fmt: skip
     return bones
 
 
-def ragdoll(n: int = 3, responder: Responder | None = None) -> World:
+def ragdoll(n: int = 3, responder: Responder | None = None, joint_friction: float = 0.0) -> World:
     """Box2D's "Ragdoll" (samples/sample_joints.cpp, shared/human.c), simplified: ``n`` ragdolls
     of capsules (``add_ragdoll``) dropped side by side, each tipped a little,
     from 1 m onto the ground, with a step to fall over. The claim: the joints hold (no pin
-    opens past 5 cm) and every bone keeps within its limits, as the ragdolls crumple and come
-    to rest."""
+    opens past 5 cm) and every bone keeps within its limits, as the ragdolls crumple. They
+    come to rest only with ``joint_friction`` (N m per pin, Box2D's human has it): on
+    frictionless pins an arm left hanging off a ragdoll propped on the step swings on as a
+    pendulum under either solver (SoftStep's three end with two such arms, PGS's with none)."""
     n = _check_count(n, "n")
+    non_negative_float(joint_friction, "joint_friction")
     w = World(responder=responder)
     ground(w)
     w.add_box((0.0, 0.25), half_extents=(0.6 * n, 0.25), static=True, friction=0.6)
     for k in range(n):
         x = (k - 0.5 * (n - 1)) * 1.0
-        add_ragdoll(w, (x, 2.5 + 0.3 * k), group=-(k + 1))
+        add_ragdoll(w, (x, 2.5 + 0.3 * k), group=-(k + 1), joint_friction=joint_friction)
         for body in w.bodies[-len(_BONES) :]:
             body.velocity = (0.3 * (k % 2) - 0.15, 0.0)
     return w
