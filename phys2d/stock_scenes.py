@@ -637,13 +637,13 @@ def add_ragdoll(w: World, hips: tuple[float, float], group: int = -1, joint_fric
     return bones
 
 
-def ragdoll(n: int = 3, responder: Responder | None = None, joint_friction: float = 0.0) -> World:
+def ragdoll(n: int = 3, responder: Responder | None = None, joint_friction: float = 10.0) -> World:
     """Box2D's "Ragdoll" (samples/sample_joints.cpp, shared/human.c), simplified: ``n`` ragdolls
     of capsules (``add_ragdoll``) dropped side by side, each tipped a little,
     from 1 m onto the ground, with a step to fall over. The claim: the joints hold (no pin
-    opens past 5 cm) and every bone keeps within its limits, as the ragdolls crumple. They
-    come to rest only with ``joint_friction`` (N m per pin, Box2D's human has it): on
-    frictionless pins an arm left hanging off a ragdoll propped on the step swings on as a
+    opens past 5 cm) and every bone keeps within its limits, as the ragdolls crumple and come
+    to rest. They rest thanks to ``joint_friction`` (N m per pin, as Box2D's human has): with
+    0, an arm left hanging off a ragdoll propped on the step swings on as a frictionless
     pendulum under either solver (SoftStep's three end with two such arms, PGS's with none)."""
     n = _check_count(n, "n")
     non_negative_float(joint_friction, "joint_friction")
