@@ -30,9 +30,10 @@ from tests.strategies import SceneSpec, build, fingerprint, resting_scenes, scen
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def stepped_alike(make, threads: int, one_call: bool, steps: int, dt: float = 1 / 60) -> None:
+def stepped_alike(make, threads: int, one_call: bool, steps: int, dt: float = 1 / 60, seen=None) -> None:
     """Step a world from ``make`` on one thread (in one call) and another on ``threads`` threads
-    (``one_call`` or stage by stage), asserting bit-identical fingerprints after every step."""
+    (``one_call`` or stage by stage), asserting bit-identical fingerprints after every step
+    (``seen(world)`` is called after each)."""
     one, many = make(), make()
     many.threads = threads
     many.one_call_tick = one_call
@@ -45,6 +46,8 @@ def stepped_alike(make, threads: int, one_call: bool, steps: int, dt: float = 1 
                 failed[i] = True
         assert failed[0] == failed[1]
         assert fingerprint(many) == fingerprint(one)
+        if seen is not None:
+            seen(many)
         if failed[0]:
             return
 
@@ -114,7 +117,10 @@ def test_threads_give_the_same_bits_while_islands_sleep_and_wake() -> None:
             w.add_box(position=(8.0, 0.5 + i), half_extents=(0.5, 0.5))
         return w
 
-    stepped_alike(make, 2, True, 200)
+    asleep = []
+    stepped_alike(make, 2, True, 240, seen=lambda w: asleep.append(sum(not b.awake for b in w.bodies)))
+    assert max(asleep) >= 4  # piles slept
+    assert any(later < now for now, later in zip(asleep, asleep[1:]))  # and the falling box woke one
 
 
 def test_threads_can_change_between_steps() -> None:

@@ -9,8 +9,8 @@ in which no moving body appears twice (``manifold_runs``: a colour is one run, t
 overflow colour as many runs as it needs), and a sweep is
 
     for each run, in order:
-        for its manifolds, in parallel:
-            the row update of the serial sweep (``soft_normal_update``, ``soft_friction_update``)
+        for its manifolds, in parallel (a slice of them per thread):
+            the row updates of the serial sweep (``soft_normal_rows``, ``soft_friction_rows``)
 
 Each manifold sees exactly the velocities it sees in the serial sweep, and each row does
 the same floating-point operations in the same order, so the result is bit-identical for
@@ -34,7 +34,7 @@ import numba
 import numpy as np
 from numba import config, njit, prange
 
-from ..responders.soft_contacts import soft_friction_update, soft_normal_update, warm_start_joints, warm_start_manifold
+from ..responders.soft_contacts import soft_friction_rows, soft_normal_rows, warm_start_joints, warm_start_manifolds
 
 
 @njit(cache=True)
@@ -62,35 +62,51 @@ def manifold_runs(start, rows, M_inv):
 
 @njit(cache=True)
 def runs_for(threads, start, rows, M_inv):
-    """The runs of ``manifold_runs`` when ``threads`` is a count, None when it is None (one
-    thread: numba then drops every parallel branch, and compiles no parallel kernel)."""
+    """(run_start of ``manifold_runs``, threads) when ``threads`` is a count: each run is cut in
+    that many slices, one per thread; None when it is None (one thread: numba then drops every
+    parallel branch, and compiles no parallel kernel)."""
     if threads is None:
         return None
-    return manifold_runs(start, rows, M_inv)
+    return manifold_runs(start, rows, M_inv), threads
+
+
+@njit(cache=True)
+def slice_of(run_start, r, t, n_slices):
+    """Slice t of n_slices of run r (``manifold_runs``): manifolds first up to last."""
+    first, n = run_start[r], run_start[r + 1] - run_start[r]
+    return first + n * t // n_slices, first + n * (t + 1) // n_slices
 
 
 @njit(cache=True, parallel=True)
 def soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
-    """``soft_sweep`` run by run, each run's manifolds in parallel (``runs``: ``manifold_runs``);
-    the same arguments, the same results. Returns the largest |delta lambda| A_kk (m/s)."""
-    worst = np.zeros(manifolds[0].shape[0] - 1)  # per manifold: no shared accumulator
+    """``soft_sweep`` run by run, each run's manifolds in parallel, a slice per thread (runs:
+    ``runs_for``); the same arguments, the same results. Returns the largest |delta lambda| A_kk
+    (m/s)."""
+    run_start, n_slices = runs
+    worst = np.zeros(n_slices)  # per slice: no shared accumulator
     dynamic, static, joint = springs  # (numba's parallel loops take tuples, not tuples of tuples)
-    for r in range(runs.shape[0] - 1):  # the normal rows, run by run
-        for m in prange(runs[r], runs[r + 1]):
+    for r in range(run_start.shape[0] - 1):  # the normal rows, run by run
+        for t in prange(n_slices):
+            first, last = slice_of(run_start, r, t, n_slices)
             soft = (dynamic, static, joint)
-            worst[m] = soft_normal_update(m, rows, manifolds, inv_A_kk, points, V, h, use_bias, soft)
-    for r in range(runs.shape[0] - 1):  # then the friction rows
-        for m in prange(runs[r], runs[r + 1]):
-            worst[m] = max(worst[m], soft_friction_update(m, rows, manifolds, inv_A_kk, points, V, h))
-    return worst.max() if worst.shape[0] > 0 else 0.0
+            w = soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_bias, soft)
+            worst[t] = max(worst[t], w)
+    for r in range(run_start.shape[0] - 1):  # then the friction rows
+        for t in prange(n_slices):
+            first, last = slice_of(run_start, r, t, n_slices)
+            worst[t] = max(worst[t], soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, V, h))
+    return worst.max()
 
 
 @njit(cache=True, parallel=True)
 def warm_start_in_runs(runs, manifolds, rows, V):
-    """``soft_contacts.warm_start`` run by run, each run's manifolds in parallel; the joint rows after."""
-    for r in range(runs.shape[0] - 1):
-        for m in prange(runs[r], runs[r + 1]):
-            warm_start_manifold(m, manifolds[0], rows, V)
+    """``soft_contacts.warm_start`` run by run, each run's manifolds in parallel, a slice per
+    thread (runs: ``runs_for``); the joint rows after."""
+    run_start, n_slices = runs
+    for r in range(run_start.shape[0] - 1):
+        for t in prange(n_slices):
+            first, last = slice_of(run_start, r, t, n_slices)
+            warm_start_manifolds(first, last, manifolds[0], rows, V)
     warm_start_joints(rows, V)
 
 
@@ -110,4 +126,4 @@ def using_threads(threads: int) -> Iterator[None]:
         numba.set_num_threads(before)
 
 
-__all__ = ["manifold_runs", "runs_for", "soft_sweep_in_runs", "using_threads", "warm_start_in_runs"]
+__all__ = ["manifold_runs", "runs_for", "slice_of", "soft_sweep_in_runs", "using_threads", "warm_start_in_runs"]

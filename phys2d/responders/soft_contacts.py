@@ -54,7 +54,7 @@ def soft_push(s, h, use_bias, soft):
 @njit(cache=True)
 def soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias,
-    ``soft_normal_update``), then the friction rows (``soft_friction_update``). points.C[c] is
+    ``soft_normal_rows``), then the friction rows (``soft_friction_rows``). points.C[c] is
     point c's separation now (m); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
     1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); springs: the soft push
     against a dynamic and a static partner (``soft_constants``). The same updates run colour by
@@ -62,104 +62,95 @@ def soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
 
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
-    n_manifolds = manifolds[0].shape[0] - 1
-    worst = 0.0
-    for m in range(n_manifolds):
-        worst = max(worst, soft_normal_update(m, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
-    for m in range(n_manifolds):  # then the friction rows, manifold by manifold
-        worst = max(worst, soft_friction_update(m, rows, manifolds, inv_A_kk, points, V, h))
-    return worst
+    n = manifolds[0].shape[0] - 1
+    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, V, h))
 
 
 @njit(cache=True)
-def soft_normal_update(m, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
-    """Manifold m's normal rows, with the soft push if use_bias (``soft_sweep``'s arguments).
+def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
+    """The normal rows of manifolds first up to last, one manifold after another, with the soft
+    push if use_bias (``soft_sweep``'s arguments). Returns the largest |delta lambda| A_kk (m/s).
 
     A two-point manifold marked as a block has its normal rows solved together (lcp2), each
     row scaled by its own softness (relax does so only while both points touch):
         K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
-    It reads and writes V of manifold m's two bodies only. Returns the largest
-    |delta lambda| A_kk of its rows (m/s).
     """
-    normal_row, body_a, body_b, J, JM, A_kk, lam = (
-        rows.normal_row,
-        rows.body_a,
-        rows.body_b,
-        rows.J,
-        rows.JM,
-        rows.A_kk,
-        rows.lam,
-    )
+    normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
+    J, JM, A_kk, lam = rows.J, rows.JM, rows.A_kk, rows.lam
+    soft_dyn, soft_static = springs[0], springs[1]
     C = points.C
     start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
-    c = start[m]
-    k = normal_row[c]
-    a, b = body_a[k], body_b[k]
-    soft = springs[1] if static_pair[m] else springs[0]
-    s1 = C[c]
-    V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
-    if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
-        k2 = normal_row[c + 1]
-        s2 = C[c + 1]
-        K11, K22 = A_kk[k], A_kk[k2]
-        bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
-        bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
-        a1, a2 = lam[k], lam[k2]
-        b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
-        b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
-        x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
-        lam[k] = x1
-        lam[k2] = x2
-        V_ab = pair_row_impulse(k2, JM, x2 - a2, pair_row_impulse(k, JM, x1 - a1, V_ab))
-        worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
-    else:
-        # relax leaves a point still apart alone: the next sweep with the push limits its
-        # approach to closing the gap (cutting it here would bounce it off the air)
-        for c in range(start[m], start[m + 1]):
-            k = normal_row[c]
-            s1 = C[c]
-            if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
-                bias, mass_scale, impulse_scale = soft_push(s1, h, use_bias, soft)
-                d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
-                new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
-                d = new - lam[k]
-                lam[k] = new
-                V_ab = pair_row_impulse(k, JM, d, V_ab)
-                worst = max(worst, abs(d) * A_kk[k])
-    store_pair_velocity(a, b, V_ab, V)
+    for m in range(first, last):
+        c = start[m]
+        k = normal_row[c]
+        a, b = body_a[k], body_b[k]
+        soft = soft_static if static_pair[m] else soft_dyn
+        s1 = C[c]
+        V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
+        if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
+            k2 = normal_row[c + 1]
+            s2 = C[c + 1]
+            K11, K22 = A_kk[k], A_kk[k2]
+            bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
+            bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
+            a1, a2 = lam[k], lam[k2]
+            b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
+            b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
+            x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
+            lam[k] = x1
+            lam[k2] = x2
+            V_ab = pair_row_impulse(k2, JM, x2 - a2, pair_row_impulse(k, JM, x1 - a1, V_ab))
+            worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
+        else:
+            # relax leaves a point still apart alone: the next sweep with the push limits its
+            # approach to closing the gap (cutting it here would bounce it off the air)
+            for c in range(start[m], start[m + 1]):
+                k = normal_row[c]
+                s1 = C[c]
+                if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
+                    bias, mass_scale, impulse_scale = soft_push(s1, h, use_bias, soft)
+                    d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
+                    new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
+                    d = new - lam[k]
+                    lam[k] = new
+                    V_ab = pair_row_impulse(k, JM, d, V_ab)
+                    worst = max(worst, abs(d) * A_kk[k])
+        store_pair_velocity(a, b, V_ab, V)
     return worst
 
 
 @njit(cache=True)
-def soft_friction_update(m, rows, manifolds, inv_A_kk, points, V, h):
-    """Manifold m's friction rows (``soft_sweep``'s arguments): Coulomb's cone mu lambda_n; a
-    point still apart that has not yet met its partner lets friction act only once it touches
-    (``speculative_friction_target`` of points.vn, points.vt). It reads and writes V of
-    manifold m's two bodies only. Returns the largest |delta lambda| A_kk of its rows (m/s)."""
+def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, V, h):
+    """The friction rows of manifolds first up to last, one manifold after another
+    (``soft_sweep``'s arguments): Coulomb's cone mu lambda_n; a point still apart that has not
+    yet met its partner lets friction act only once it touches (``speculative_friction_target``
+    of points.vn, points.vt). Returns the largest |delta lambda| A_kk (m/s)."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
     C, vn, vt, impacted = points.C, points.vn, points.vt, points.impacted
     start = manifolds[0]
     worst = 0.0
-    k = friction_row[start[m]]
-    a, b = body_a[k], body_b[k]
-    V_ab = pair_velocity(a, b, V)
-    for c in range(start[m], start[m + 1]):
-        k, kn = friction_row[c], normal_row[c]
-        if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
-            continue  # static pair, or a point that does not push: its friction cone is [0, 0]
-        top = mu[k] * lam[kn]
-        target = 0.0  # stop sliding; a point landing within this sweep: only after its touch
-        if C[c] > 0.0 and not impacted[c]:
-            target = speculative_friction_target(C[c], vn[c], vt[c], h)
-        d = -(pair_row_velocity(k, J, V_ab) - target) * inv_A_kk[k]
-        new = min(max(lam[k] + d, -top), top)
-        d = new - lam[k]
-        lam[k] = new
-        V_ab = pair_row_impulse(k, JM, d, V_ab)
-        worst = max(worst, abs(d) * A_kk[k])
-    store_pair_velocity(a, b, V_ab, V)
+    for m in range(first, last):
+        k = friction_row[start[m]]
+        a, b = body_a[k], body_b[k]
+        V_ab = pair_velocity(a, b, V)
+        for c in range(start[m], start[m + 1]):
+            k, kn = friction_row[c], normal_row[c]
+            if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
+                continue  # static pair, or a point that does not push: its friction cone is [0, 0]
+            top = mu[k] * lam[kn]
+            target = 0.0  # stop sliding; a point landing within this sweep: only after its touch
+            if C[c] > 0.0 and not impacted[c]:
+                target = speculative_friction_target(C[c], vn[c], vt[c], h)
+            d = -(pair_row_velocity(k, J, V_ab) - target) * inv_A_kk[k]
+            new = min(max(lam[k] + d, -top), top)
+            d = new - lam[k]
+            lam[k] = new
+            V_ab = pair_row_impulse(k, JM, d, V_ab)
+            worst = max(worst, abs(d) * A_kk[k])
+        store_pair_velocity(a, b, V_ab, V)
     return worst
 
 
@@ -209,28 +200,28 @@ def prepare_manifolds(rows, M_inv, block):
 
 @njit(cache=True)
 def warm_start(manifolds, rows, V):
-    """Apply last sub-step's impulses (N s) to V: manifold by manifold (``warm_start_manifold``),
+    """Apply last sub-step's impulses (N s) to V: manifold by manifold (``warm_start_manifolds``),
     then the joint rows (``warm_start_joints``)."""
-    for m in range(manifolds[0].shape[0] - 1):
-        warm_start_manifold(m, manifolds[0], rows, V)
+    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
     warm_start_joints(rows, V)
 
 
 @njit(cache=True)
-def warm_start_manifold(m, start, rows, V):
-    """Manifold m's last impulses (N s) on V: its rows (normal, then friction, point by point) on
-    its pair's velocities held in hand (``pair_velocity``), stored once. It reads and writes V of
-    manifold m's two bodies only."""
+def warm_start_manifolds(first, last, start, rows, V):
+    """The last impulses (N s) of manifolds first up to last on V, one manifold after another:
+    its rows (normal, then friction, point by point) on its pair's velocities held in hand
+    (``pair_velocity``), stored once."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     JM, lam = rows.JM, rows.lam
-    k = normal_row[start[m]]
-    a, b = body_a[k], body_b[k]
-    V_ab = pair_velocity(a, b, V)
-    for c in range(start[m], start[m + 1]):
-        for k in (normal_row[c], friction_row[c]):
-            if lam[k] != 0.0:
-                V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
-    store_pair_velocity(a, b, V_ab, V)
+    for m in range(first, last):
+        k = normal_row[start[m]]
+        a, b = body_a[k], body_b[k]
+        V_ab = pair_velocity(a, b, V)
+        for c in range(start[m], start[m + 1]):
+            for k in (normal_row[c], friction_row[c]):
+                if lam[k] != 0.0:
+                    V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
+        store_pair_velocity(a, b, V_ab, V)
 
 
 @njit(cache=True)
