@@ -10,11 +10,11 @@ responder (``SoftStep(4)``, ``PGS()``), two worlds start equal, one on 1 thread 
 other within each repeat: the ratio (1 thread / 2 threads) is taken within each repeat, the figures are
 medians over the repeats. The script checks that both worlds end bit-identical.
 
-Then, for SoftStep, the share of its one-thread step that threads split (Amdahl's p): the contact sweeps
-and warm starts of one step, replayed on the settled world's rows (``soft_sweep`` and ``warm_start``, as
-many as ``soft_step_solve`` makes: 2 sweeps and 1 warm start per sub-step), timed against the whole
-step; the same replay on 2 threads (``soft_sweep_in_runs``) gives those parts' own speed-up s, and
-1 / ((1 - p) + p / s) the step's best case. The machine should be quiet: threads wait for a busy core.
+Then, for SoftStep, the share of its one-thread step that threads split (Amdahl's p): the contact rows
+(``contact_rows``), contact sweeps and warm starts of one step, replayed on the settled world (as many
+as ``soft_step_solve`` makes: 2 sweeps and 1 warm start per sub-step), timed against the whole step;
+the same replay on 2 threads (``contact_rows_in_slices``, ``soft_sweep_in_runs``) gives those parts' own
+speed-up s, and 1 / ((1 - p) + p / s) the step's best case. The machine should be quiet: threads wait for a busy core.
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ import numpy as np
 import phys2d
 from phys2d.constraints.rows import unsigned_rows
 from phys2d.pipeline import records
+from phys2d.pipeline import step as stages
 from phys2d.pipeline.parallel import manifold_runs, soft_sweep_in_runs, using_threads, warm_start_in_runs
 from phys2d.responders.block import inverse_diagonal
 from phys2d.responders.soft_contacts import prepare_manifolds, soft_constants, soft_sweep, warm_start
@@ -94,21 +95,25 @@ def compare(scene: str, responder: str, args: argparse.Namespace) -> dict[str, A
 
 
 def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
-    """Amdahl's p for SoftStep(4): one step's contact sweeps and warm starts replayed on a settled
-    world's rows, against the whole step; and those parts' speed-up on 2 threads."""
+    """Amdahl's p for SoftStep(4): one step's contact rows, contact sweeps and warm starts replayed
+    on a settled world, against the whole step; and those parts' speed-up on 2 threads."""
     soft = phys2d.SoftStep(4)
     w = phys2d.scenes.pyramid(SCENES[scene], responder=soft)
     for _ in range(args.settle):
         w.step(DT)
     w.one_call_tick = False  # the staged path hands the responder its context: keep it
     caught: list[Any] = []
-    respond = soft.respond
+    respond, rows_of = soft.respond, stages.contact_rows
     soft.respond = lambda ctx: (caught.append(ctx), respond(ctx))[1]  # type: ignore[method-assign]
-    w.step(DT)
+    stages.contact_rows = lambda *a: (caught.append(a), rows_of(*a))[1]  # its arguments, to replay
+    try:
+        w.step(DT)
+    finally:
+        stages.contact_rows = rows_of
     del soft.respond
     soft.__dict__.pop("_tick_spec", None)  # (what the world read of it: respond was its own)
     w.one_call_tick = True
-    ctx = caught[0]
+    row_args, ctx = caught
     rows = unsigned_rows(records.record_of_rows(ctx.rows))
     manifolds = prepare_manifolds(rows, ctx.M_inv, soft.block)
     inv_A_kk = inverse_diagonal(ctx.rows.A_kk)  # (the same arrays as the record)
@@ -123,6 +128,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     V = ctx.V.copy()
 
     def serial() -> None:
+        rows_of(*row_args[:-1], None)
         for _ in range(soft.substeps):
             warm_start(manifolds, rows, V)
             soft_sweep(rows, manifolds, inv_A_kk, points, V, h, True, springs)
@@ -130,6 +136,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
 
     def parallel() -> None:
         with using_threads(2):
+            rows_of(*row_args[:-1], 2)
             for _ in range(soft.substeps):
                 warm_start_in_runs(runs, manifolds, rows, V)
                 soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, True, springs)

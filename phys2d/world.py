@@ -105,9 +105,9 @@ class World:
                 stops moving and costs almost nothing to step until something wakes it
                 (``Body.awake``); default False, settable between steps (False wakes all)
     threads     how many cores a step may use (default 1, settable between steps): with more
-                than one, the soft step's sweeps run colour by colour, each colour's
-                manifolds on several threads (``pipeline.parallel``); the results are
-                bit-identical for every count
+                than one, the contact rows are built on several threads, and the soft
+                step's sweeps run colour by colour, each colour's manifolds on several
+                threads (``pipeline.parallel``); the results are bit-identical for every count
     """
 
     def __init__(
@@ -244,8 +244,8 @@ class World:
     @property
     def threads(self) -> int:
         """How many cores a step may use: 1 (the default) runs every kernel on one; more split the
-        soft step's sweeps over numba threads (at most the NUMBA_NUM_THREADS numba started with),
-        with bit-identical results (``pipeline.parallel``)."""
+        contact rows and the soft step's sweeps over numba threads (at most the NUMBA_NUM_THREADS
+        numba started with), with bit-identical results (``pipeline.parallel``)."""
         return self._threads
 
     @threads.setter

@@ -1,14 +1,16 @@
-"""World.threads: the soft step's sweeps on several threads give bit-identical results.
+"""World.threads: the contact rows and the soft step's sweeps on several threads give
+bit-identical results.
 
 The second method is the world on one thread: a world stepped on 2 or 3 threads (more than
 this machine's cores is allowed) must hold the same bits after every step, in one call and
-stage by stage, with joints and sleeping islands. The runs the sweeps are cut into are
+stage by stage, under every responder, with joints and sleeping islands. The runs the sweeps are cut into are
 checked against their definition (no moving body twice in a run, each cut needed), and a
 world on one thread must compile no parallel kernel.
 """
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import subprocess
@@ -25,7 +27,7 @@ import phys2d
 from phys2d import scenes as stock
 from phys2d.pipeline.parallel import manifold_runs
 from phys2d.pipeline.records import new_rows
-from tests.strategies import SceneSpec, build, fingerprint, resting_scenes, scenes, soft_step_keywords
+from tests.strategies import SceneSpec, build, fingerprint, responders, resting_scenes, scenes, soft_step_keywords
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -72,6 +74,15 @@ def test_threads_give_the_same_bits_on_generated_scenes(scene, keywords, threads
     """Any scene, any SoftStep settings: 2 or 3 threads, in one call or in stages, hold the bits
     of one thread after every step."""
     stepped_alike(lambda: build(scene, phys2d.SoftStep(**keywords)), threads, one_call, steps)
+
+
+@settings(max_examples=20)
+@given(scene=piles(), data=st.data(), threads=st.sampled_from([2, 3]), one_call=st.booleans())
+def test_threads_give_the_same_bits_under_every_responder(scene, data, threads, one_call) -> None:
+    """Every registered responder (their contact rows are built on the threads): the bits of one
+    thread after every step."""
+    make = data.draw(responders().map(lambda r: lambda: copy.deepcopy(r)))
+    stepped_alike(lambda: build(scene, make()), threads, one_call, 15)
 
 
 @settings(max_examples=8)
@@ -142,9 +153,10 @@ def test_a_step_leaves_numbas_thread_count_as_it_was() -> None:
     assert numba.get_num_threads() == before
 
 
-def test_threads_on_pgs_change_nothing() -> None:
-    """PGS visits its rows in pair order, one after another: threads leave its steps as they were."""
-    stepped_alike(lambda: stock.pyramid(6, responder=phys2d.PGS()), 2, True, 30)
+@pytest.mark.parametrize("friction", ["coulomb", "lecture"])
+def test_threads_on_pgs_change_nothing(friction: str) -> None:
+    """PGS sweeps its rows in pair order on one thread, its contact rows built on two: the same bits."""
+    stepped_alike(lambda: stock.pyramid(6, responder=phys2d.PGS(friction=friction)), 2, True, 30)
 
 
 # -- the runs -------------------------------------------------------------------------------

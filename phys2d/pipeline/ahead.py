@@ -132,7 +132,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
         jobs.append((start_joint_rows, (typeof(joints), i64, bodies, f64, f64, typeof(True), rows)))
     cache = typeof((np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.bool_)))
     jobs += [
-        (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings))),
+        (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings), typeof(threads))),
         (head_of_rows, (rows, i64, i64)),
         (order_contacts, (shapes, found, i64, typeof((0, 0, True)), typeof(True))),
         (

@@ -1,5 +1,8 @@
 """Threads: the soft step's sweeps on several cores, with the same results as on one.
 
+(The contact rows, each contact's its own, are built a slice per thread by
+``constraints.rows.contact_rows_in_slices``; this module holds what the soft step needs.)
+
 Gauss-Seidel visits its rows one after another: a row reads the velocities every row before
 it has written. Two rows whose bodies differ read and write different velocities, so they
 may run at the same time without changing a bit of what either computes. The soft step

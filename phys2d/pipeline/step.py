@@ -438,7 +438,7 @@ class Pipeline:
                 self._colour(world)
             s = self.state(world)
             counts = self._counts(colour_order)
-            threads = world._threads if world._threads > 1 and spec.soft is not None else None  # (pgs: one)
+            threads = world._threads if world._threads > 1 else None  # None: no parallel code compiled
             args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded, threads)
             types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded, threads is None)
             spec_was, types_was, code = self._compiled
@@ -523,7 +523,8 @@ class Pipeline:
         rows = head_of_rows(self.rows_record, k, n)
         kc = self.cached
         cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
-        deepest, hits = contact_rows(self.bodies_record, self.shapes_record, cache, new_record, rows, settings)
+        threads = world._threads if world._threads > 1 else None
+        deepest, hits = contact_rows(self.bodies_record, self.shapes_record, cache, new_record, rows, settings, threads)
         if joints is not None:
             start_joint_rows(joints, 2 * k, self.bodies_record, step.dt, settings.beta, settings.warm_start, rows)
         # rows -> responder -> integration
