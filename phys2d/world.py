@@ -41,7 +41,7 @@ from .contacts import Contacts
 from .pipeline.step import Pipeline, SimulationError
 from .responders.base import Responder, StepReport
 from .responders.pgs import PGS
-from .validation import check_bool, non_negative_float, positive_float, vec2
+from .validation import check_bool, check_int, non_negative_float, positive_float, vec2
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack  # typing.Unpack from Python 3.11; annotations only
@@ -104,6 +104,10 @@ class World:
                 an island whose every body stayed under 0.05 m/s and 2 deg/s for 0.5 s
                 stops moving and costs almost nothing to step until something wakes it
                 (``Body.awake``); default False, settable between steps (False wakes all)
+    threads     how many cores a step may use (default 1, settable between steps): with more
+                than one, the contact rows are built on several threads, and the soft
+                step's sweeps run colour by colour, each colour's manifolds on several
+                threads (``pipeline.parallel``); the results are bit-identical for every count
     """
 
     def __init__(
@@ -115,6 +119,7 @@ class World:
         max_speed: float = 1e4,
         contact_recycle_distance: float = 0.05,
         sleep: bool = False,
+        threads: int = 1,
     ) -> None:
         self.gravity = gravity
         self._responder = self._check_responder(PGS() if responder is None else responder)
@@ -138,6 +143,7 @@ class World:
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self._sleep = check_bool(sleep, "sleep")
+        self._threads = check_int(threads, "threads", 1)
         self._islands = sleeping.Islands()  # which bodies sleep, and what their islands keep
         self.tick = 0
         self.time = 0.0
@@ -234,6 +240,17 @@ class World:
         self._sleep = check_bool(value, "sleep")
         if not self._sleep:
             self._islands.wake_all(self)
+
+    @property
+    def threads(self) -> int:
+        """How many cores a step may use: 1 (the default) runs every kernel on one; more split the
+        contact rows and the soft step's sweeps over numba threads (at most the NUMBA_NUM_THREADS
+        numba started with), with bit-identical results (``pipeline.parallel``)."""
+        return self._threads
+
+    @threads.setter
+    def threads(self, value: int) -> None:
+        self._threads = check_int(value, "threads", 1)
 
     def _settings_changed(self) -> None:
         """The next step reads the world's settings and joints anew."""

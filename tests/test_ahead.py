@@ -36,7 +36,18 @@ def _tick_args(w: phys2d.World) -> tuple:
     p = w._pipeline
     spec = spec_of(w.responder)
     _, _, step, row_settings, joints = p._ready
-    return (p.state(w), joints, 0, p._counts(spec.colour_order), step, row_settings, spec.pgs, spec.soft, p.rounded)
+    return (
+        p.state(w),
+        joints,
+        0,
+        p._counts(spec.colour_order),
+        step,
+        row_settings,
+        spec.pgs,
+        spec.soft,
+        p.rounded,
+        None,
+    )
 
 
 SAME_TYPES = """
@@ -57,7 +68,8 @@ for w in (scenes.pyramid(3, responder=PGS()), scenes.heavy_chain(responder=SoftS
     w.step(1 / 60)  # a cold cache: the tick and every stage it calls compile here, for the tick's types
     p, spec = w._pipeline, spec_of(w.responder)
     _, _, step, row_settings, joints = p._ready
-    args = (p.state(w), joints, 0, p._counts(spec.colour_order), step, row_settings, spec.pgs, spec.soft, p.rounded)
+    counts = p._counts(spec.colour_order)
+    args = (p.state(w), joints, 0, counts, step, row_settings, spec.pgs, spec.soft, p.rounded, None)
     compiled.clear()
     ahead.compile_from_the_end(p, args)
     if compiled:
@@ -80,14 +92,14 @@ def test_a_warm_cache_is_not_cold_and_an_unknown_type_is():
     w.step(1 / 60)
     args = _tick_args(w)
     assert not ahead.cold(tick, args)
-    assert ahead.cold(tick, (*args[:-3], None, None, args[-1]))  # a tick with no solve was never compiled
+    assert ahead.cold(tick, (*args[:-4], None, None, *args[-2:]))  # a tick with no solve was never compiled
 
 
 @pytest.mark.parametrize("joints", [False, True])
 def test_the_child_steps_a_small_world_of_the_responder(joints):
     child = subprocess.run(
         [sys.executable, "-c", "import phys2d.pipeline.ahead as a; a._child(); print('stepped')"],
-        input=pickle.dumps((phys2d.SoftStep(substeps=2), joints)),
+        input=pickle.dumps((phys2d.SoftStep(substeps=2), joints, False, 1)),
         capture_output=True,
         timeout=600,
     )

@@ -211,7 +211,7 @@ def test_a_world_without_joints_compiles_none_of_their_code(tmp_path):
         for jointed in (False, True):
             joint_record = records.record_of_joints(joints.JointArrays([]), np.zeros(0)) if jointed else None
             n = soft_step.soft_step_solve(bodies, records.record_of_rows(rows), found, joint_record, 1 / 60, settings,
-                                          np.zeros(settings.substeps))
+                                          np.zeros(settings.substeps), None)
             print(n, [len(k.overloads) for k in kernels])
     """)
     env = dict(os.environ, PYTHONPATH=os.getcwd(), NUMBA_CACHE_DIR=str(tmp_path))

@@ -190,7 +190,7 @@ def test_contact_rows_start_from_the_cache_by_key(responder, monkeypatch):
     w.one_call_tick = False  # the staged step calls contact_rows from Python, where the spy sees it
     w.step(1 / 60)
     monkeypatch.undo()
-    bodies, shapes, _, found, rows, settings = seen["args"]
+    bodies, shapes, _, found, rows, settings, threads = seen["args"]
     t = w._pipeline.buffers
     k = len(w.contacts)
     side = t.sides[w._pipeline.side]  # the side the step wrote: what contact_rows read and wrote
@@ -205,7 +205,7 @@ def test_contact_rows_start_from_the_cache_by_key(responder, monkeypatch):
     lam, normal_row, friction_row = t.rows.lam, t.rows.normal_row[:k], t.rows.friction_row[:k]
     for warm in (True, False):
         lam[:] = np.nan  # what the buffer held must not leak into the start
-        _, hits = original(bodies, shapes, cache, found, rows, settings._replace(warm_start=warm))
+        _, hits = original(bodies, shapes, cache, found, rows, settings._replace(warm_start=warm), threads)
         expected = [by_key.get(int(keys[c]), (0.0, 0.0)) if warm else (0.0, 0.0) for c in order]
         assert np.array_equal(lam[normal_row], [n for n, _ in expected])
         assert np.array_equal(lam[friction_row], [t for _, t in expected])

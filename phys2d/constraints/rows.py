@@ -43,7 +43,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..contacts import find_in_cache, rows_to_contacts
 from ..pipeline.records import RowRecord
@@ -348,7 +348,7 @@ class RowSettings(NamedTuple):
 
 
 @njit(cache=True)
-def contact_rows(bodies, shapes, cache, found, rows, settings):
+def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
     """The normal and friction rows of contact point c = order[q] (docs/formulation.md), and
     their starting impulses.
 
@@ -372,8 +372,37 @@ def contact_rows(bodies, shapes, cache, found, rows, settings):
     cache_lambda_t[m] of cache entry m = cached[c] (``phys2d.contacts.find_in_cache``), or
     from 0 when it is new or its island lost a load; hit[c] says which. Without, from 0.
 
-    Returns the deepest overlap, max(0, -min C) (m), and the number of contacts warm started.
+    Each contact's rows are its own (``contact_rows_of``): with ``threads`` a count, not None,
+    they are built on that many threads, a slice of the contacts each (``contact_rows_in_slices``),
+    with the same results. Returns the deepest overlap, max(0, -min C) (m), and the number of
+    contacts warm started.
     """
+    K = rows.normal_row.shape[0]
+    body_a, body_b = as_uint32(found.body_a[:K]), as_uint32(found.body_b[:K])
+    cached = np.empty(K, np.int64)
+    hit = found.hit[:K]
+    if settings.warm_start:
+        cache_keys, _, _, cache_pushed = cache
+        hits = find_in_cache(cache_keys, cache_pushed, found.key[:K], body_a, body_b, shapes.uid, shapes.static,
+                             cached, hit)  # fmt: skip
+    else:
+        cached[:] = -1
+        hit[:] = False
+        hits = 0
+    coulomb = settings.friction_model == FRICTION_COULOMB
+    points_in_manifold = np.empty(0, np.int32) if coulomb else manifold_sizes(body_a, body_b)  # the lecture's bound
+    found_cache = (cache[1], cache[2], cached, points_in_manifold)
+    if threads is None:
+        return contact_rows_of(0, K, bodies, found, rows, settings, found_cache), hits
+    return contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache), hits
+
+
+@njit(cache=True)
+def contact_rows_of(first, last, bodies, found, rows, settings, found_cache):
+    """The rows of the contacts visited first up to last (``contact_rows``): each contact's normal
+    and friction rows, written in its own slots. found_cache = (cache_lambda_n, cache_lambda_t,
+    each contact's cache entry or -1, its manifold's point count for the lecture's friction bound).
+    Returns the deepest overlap among them, max(0, -min C) (m)."""
     K = rows.normal_row.shape[0]
     dt, beta, slop, push_max = settings.dt, settings.beta, settings.slop, settings.push_max
     order = as_uint32(found.order[:K])  # unsigned, as the rest (``unsigned_indices``)
@@ -386,22 +415,11 @@ def contact_rows(bodies, shapes, cache, found, rows, settings):
     J, JM, A_kk, xi, push, bounce, impact = rows.J, rows.JM, rows.A_kk, rows.xi, rows.push, rows.bounce, rows.impact
     lo, hi, bound_row, out_mu, lam = rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam
     out_a, out_b = rows.body_a, rows.body_b
-    cached = np.empty(K, np.int64)
-    hit = found.hit[:K]
-    if settings.warm_start:
-        cache_keys, _, _, cache_pushed = cache
-        hits = find_in_cache(cache_keys, cache_pushed, found.key[:K], body_a, body_b, shapes.uid, shapes.static,
-                             cached, hit)  # fmt: skip
-    else:
-        cached[:] = -1
-        hit[:] = False
-        hits = 0
-    _, cache_lambda_n, cache_lambda_t, _ = cache
-    deepest = 0.0
+    cache_lambda_n, cache_lambda_t, cached, points_in_manifold = found_cache
     coulomb = settings.friction_model == FRICTION_COULOMB
-    points_in_manifold = np.empty(0, np.int32) if coulomb else manifold_sizes(body_a, body_b)  # the lecture's bound
+    deepest = 0.0
     beta_over_dt = beta / dt
-    for q in range(order.shape[0]):
+    for q in range(first, last):
         c = order[q]
         a, b = body_a[c], body_b[c]
         M_inv_a, M_inv_b = (M_inv[a, 0], M_inv[a, 1], M_inv[a, 2]), (M_inv[b, 0], M_inv[b, 1], M_inv[b, 2])
@@ -461,4 +479,17 @@ def contact_rows(bodies, shapes, cache, found, rows, settings):
             bound_row[k] = -1
             lo[k] = -bound
             hi[k] = bound
-    return deepest, hits
+    return deepest
+
+
+@njit(cache=True, parallel=True)
+def contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache):
+    """``contact_rows_of`` over all the contacts, a slice of them on each of ``threads`` threads
+    (each contact writes its own rows: the same results as one call). Returns the deepest overlap (m)."""
+    K = rows.normal_row.shape[0]
+    deepest = np.zeros(threads)  # per slice: no shared accumulator
+    for t in prange(threads):
+        deepest[t] = contact_rows_of(
+            K * t // threads, K * (t + 1) // threads, bodies, found, rows, settings, found_cache
+        )
+    return deepest.max()

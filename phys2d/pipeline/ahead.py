@@ -62,10 +62,10 @@ def wanted() -> bool:
     return os.environ.get("PHYS2D_COMPILE_AHEAD", "1") != "0" and (os.cpu_count() or 1) >= 2
 
 
-def start(responder: Any, joints: bool, rounded: bool = False) -> subprocess.Popen | None:
+def start(responder: Any, joints: bool, rounded: bool = False, threads: int = 1) -> subprocess.Popen | None:
     """The child process that steps a small world under ``responder`` (with a joint when
-    ``joints``, a capsule when ``rounded``), compiling the tick from its first stage down; None if
-    it cannot start."""
+    ``joints``, a capsule when ``rounded``, on ``threads`` threads), compiling the tick from its
+    first stage down; None if it cannot start."""
     try:
         child = subprocess.Popen(
             [sys.executable, "-m", "phys2d.pipeline.ahead"],
@@ -75,7 +75,7 @@ def start(responder: Any, joints: bool, rounded: bool = False) -> subprocess.Pop
             env={**os.environ, "PHYS2D_COMPILE_AHEAD": "0"},
         )
         assert child.stdin is not None
-        child.stdin.write(pickle.dumps((responder, joints, rounded)))
+        child.stdin.write(pickle.dumps((responder, joints, rounded, threads)))
         child.stdin.close()
     except (OSError, pickle.PicklingError):
         return None
@@ -95,7 +95,7 @@ def plan(pipeline: Any, tick: Any, args: tuple) -> str:
 def compile_from_the_end(pipeline: Any, args: tuple) -> None:
     """Compile the stages ``pipeline.tick.tick`` calls, from the last one up, for the types the
     tick calls them with: ``args`` are the tick's own (state, joints, stage, counts, step,
-    row_settings, pgs, soft, rounded)."""
+    row_settings, pgs, soft, rounded, threads)."""
     for kernel, sig in stage_jobs(pipeline, args):
         kernel.compile(sig)
 
@@ -112,7 +112,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     from ..responders.soft_step import soft_step_solve
     from .stages import head_of_rows, order_contacts
 
-    _, joints, _, counts, step, row_settings, pgs, soft, rounded = args
+    _, joints, _, counts, step, row_settings, pgs, soft, rounded, threads = args
     bodies, shapes, store, sides, rows = (typeof(r) for r in pipeline._records)
     found = typeof(pipeline._records[3][0])
     i64, f64, i32 = typeof(0), typeof(0.0), typeof(np.zeros(0, np.int32))
@@ -125,12 +125,14 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
         jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals, typeof(joints))))
     if soft is not None:
         quad = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros((0, 4))))
-        jobs.append((soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals)))
+        jobs.append(
+            (soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals, typeof(threads)))
+        )
     if joints is not None:
         jobs.append((start_joint_rows, (typeof(joints), i64, bodies, f64, f64, typeof(True), rows)))
     cache = typeof((np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.bool_)))
     jobs += [
-        (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings))),
+        (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings), typeof(threads))),
         (head_of_rows, (rows, i64, i64)),
         (order_contacts, (shapes, found, i64, typeof((0, 0, True)), typeof(True))),
         (
@@ -144,14 +146,14 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
 
 def _child() -> None:
     """Step a small world under the responder read from stdin (one step: every kernel it needs)."""
-    responder, joints, *rounded = pickle.loads(sys.stdin.buffer.read())
+    responder, joints, rounded, threads = pickle.loads(sys.stdin.buffer.read())
     from ..world import World
 
-    w = World(responder=responder)
+    w = World(responder=responder, threads=threads)
     w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)
     a = w.add_box(position=(0.0, 0.5), half_extents=(0.5, 0.5))
     b = w.add_circle(position=(2.0, 0.5), radius=0.5)
-    if rounded and rounded[0]:
+    if rounded:
         w.add_capsule(position=(-2.0, 0.25), half_length=0.5, radius=0.25)
     if joints:
         w.add_distance_joint(a, b)

@@ -33,6 +33,7 @@ from ..responders.restitution import bounce_after_moving
 from ..responders.soft_step import SoftStep
 from ..shapes import POLYGON
 from . import ahead, records
+from .parallel import using_threads
 from .stages import (
     NEED_ROOM,
     NEED_SWEEP,
@@ -413,9 +414,12 @@ class Pipeline:
         _, _, step, row_settings, joints = ready
         self.began = False  # set once the undo buffers hold the state before the step
         try:
-            done = self._in_one_call(world, spec, step, joints, row_settings) if spec.one_call and one_call else None
-            if done is None:
-                done = self._in_stages(world, responder, step, joints, row_settings)
+            with using_threads(world._threads):
+                done = (
+                    self._in_one_call(world, spec, step, joints, row_settings) if spec.one_call and one_call else None
+                )
+                if done is None:
+                    done = self._in_stages(world, responder, step, joints, row_settings)
         except BaseException:
             if self.began:
                 world._bodies.restore(self.undo)
@@ -434,8 +438,9 @@ class Pipeline:
                 self._colour(world)
             s = self.state(world)
             counts = self._counts(colour_order)
-            args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded)
-            types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded)
+            threads = world._threads if world._threads > 1 else None  # None: no parallel code compiled
+            args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded, threads)
+            types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded, threads is None)
             spec_was, types_was, code = self._compiled
             kernel = code if spec_was is spec and types_was == types_now else tick
             if kernel is tick and self._behind(world, spec, args, types_now):
@@ -470,7 +475,7 @@ class Pipeline:
         if child is None:
             if ahead.plan(self, tick, args) != "behind":
                 return False
-            child = ahead.start(world._responder, args[1] is not None, args[8] is not None)
+            child = ahead.start(world._responder, args[1] is not None, args[8] is not None, world._threads)
             if child is None:
                 return False
             _BEHIND[key] = child
@@ -484,7 +489,7 @@ class Pipeline:
         if ahead.plan(self, tick, args) != "ahead":
             return None
         ahead.last_plan = "ahead"
-        child = ahead.start(world._responder, args[1] is not None, args[8] is not None)
+        child = ahead.start(world._responder, args[1] is not None, args[8] is not None, world._threads)
         if child is not None:
             ahead.compile_from_the_end(self, args)
         return child
@@ -518,7 +523,8 @@ class Pipeline:
         rows = head_of_rows(self.rows_record, k, n)
         kc = self.cached
         cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
-        deepest, hits = contact_rows(self.bodies_record, self.shapes_record, cache, new_record, rows, settings)
+        threads = world._threads if world._threads > 1 else None
+        deepest, hits = contact_rows(self.bodies_record, self.shapes_record, cache, new_record, rows, settings, threads)
         if joints is not None:
             start_joint_rows(joints, 2 * k, self.bodies_record, step.dt, settings.beta, settings.warm_start, rows)
         # rows -> responder -> integration
@@ -556,7 +562,7 @@ class Pipeline:
         return StepContext(
             step.dt, b.x, b.theta, b.V, self.undo[2], M_inv, rows, k, body_a, body_b, point, normal, separation,
             restitution, gravity=world._gravity, joints=world._joint_arrays, anchor=anchor,
-            forces=self._forces(b, M_inv, step.dt),
+            forces=self._forces(b, M_inv, step.dt), threads=world._threads,
         )  # fmt: skip
 
     def _forces(self, b: Any, M_inv: np.ndarray, dt: float) -> np.ndarray | None:

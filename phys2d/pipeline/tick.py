@@ -22,12 +22,14 @@ from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, or
 
 
 @njit(cache=True)
-def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded):
+def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threads):
     """One tick in one call, the stages in order; the responder's solve is PGS's (``pgs_step``)
     when ``pgs`` holds its settings, the soft step's (``soft_step_solve``) when ``soft`` does
     (the other is None: numba compiles only the one given). ``rounded`` is True in a world with
     capsules, segments or chains, else None: the collision of those shapes is then not compiled
-    either (``narrowphase.manifold``).
+    either (``narrowphase.manifold``). threads: None on one thread (no parallel code is
+    compiled), else the count of threads the contact rows and the soft step's sweeps are built
+    and solved on (``contact_rows``, ``pipeline.parallel``).
 
     Stage 0 starts the tick (``begin``); when a body left its fat box it sweeps (``sweep``), or
     returns NEED_SWEEP when the bodies or joints changed or the pairs outgrow the buffers (Python
@@ -59,7 +61,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded):
     rows = head_of_rows(s.rows, k, n)
     kc = counts.contacts
     cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
-    deepest, hits = contact_rows(s.bodies, s.shapes, cache, new, rows, row_settings)
+    deepest, hits = contact_rows(s.bodies, s.shapes, cache, new, rows, row_settings, threads)
     if joints is not None:
         start_joint_rows(joints, 2 * k, s.bodies, step.dt, row_settings.beta, row_settings.warm_start, rows)
     # rows -> responder -> integration
@@ -68,7 +70,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded):
         count = pgs_step(s.bodies, rows, new.separation[:k], step.dt, pgs, s.residuals, joints)
     if soft is not None:
         found = (new.order[:k], new.separation[:k], new.restitution[:k], new.anchor[:k])
-        count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals)
+        count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, threads)
     # the limits, then the impulses per contact and the cache the next step starts from
     b = s.bodies
     if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:

@@ -40,6 +40,7 @@ class StepContext:
     joints: object = None  # the world's packed joints (``JointArrays``), for responders that rebuild joint rows
     anchor: np.ndarray | None = None  # (K, 4) lever arms r_a, r_b (m) as each manifold was found
     forces: np.ndarray | None = None  # (N, 3) F_ext when bodies have more than m g on them (below)
+    threads: int = 1  # the cores the step may use (``World.threads``), for responders that split their work
 
     @property
     def F_ext(self) -> np.ndarray:

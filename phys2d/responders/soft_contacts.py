@@ -53,25 +53,36 @@ def soft_push(s, h, use_bias, soft):
 
 @njit(cache=True)
 def soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
-    """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias),
-    then the friction rows. points.C[c] is point c's separation now (m); a point still apart
-    that has not yet met its partner lets friction act only once it touches
-    (``speculative_friction_target`` of points.vn, points.vt); ``manifolds`` comes from
-    ``prepare_manifolds``; inv_A_kk = 1 / A_kk (``inverse_diagonal``: the sweeps multiply,
-    never divide); springs: the soft push against a dynamic and a static partner (``soft_constants``).
+    """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias,
+    ``soft_normal_rows``), then the friction rows (``soft_friction_rows``). points.C[c] is
+    point c's separation now (m); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
+    1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); springs: the soft push
+    against a dynamic and a static partner (``soft_constants``). The same updates run colour by
+    colour on several threads in ``pipeline.parallel.soft_sweep_in_runs``.
+
+    Returns the largest |delta lambda| A_kk of the sweep (m/s).
+    """
+    n = manifolds[0].shape[0] - 1
+    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, V, h))
+
+
+@njit(cache=True)
+def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
+    """The normal rows of manifolds first up to last, one manifold after another, with the soft
+    push if use_bias (``soft_sweep``'s arguments). Returns the largest |delta lambda| A_kk (m/s).
 
     A two-point manifold marked as a block has its normal rows solved together (lcp2), each
     row scaled by its own softness (relax does so only while both points touch):
         K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
-    Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
-    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
-    J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
+    normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
+    J, JM, A_kk, lam = rows.J, rows.JM, rows.A_kk, rows.lam
     soft_dyn, soft_static = springs[0], springs[1]
-    C, vn, vt, impacted = points.C, points.vn, points.vt, points.impacted
+    C = points.C
     start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
-    for m in range(start.shape[0] - 1):
+    for m in range(first, last):
         c = start[m]
         k = normal_row[c]
         a, b = body_a[k], body_b[k]
@@ -107,7 +118,21 @@ def soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
                     V_ab = pair_row_impulse(k, JM, d, V_ab)
                     worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
-    for m in range(start.shape[0] - 1):  # then the friction rows, manifold by manifold
+    return worst
+
+
+@njit(cache=True)
+def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, V, h):
+    """The friction rows of manifolds first up to last, one manifold after another
+    (``soft_sweep``'s arguments): Coulomb's cone mu lambda_n; a point still apart that has not
+    yet met its partner lets friction act only once it touches (``speculative_friction_target``
+    of points.vn, points.vt). Returns the largest |delta lambda| A_kk (m/s)."""
+    normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
+    C, vn, vt, impacted = points.C, points.vn, points.vt, points.impacted
+    start = manifolds[0]
+    worst = 0.0
+    for m in range(first, last):
         k = friction_row[start[m]]
         a, b = body_a[k], body_b[k]
         V_ab = pair_velocity(a, b, V)
@@ -175,13 +200,20 @@ def prepare_manifolds(rows, M_inv, block):
 
 @njit(cache=True)
 def warm_start(manifolds, rows, V):
-    """Apply last sub-step's impulses (N s) to V: a manifold's rows (normal, then friction, point
-    by point) on its pair's velocities held in hand (``pair_velocity``), stored once; then the
-    joint rows."""
+    """Apply last sub-step's impulses (N s) to V: manifold by manifold (``warm_start_manifolds``),
+    then the joint rows (``warm_start_joints``)."""
+    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
+    warm_start_joints(rows, V)
+
+
+@njit(cache=True)
+def warm_start_manifolds(first, last, start, rows, V):
+    """The last impulses (N s) of manifolds first up to last on V, one manifold after another:
+    its rows (normal, then friction, point by point) on its pair's velocities held in hand
+    (``pair_velocity``), stored once."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     JM, lam = rows.JM, rows.lam
-    start = manifolds[0]
-    for m in range(start.shape[0] - 1):
+    for m in range(first, last):
         k = normal_row[start[m]]
         a, b = body_a[k], body_b[k]
         V_ab = pair_velocity(a, b, V)
@@ -190,6 +222,12 @@ def warm_start(manifolds, rows, V):
                 if lam[k] != 0.0:
                     V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
         store_pair_velocity(a, b, V_ab, V)
-    for k in range(2 * normal_row.shape[0], lam.shape[0]):  # the joint rows follow the contacts' 2K
+
+
+@njit(cache=True)
+def warm_start_joints(rows, V):
+    """The joint rows' last impulses (N s) on V, row by row."""
+    body_a, body_b, JM, lam = rows.body_a, rows.body_b, rows.JM, rows.lam
+    for k in range(2 * rows.normal_row.shape[0], lam.shape[0]):  # the joint rows follow the contacts' 2K
         if lam[k] != 0.0:
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)

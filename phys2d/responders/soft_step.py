@@ -44,6 +44,7 @@ from numba import njit
 from ..constraints.joints import JointArrays
 from ..constraints.rows import unsigned_rows
 from ..pipeline import records
+from ..pipeline.parallel import runs_for, soft_sweep_in_runs, warm_start_in_runs
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .block import inverse_diagonal
@@ -70,19 +71,38 @@ class SoftSettings(NamedTuple):
 
 
 @njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, system):
+def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, system, runs):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). springs: (contacts with a dynamic partner, with
-    a static one, joints) (``soft_constants``). Returns the largest velocity correction (m/s)."""
+    a static one, joints) (``soft_constants``); runs: None on one thread, else the contacts'
+    sweep runs on several (``pipeline.parallel``). Returns the largest velocity correction (m/s)."""
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
         worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
-    return max(worst, soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
+    return max(worst, sweep_contacts(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
 
 
 @njit(cache=True)
-def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
+def sweep_contacts(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
+    """``soft_sweep`` on one thread (runs None), or run by run on several (``pipeline.parallel``).
+    (runs is an argument here, so numba drops the branch its type rules out.)"""
+    if runs is None:
+        return soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+    return soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+
+
+@njit(cache=True)
+def warm_start_contacts(manifolds, rows, V, runs):
+    """``warm_start`` on one thread (runs None), or run by run on several (``pipeline.parallel``)."""
+    if runs is None:
+        warm_start(manifolds, rows, V)
+    else:
+        warm_start_in_runs(runs, manifolds, rows, V)
+
+
+@njit(cache=True)
+def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, threads):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
     warm start, solve with bias, integrate positions, relax (the same sweep without bias),
     store; then restitution.
@@ -97,7 +117,9 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
     sub-step out). Joint rows are rebuilt at each sub-step's positions. Returns the number of
     sub-steps; residuals[s] (length ``substeps``, the caller's buffer) is the largest correction
-    of sub-step s's relax sweep (m/s), 0 without one.
+    of sub-step s's relax sweep (m/s), 0 without one. threads: None on one thread (no parallel
+    code is compiled), else the contacts' sweeps run on several (``pipeline.parallel``), with the
+    same results.
     """
     x, theta, V = bodies.x, bodies.theta, bodies.V
     substeps, relax, threshold = settings.substeps, settings.relax, settings.restitution_threshold
@@ -118,6 +140,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
     manifolds = prepare_manifolds(rows, bodies.M_inv, settings.block)
+    runs = runs_for(threads, manifolds[0], rows, bodies.M_inv)  # None on one thread
     inv_A_kk = inverse_diagonal(rows.A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
@@ -139,8 +162,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals):
                 note_approach(rows, points, n_pending, V)
             if with_bias:
                 integrate_velocities(V, dv)
-                warm_start(manifolds, rows, V)
-            worst = solve(rows, manifolds, inv_A_kk, points, V, h, with_bias, springs, joints, system)
+                warm_start_contacts(manifolds, rows, V, runs)
+            worst = solve(rows, manifolds, inv_A_kk, points, V, h, with_bias, springs, joints, system, runs)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
             if with_bias:
@@ -243,7 +266,9 @@ class SoftStep(Responder):
         if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
             joints = records.record_of_joints(ctx.joints, rows.lam[rows.first_joint_row :])  # (lam: not read)
         residuals = np.zeros(self.substeps)
-        n = soft_step_solve(bodies, records.record_of_rows(rows), found, joints, ctx.dt, self.settings, residuals)
+        threads = ctx.threads if ctx.threads > 1 else None  # one thread: no parallel code compiled
+        settings = self.settings
+        n = soft_step_solve(bodies, records.record_of_rows(rows), found, joints, ctx.dt, settings, residuals, threads)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:

@@ -1,0 +1,300 @@
+"""World.threads: the contact rows and the soft step's sweeps on several threads give
+bit-identical results.
+
+The second method is the world on one thread: a world stepped on 2 or 3 threads (more than
+this machine's cores is allowed) must hold the same bits after every step, in one call and
+stage by stage, under every responder, with joints and sleeping islands. The runs the sweeps are cut into are
+checked against their definition (no moving body twice in a run, each cut needed), and a
+world on one thread must compile no parallel kernel.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import phys2d
+from phys2d import scenes as stock
+from phys2d.pipeline.parallel import manifold_runs
+from phys2d.pipeline.records import new_rows
+from tests.strategies import SceneSpec, build, fingerprint, responders, resting_scenes, scenes, soft_step_keywords
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def stepped_alike(make, threads: int, one_call: bool, steps: int, dt: float = 1 / 60, seen=None) -> None:
+    """Step a world from ``make`` on one thread (in one call) and another on ``threads`` threads
+    (``one_call`` or stage by stage), asserting bit-identical fingerprints after every step
+    (``seen(world)`` is called after each)."""
+    one, many = make(), make()
+    many.threads = threads
+    many.one_call_tick = one_call
+    for _ in range(steps):
+        failed = [False, False]
+        for i, w in enumerate((one, many)):
+            try:
+                w.step(dt)
+            except phys2d.SimulationError:
+                failed[i] = True
+        assert failed[0] == failed[1]
+        assert fingerprint(many) == fingerprint(one)
+        if seen is not None:
+            seen(many)
+        if failed[0]:
+            return
+
+
+@st.composite
+def piles(draw) -> SceneSpec:
+    """Stacks at rest, or a few bodies thrown together over a ground (overlaps are common)."""
+    if draw(st.booleans()):
+        return draw(resting_scenes(max_stacks=3, max_height=4))
+    return draw(scenes(min_bodies=2, max_bodies=8, ground=True, static=None))
+
+
+@settings(max_examples=25)
+@given(
+    scene=piles(),
+    keywords=soft_step_keywords(),
+    threads=st.sampled_from([2, 3]),
+    one_call=st.booleans(),
+    steps=st.integers(5, 30),
+)
+def test_threads_give_the_same_bits_on_generated_scenes(scene, keywords, threads, one_call, steps) -> None:
+    """Any scene, any SoftStep settings: 2 or 3 threads, in one call or in stages, hold the bits
+    of one thread after every step."""
+    stepped_alike(lambda: build(scene, phys2d.SoftStep(**keywords)), threads, one_call, steps)
+
+
+@settings(max_examples=20)
+@given(scene=piles(), data=st.data(), threads=st.sampled_from([2, 3]), one_call=st.booleans())
+def test_threads_give_the_same_bits_under_every_responder(scene, data, threads, one_call) -> None:
+    """Every registered responder (their contact rows are built on the threads): the bits of one
+    thread after every step."""
+    make = data.draw(responders().map(lambda r: lambda: copy.deepcopy(r)))
+    stepped_alike(lambda: build(scene, make()), threads, one_call, 15)
+
+
+@settings(max_examples=8)
+@given(rows=st.integers(2, 9), threads=st.sampled_from([2, 3]), one_call=st.booleans(), substeps=st.integers(1, 4))
+def test_threads_give_the_same_bits_on_pyramids(rows: int, threads: int, one_call: bool, substeps: int) -> None:
+    """Pyramids (many manifolds per colour: the parallel loops have work to split) hold the bits
+    of one thread after every step."""
+    stepped_alike(lambda: stock.pyramid(rows, responder=phys2d.SoftStep(substeps)), threads, one_call, 40)
+
+
+@settings(max_examples=6)
+@given(
+    links=st.integers(2, 8),
+    ratio=st.sampled_from([1.0, 10.0, 100.0]),
+    threads=st.sampled_from([2, 3]),
+    one_call=st.booleans(),
+    direct=st.booleans(),
+)
+def test_threads_give_the_same_bits_with_joints(
+    links: int, ratio: float, threads: int, one_call: bool, direct: bool
+) -> None:
+    """A heavy chain swinging into a pile (joint rows and contacts in one solve) holds the bits of
+    one thread."""
+
+    def make() -> phys2d.World:
+        w = stock.heavy_chain(links, ratio, responder=phys2d.SoftStep(direct_joints=direct))
+        for i in range(4):
+            w.add_box(position=(0.6 * i, 0.5), half_extents=(0.3, 0.3))
+        return w
+
+    stepped_alike(make, threads, one_call, 60)
+
+
+def test_threads_give_the_same_bits_while_islands_sleep_and_wake() -> None:
+    """Sleeping bodies are immovable (M^-1 = 0) in the step: several manifolds of a run may share
+    one. Two piles fall asleep, a box wakes one: the bits of one thread throughout."""
+
+    def make() -> phys2d.World:
+        w = stock.pyramid(5, responder=phys2d.SoftStep())
+        w.sleep = True
+        w.add_box(position=(8.0, 40.0), half_extents=(0.4, 0.4))
+        for i in range(4):
+            w.add_box(position=(8.0, 0.5 + i), half_extents=(0.5, 0.5))
+        return w
+
+    asleep = []
+    stepped_alike(make, 2, True, 240, seen=lambda w: asleep.append(sum(not b.awake for b in w.bodies)))
+    assert max(asleep) >= 4  # piles slept
+    assert any(later < now for now, later in zip(asleep, asleep[1:]))  # and the falling box woke one
+
+
+def test_threads_can_change_between_steps() -> None:
+    """Switching threads between steps (and back) changes no bit."""
+    one, many = stock.pyramid(6, responder=phys2d.SoftStep()), stock.pyramid(6, responder=phys2d.SoftStep())
+    for i in range(30):
+        many.threads = 1 + i % 3
+        one.step(1 / 60)
+        many.step(1 / 60)
+    assert fingerprint(many) == fingerprint(one)
+
+
+def test_a_step_leaves_numbas_thread_count_as_it_was() -> None:
+    """The world sets numba's thread count for its step only."""
+    before = numba.get_num_threads()
+    w = stock.pyramid(3, responder=phys2d.SoftStep())
+    w.threads = 2
+    w.step(1 / 60)
+    assert numba.get_num_threads() == before
+
+
+@pytest.mark.parametrize("friction", ["coulomb", "lecture"])
+def test_threads_on_pgs_change_nothing(friction: str) -> None:
+    """PGS sweeps its rows in pair order on one thread, its contact rows built on two: the same bits."""
+    stepped_alike(lambda: stock.pyramid(6, responder=phys2d.PGS(friction=friction)), 2, True, 30)
+
+
+# -- the runs -------------------------------------------------------------------------------
+
+
+def runs_of(pairs: list[tuple[int, int]], n_bodies: int, immovable: set[int]) -> np.ndarray:
+    """``manifold_runs`` over one-point manifolds between ``pairs`` of bodies, in this order."""
+    n = len(pairs)
+    body_a = np.array([a for a, _ in pairs], np.int32)
+    body_b = np.array([b for _, b in pairs], np.int32)
+    empty = np.zeros((n, 6))
+    rows = new_rows((
+        np.arange(n, dtype=np.int32), np.arange(n, dtype=np.int32), body_a, body_b, empty, empty, np.zeros(n),
+        np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, np.int32),
+        np.zeros(n), np.zeros(n),
+    ))  # fmt: skip
+    M_inv = np.ones((n_bodies, 3))
+    M_inv[sorted(immovable)] = 0.0
+    return manifold_runs(np.arange(n + 1, dtype=np.uint32), rows, M_inv)
+
+
+@given(
+    data=st.data(),
+    n_bodies=st.integers(2, 12),
+    n_pairs=st.integers(0, 40),
+)
+def test_runs_hold_no_moving_body_twice_and_cut_only_where_needed(data, n_bodies: int, n_pairs: int) -> None:
+    """Runs cover the manifolds in order; within a run no moving body appears twice (so its
+    manifolds may run at once); and each run after the first starts with a manifold whose moving
+    body the run before holds (greedy: no cut is wasted). Immovable bodies are shared freely."""
+    body = st.integers(0, n_bodies - 1)
+    pairs = data.draw(
+        st.lists(st.tuples(body, body).filter(lambda p: p[0] != p[1]), min_size=n_pairs, max_size=n_pairs)
+    )
+    immovable = set(data.draw(st.lists(body, max_size=3)))
+    runs = runs_of(pairs, n_bodies, immovable)
+    assert runs[0] == 0 and runs[-1] == len(pairs)
+    assert np.all(np.diff(runs) > 0) or len(pairs) == 0
+    for r in range(len(runs) - 1):
+        moving = [i for a, b in pairs[runs[r] : runs[r + 1]] for i in (a, b) if i not in immovable]
+        assert len(moving) == len(set(moving))
+        if r > 0:
+            before = {i for a, b in pairs[runs[r - 1] : runs[r]] for i in (a, b) if i not in immovable}
+            assert before & {i for i in pairs[runs[r]] if i not in immovable}
+
+
+def test_runs_of_coloured_pairs_are_the_colours() -> None:
+    """Pairs sorted by colour (``constraints.order``): a chain's links 0-1, 1-2, ... take two
+    colours, so the runs are two, however long the chain."""
+    chain = [(i, i + 1) for i in range(10)]
+    coloured = chain[0::2] + chain[1::2]
+    assert len(runs_of(coloured, 11, set())) - 1 == 2
+    assert len(runs_of(chain, 11, set())) - 1 == 10  # in pair order every link waits for the last
+    assert len(runs_of([(0, 5), (1, 5), (2, 5)], 6, {5})) - 1 == 1  # a static ground shared by all
+
+
+# -- settings -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "bad, error",
+    [
+        (0, ValueError),
+        (-2, ValueError),
+        (1.5, TypeError),
+        (2.0, TypeError),
+        (True, TypeError),
+        ("2", TypeError),
+        (None, TypeError),
+    ],
+)
+def test_bad_threads_are_refused_and_change_nothing(bad, error) -> None:
+    """0, negatives, non-integers and bools are refused, naming ``threads``; the world keeps its count."""
+    w = stock.pyramid(2, responder=phys2d.SoftStep())
+    w.threads = 2
+    with pytest.raises(error, match="threads"):
+        w.threads = bad
+    assert w.threads == 2
+    with pytest.raises(error, match="threads"):
+        phys2d.World(threads=bad)
+
+
+def test_threads_default_to_one_and_are_kept() -> None:
+    w = phys2d.World(threads=3)
+    assert phys2d.World().threads == 1 and w.threads == 3
+    w.threads = np.int64(2)
+    assert w.threads == 2 and type(w.threads) is int
+
+
+# -- compiling ------------------------------------------------------------------------------
+
+_PROBE = """
+import hashlib, json, sys
+import numpy as np
+import phys2d
+from phys2d import scenes
+from numba.np.ufunc import parallel as parallel_layer
+
+out = {}
+for threads in json.loads(sys.argv[1]):
+    for one_call in (True, False):
+        w = scenes.pyramid(4, responder=phys2d.SoftStep())
+        w.add_distance_joint(w.bodies[1], w.bodies[2])
+        w.threads, w.one_call_tick = threads, one_call
+        for _ in range(20):
+            w.step(1 / 60)
+        h = hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in (w.x, w.theta, w.V)))
+        out[f"{threads} {one_call}"] = h.hexdigest()
+# numba starts its thread pool when it compiles, loads or runs a parallel kernel (or is told a count)
+out["thread pool"] = bool(parallel_layer._is_initialized)
+print(json.dumps(out))
+"""
+
+
+def probe(threads: list[int], **env: str) -> dict:
+    """Run ``_PROBE`` in a fresh process (its own numba state) with ``env`` set."""
+    done = subprocess.run(
+        [sys.executable, "-c", _PROBE, json.dumps(threads)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT), "PHYS2D_COMPILE_AHEAD": "0", **env},
+        timeout=1800,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_one_thread_compiles_no_parallel_kernel() -> None:
+    """A process whose worlds step on one thread (in one call and in stages, with a joint) never
+    starts numba's thread pool, which compiling, loading or running a parallel kernel would."""
+    assert probe([1])["thread pool"] is False
+
+
+def test_uncompiled_threads_give_the_compiled_bits() -> None:
+    """With NUMBA_DISABLE_JIT=1 (prange is range) a world on 1 or 2 threads holds the bits that
+    compiled kernels give on 1 and on 2 threads."""
+    compiled = probe([1, 2])
+    python = probe([1, 2], NUMBA_DISABLE_JIT="1")
+    for key in ("1 True", "1 False", "2 True", "2 False"):
+        assert python[key] == compiled[key] == compiled["1 True"]
