@@ -65,7 +65,7 @@ STAGES: list[tuple[Any, str]] = [
     (Pipeline, "_make_room"), (Pipeline, "_colour"), (step_module, "collide_recycling"),
     (step_module, "order_contacts"), (step_module, "head_of_rows"), (step_module, "contact_rows"),
     (step_module, "start_joint_rows"), (Pipeline, "_context"), (None, "respond"),
-    (step_module, "integrate_positions"), (step_module, "first_too_fast"),
+    (step_module, "bounce_after_moving"), (step_module, "first_too_fast"),
     (step_module, "impulses_to_contacts_and_cache"), (Pipeline, "_commit"),
 ]  # fmt: skip
 LABELS = [("Pipeline." if owner is Pipeline else "") + name for owner, name in STAGES]

@@ -414,17 +414,23 @@ class Pipeline:
         _, _, step, row_settings, joints = ready
         self.began = False  # set once the undo buffers hold the state before the step
         try:
-            with using_threads(world._threads):
-                done = (
-                    self._in_one_call(world, spec, step, joints, row_settings) if spec.one_call and one_call else None
-                )
-                if done is None:
-                    done = self._in_stages(world, responder, step, joints, row_settings)
+            if world._threads > 1:
+                with using_threads(world._threads):
+                    done = self._one_tick(world, responder, spec, (step, joints, row_settings), one_call)
+            else:  # (no context to enter: a small scene's step is a few microseconds)
+                done = self._one_tick(world, responder, spec, (step, joints, row_settings), one_call)
         except BaseException:
             if self.began:
                 world._bodies.restore(self.undo)
             raise
         return self._commit(world, spec, done, dt)
+
+    def _one_tick(self, world: World, responder: Responder, spec: TickSpec, settings: tuple, one_call: bool) -> tuple:
+        """The tick in one call when it can (``_in_one_call``), else stage by stage; settings:
+        (step settings, joints, row settings)."""
+        step, joints, row_settings = settings
+        done = self._in_one_call(world, spec, step, joints, row_settings) if spec.one_call and one_call else None
+        return self._in_stages(world, responder, step, joints, row_settings) if done is None else done
 
     def _in_one_call(
         self, world: World, spec: TickSpec, step: StepSettings, joints: Any, row_settings: Any
