@@ -382,7 +382,7 @@ bad_counts = st.sampled_from([0, -1, 2.5, "3", None, True, np.float64(3.0)])
 def test_stock_scenes_refuse_bad_arguments(data) -> None:
     """Each stock scene refuses a bad value of each of its own arguments (counts: zero,
     negative, fractional, not integers; sizes and ratios: not numbers, not finite, <= 0;
-    ``lean``: not a finite number) with an error that starts with the argument's name,
+    ``lean``: not a finite number; ``joint_friction``: < 0) with an error that starts with the argument's name,
     and refuses a responder that is not one."""
     scene = data.draw(st.sampled_from(sorted(phys2d.scenes.SCENES)))
     make = phys2d.scenes.SCENES[scene][0]
@@ -392,6 +392,8 @@ def test_stock_scenes_refuse_bad_arguments(data) -> None:
         value = data.draw(bad_counts, label=name)
     elif name == "lean":  # any finite offset is a valid lean
         value = data.draw(bad_scalars, label=name)
+    elif name == "joint_friction":  # 0: frictionless pins, valid
+        value = data.draw(bad_scalars | st.sampled_from([-1.0, -INF]), label=name)
     else:
         value = data.draw(bad_scalars | st.sampled_from([0.0, -1.0, -INF]), label=name)
     with pytest.raises((ValueError, TypeError)) as info:
