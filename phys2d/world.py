@@ -670,9 +670,6 @@ class World:
         has one and ``one_call_tick`` is set, else stage by stage, with bit-identical results."""
         if type(dt) is not float or not 0.0 < dt < math.inf:  # (a plain positive float passes at once)
             dt = positive_float(dt, "dt")
-        responder = self._responder
-        if self._joints:
-            self._check_joints_supported(responder)
         if self._islands.some_asleep or self._pipeline.sleep_masks is not None:
             self._islands.before_step(self, dt)
         report = self._pipeline.step(self, dt, self._one_call_tick)
@@ -682,10 +679,6 @@ class World:
         self.tick += 1
         self.time += dt
         return report
-
-    def _contacts_from(self, buffers: object, k: int) -> None:
-        """The last step's K contacts are in ``buffers`` (one side's): copied out when first looked at."""
-        self._pending_contacts, self._contacts_sealed = (buffers, k), False
 
     @property
     def contacts(self) -> Contacts:
@@ -704,10 +697,10 @@ class World:
         """What the last step did (``StepReport``; read-only arrays)."""
         return self._last_step
 
-    def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray) -> None:
+    def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray, joint_lam: np.ndarray) -> None:
         """Keep the joints' reactions (``lam`` of the step's rows, from first_joint_row) of the step
-        just taken: one copy, which every joint's ``impulse`` reads its rows of."""
-        self._joint_lam[:] = lam[first_joint_row : first_joint_row + self._joint_lam.shape[0]]
+        just taken in ``joint_lam`` (``_joint_lam``): one copy, which every joint's ``impulse`` reads."""
+        joint_lam[:] = lam[first_joint_row : first_joint_row + joint_lam.shape[0]]
         self._joint_rows_first = first_joint_row
         if not self._joints_placed:  # joints were added or removed since: each learns its rows' place
             for joint in self._joints:

@@ -35,7 +35,7 @@ STAGES = (
 def _tick_args(w: phys2d.World) -> tuple:
     p = w._pipeline
     spec = spec_of(w.responder)
-    _, _, step, row_settings, joints = p._ready
+    step, row_settings, joints = p._ready.step, p._ready.rows, p._ready.joints
     return (
         p.state(w),
         joints,
@@ -67,7 +67,7 @@ event.register("numba:compile", Listener())
 for w in (scenes.pyramid(3, responder=PGS()), scenes.heavy_chain(responder=SoftStep())):
     w.step(1 / 60)  # a cold cache: the tick and every stage it calls compile here, for the tick's types
     p, spec = w._pipeline, spec_of(w.responder)
-    _, _, step, row_settings, joints = p._ready
+    step, row_settings, joints = p._ready.step, p._ready.rows, p._ready.joints
     counts = p._counts(spec.colour_order)
     args = (p.state(w), joints, 0, counts, step, row_settings, spec.pgs, spec.soft, p.rounded, None)
     compiled.clear()

@@ -72,6 +72,19 @@ class TickSpec(NamedTuple):
     colour_order: bool
 
 
+class StepInputs(NamedTuple):
+    """What a step reads of the world and its responder: read anew only when one of them changes
+    (``Pipeline.settings_changed``, a new spec or dt)."""
+
+    spec: TickSpec
+    dt: float  # s
+    step: StepSettings
+    rows: RowSettings
+    joints: Any  # the JointRecord, or None in a world without joints
+    threads: int | None  # None on one thread: no parallel code is compiled
+    joint_lam: np.ndarray  # the world's joint reactions (N s), in joint order
+
+
 def spec_of(responder: Responder) -> TickSpec:
     """What a step needs of ``responder`` (``TickSpec``), kept on it until a setting changes."""
     spec = responder.__dict__.get("_tick_spec")
@@ -184,8 +197,9 @@ class Pipeline:
         self._state: Any = None  # the StepState over all of the above, made anew when one is replaced
         self._records: list = []  # the records it holds: bodies, shapes, store, sides, rows
         self._state_over: Any = None  # the bodies' x it was made with (x is replaced when bodies are)
-        self._compiled: tuple = (None, None, None)  # (spec, argument types, machine code) of the last call
-        self._ready: tuple | None = None  # (spec, dt, step settings, row settings, joints) of the last step
+        self._compiled: tuple = (None, None, None)  # (spec, state, machine code) of the last call
+        self._compiled_types: tuple = ()  # the types of the arguments it was compiled for
+        self._ready: StepInputs | None = None  # what the last step read of the world
         self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
         self.rounded: bool | None = None  # True with capsules, segments or chains (the tick's last argument)
 
@@ -334,11 +348,18 @@ class Pipeline:
     def rows_record(self) -> Any:
         return self._records[4]
 
-    def _room(self, world: World, n_residuals: int) -> None:
+    def _room(self, n_joint_rows: int, n_residuals: int) -> None:
         """Buffers with room for this step's pairs, joint rows and sweeps: grown when short, with
         the last step's caches copied into the new ones."""
         t = self.buffers
-        n_joint_rows = world._joint_lam.shape[0]
+        if (  # room for the pairs, the manifolds, the cached contacts (2 a pair), the joint rows, the sweeps
+            self.n_pairs <= t.pairs
+            and self.manifolds <= t.pairs
+            and self.cached <= 2 * t.pairs
+            and n_joint_rows <= t.joint_rows
+            and n_residuals <= self.residuals.shape[0]
+        ):
+            return
         pairs = max(self.n_pairs, self.manifolds, (self.cached + 1) // 2)
         if not t.holds(pairs, n_joint_rows):
             self.buffers = Buffers(max(pairs, 2 * t.pairs), max(n_joint_rows, t.joint_rows))
@@ -388,10 +409,10 @@ class Pipeline:
 
     def _counts(self, colour_order: bool) -> Counts:
         store = self.store
-        return Counts(
+        return Counts._make((  # (_make: the fastest way to build a NamedTuple, once a step)
             self.side, self.n_pairs, self.manifolds, self.cached, store.rows_used, store.points_used, colour_order,
             self.sweep_again,
-        )  # fmt: skip
+        ))  # fmt: skip
 
     # -- a step ---------------------------------------------------------------------------------
     def settings_changed(self) -> None:
@@ -404,51 +425,54 @@ class Pipeline:
         responder = world._responder
         spec = spec_of(responder)
         ready = self._ready
-        if ready is None or ready[0] is not spec or ready[1] != dt:  # what the step reads of the world, anew
+        if ready is None or ready.spec is not spec or ready.dt != dt:  # what the step reads of the world, anew
+            world._check_joints_supported(responder)
             step = StepSettings(
                 world._gravity, world._gravity_norm, dt, world._contact_margin, world._contact_recycle_distance,
                 world._max_speed,
             )  # fmt: skip
-            joints = records.record_of_joints(world._joint_arrays, world._joint_lam) if world._joints else None
-            self._ready = ready = (spec, dt, step, RowSettings(dt, world._gravity_norm, *spec.rows), joints)
-        _, _, step, row_settings, joints = ready
+            joint_lam = world._joint_lam
+            joints = records.record_of_joints(world._joint_arrays, joint_lam) if world._joints else None
+            threads = world._threads if world._threads > 1 else None
+            rows = RowSettings(dt, world._gravity_norm, *spec.rows)
+            self._ready = ready = StepInputs(spec, dt, step, rows, joints, threads, joint_lam)
         self.began = False  # set once the undo buffers hold the state before the step
         try:
-            if world._threads > 1:
-                with using_threads(world._threads):
-                    done = self._one_tick(world, responder, spec, (step, joints, row_settings), one_call)
-            else:  # (no context to enter: a small scene's step is a few microseconds)
-                done = self._one_tick(world, responder, spec, (step, joints, row_settings), one_call)
+            if ready.threads is None:  # (no context to enter: a small scene's step is a few microseconds)
+                done = self._one_tick(world, responder, ready, one_call)
+            else:
+                with using_threads(ready.threads):
+                    done = self._one_tick(world, responder, ready, one_call)
         except BaseException:
             if self.began:
                 world._bodies.restore(self.undo)
             raise
-        return self._commit(world, spec, done, dt)
+        return self._commit(world, ready, done)
 
-    def _one_tick(self, world: World, responder: Responder, spec: TickSpec, settings: tuple, one_call: bool) -> tuple:
-        """The tick in one call when it can (``_in_one_call``), else stage by stage; settings:
-        (step settings, joints, row settings)."""
-        step, joints, row_settings = settings
-        done = self._in_one_call(world, spec, step, joints, row_settings) if spec.one_call and one_call else None
-        return self._in_stages(world, responder, step, joints, row_settings) if done is None else done
+    def _one_tick(self, world: World, responder: Responder, ready: StepInputs, one_call: bool) -> tuple:
+        """The tick in one call when it can (``_in_one_call``), else stage by stage."""
+        done = self._in_one_call(world, ready) if ready.spec.one_call and one_call else None
+        return self._in_stages(world, responder, ready) if done is None else done
 
-    def _in_one_call(
-        self, world: World, spec: TickSpec, step: StepSettings, joints: Any, row_settings: Any
-    ) -> tuple | None:
+    def _in_one_call(self, world: World, ready: StepInputs) -> tuple | None:
         """The tick as one kernel call (``stages.tick``; two when Python must sweep or make room first);
         None, having changed nothing, while a child process compiles it (``_behind``)."""
+        spec, _, step, row_settings, joints, threads, joint_lam = ready
         stage, colour_order = 0, spec.colour_order
         while True:
-            self._room(world, spec.n_residuals)
+            self._room(joint_lam.shape[0], spec.n_residuals)
             if colour_order and not self.sweep_again:
                 self._colour(world)
             s = self.state(world)
             counts = self._counts(colour_order)
-            threads = world._threads if world._threads > 1 else None  # None: no parallel code compiled
             args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded, threads)
-            types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded, threads is None)
-            spec_was, types_was, code = self._compiled
-            kernel = code if spec_was is spec and types_was == types_now else tick
+            spec_was, state_was, kernel = self._compiled  # the machine code of the last call
+            if spec_was is not spec or state_was is not s or kernel is tick:  # are the types still its?
+                types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded, threads is None)
+                if spec_was is spec and self._compiled_types == types_now:
+                    self._compiled = (spec, s, kernel)  # the same code serves the new state
+                else:
+                    kernel = tick
             if kernel is tick and self._behind(world, spec, args, types_now):
                 return None  # a child compiles the tick: this step goes stage by stage
             child = self._compile_ahead(world, args) if kernel is tick else None
@@ -458,7 +482,7 @@ class Pipeline:
                 child.kill()
                 child.wait()
             if kernel is tick:  # the next steps call its machine code for these types directly
-                self._compiled = (spec, types_now, compiled_for(tick, args))
+                self._compiled, self._compiled_types = (spec, s, compiled_for(tick, args)), types_now
             if result[-1] >= 0:  # the kernel swept: its pairs (and their colouring) are the world's
                 self.n_pairs, self.coloured = result[-1], colour_order
             if result[0] == NEED_SWEEP:
@@ -500,17 +524,18 @@ class Pipeline:
             ahead.compile_from_the_end(self, args)
         return child
 
-    def _in_stages(self, world: World, responder: Responder, step: StepSettings, joints: Any, settings: Any) -> tuple:
+    def _in_stages(self, world: World, responder: Responder, ready: StepInputs) -> tuple:
         """The stages one call each, as ``stages.tick`` calls them, with the responder's ``respond``
         in the place of its solve."""
+        _, _, step, settings, joints, _, joint_lam = ready
         colour_order = bool(responder.colour_order)
-        self._room(world, 0)
+        self._room(joint_lam.shape[0], 0)
         s = self.state(world)
         self.began = True
         fits = begin(s, step.gravity, step.dt, step.contact_margin)
         if self.sweep_again or not fits:  # something left its fat box: sweep again
             self._sweep(world)
-            self._room(world, 0)
+            self._room(joint_lam.shape[0], 0)
         self._make_room(world)
         if colour_order:
             self._colour(world)
@@ -581,7 +606,7 @@ class Pipeline:
         F[dyn] = (b.V[dyn] - self.undo[2][dyn]) / (dt * M_inv[dyn])
         return F
 
-    def _commit(self, world: World, spec: TickSpec, done: tuple, dt: float) -> StepReport:
+    def _commit(self, world: World, ready: StepInputs, done: tuple) -> StepReport:
         """A step that succeeded: its side of the buffers becomes the cache, and the report."""
         k, n_new, recycled, rows_used, points_used, hits, deepest, count, residuals, result = done
         store = self.store
@@ -592,15 +617,15 @@ class Pipeline:
         if b.forces_applied:  # Body.apply_force and apply_torque act for one step
             b.force[:] = 0.0
             b.forces_applied = False
-        t = self.buffers
-        c = t.sides[w]
-        world._contacts_from(t.sides[w], k)
+        c = self.buffers.sides[w]
+        world._pending_contacts, world._contacts_sealed = (c, k), False  # copied out when first looked at
         joint_impulses = EMPTY
-        if world._joints:
-            world._store_joint_impulses(2 * k, t.rows.lam)
-            joint_impulses = world._joint_lam.copy()
+        if ready.joints is not None:
+            world._store_joint_impulses(2 * k, self.buffers.rows.lam, ready.joint_lam)
+            joint_impulses = ready.joint_lam.copy()
+        spec = ready.spec
         return StepReport(
-            spec.name, dt, count, residuals, deepest, k, hits, joint_impulses,
+            spec.name, ready.dt, count, residuals, deepest, k, hits, joint_impulses,
             None if result is None else result.system, c.order[:k].copy(), spec.counts,
         )  # fmt: skip
 
