@@ -29,9 +29,10 @@ the installed one) and ``NUMBA_CACHE_DIR`` set to a directory of this script's o
    cover writing the cache file, so the totals are a little under the first step.
 
 ``--repeats N`` takes the median of N runs of each timed command (cold: N fresh caches);
-every run is shown beside the median. ``--markdown`` prints Markdown tables for
-benchmarks/STARTUP.md. The load average is printed before and after each part: the
-figures mean little on a busy machine. Only the standard library is used here; numba
+every run is shown beside the median. After each timed command the script waits, untimed, for
+the compile children it left (``phys2d.pipeline.ahead``) to finish, so no two runs overlap.
+``--markdown`` prints Markdown tables for benchmarks/STARTUP.md. The load average is printed
+before and after each part: the figures mean little on a busy machine. Only the standard library is used here; numba
 is imported in the kernels child alone.
 """
 
@@ -111,7 +112,29 @@ def timed(args: Sequence[str], repo: Path, cache: Path, cwd: Path) -> float:
     seconds = time.perf_counter() - start
     if done.returncode != 0:
         raise RuntimeError(f"{shown(args)} failed ({done.returncode}):\n{done.stdout[-2000:]}{done.stderr[-4000:]}")
+    wait_for_compiling_children()
     return seconds
+
+
+def compiling_children() -> list[int]:
+    """The processes still compiling a tick into a cache (``phys2d.pipeline.ahead``'s children,
+    which outlive the run that started them); Linux only (/proc), else none."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if b"phys2d.pipeline.ahead" in cmdline.read_bytes():
+                found.append(int(cmdline.parent.name))
+        except OSError:  # it ended while we looked
+            continue
+    return found
+
+
+def wait_for_compiling_children(limit: float = 600.0) -> None:
+    """Wait (untimed) until no child of the last run compiles on: the next timed run then has
+    the machine to itself, as a learner's next command would a while later."""
+    end = time.monotonic() + limit
+    while compiling_children() and time.monotonic() < end:
+        time.sleep(0.2)
 
 
 def median_cell(samples: Sequence[float]) -> str:

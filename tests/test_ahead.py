@@ -152,3 +152,30 @@ def test_an_edit_steps_in_stages_while_a_child_compiles_the_tick(tmp_path):
     child = subprocess.run([sys.executable, "-c", BEHIND], env=env, capture_output=True, timeout=1800)
     assert child.returncode == 0, child.stderr.decode()[-2000:]
     assert child.stdout.decode().split() == ["behind"]
+
+
+HOLD_THE_LOCK = """
+import sys, time
+from phys2d.pipeline.ahead import one_child_per_cache
+with one_child_per_cache():
+    took = time.time()
+    print("held", flush=True)
+    time.sleep(float(sys.argv[1]))
+    left = time.time()
+print(took, left, flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no fcntl: no lock")
+def test_a_second_child_on_one_cache_waits_for_the_first(tmp_path):
+    """Two compile children on one numba cache (two runs started close together after an edit)
+    take turns: the second holds the cache's lock only after the first let it go."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PHYS2D_COMPILE_AHEAD": "0"}
+    run = [sys.executable, "-c", HOLD_THE_LOCK]
+    first = subprocess.Popen([*run, "1.5"], stdout=subprocess.PIPE, text=True, env=env)
+    assert first.stdout is not None and first.stdout.readline().strip() == "held"
+    second = subprocess.run([*run, "0"], capture_output=True, text=True, env=env, timeout=120, check=True)
+    out, _ = first.communicate(timeout=120)
+    _, first_left = (float(v) for v in out.split())
+    second_took, _ = (float(v) for v in second.stdout.split()[-2:])
+    assert second_took >= first_left

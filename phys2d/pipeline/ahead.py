@@ -27,6 +27,9 @@ import os
 import pickle
 import subprocess
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -144,9 +147,36 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     return jobs
 
 
+@contextmanager
+def one_child_per_cache() -> Iterator[None]:
+    """Hold the lock of the numba cache the tick is saved in while compiling into it: a second
+    child (two runs started close together after an edit) waits for the first, then finds in
+    the cache what the first compiled, instead of compiling the same kernels on the same cores."""
+    try:
+        import fcntl
+
+        from .tick import tick
+
+        folder = Path(tick._cache._cache_path)  # type: ignore[attr-defined]  # numba internals: its cache folder
+        folder.mkdir(parents=True, exist_ok=True)
+        lock = open(folder / "phys2d-ahead.lock", "w")  # noqa: SIM115 (held until the child exits)
+    except (ImportError, AttributeError, OSError):  # no fcntl (Windows) or no cache folder: no lock
+        yield
+        return
+    with lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the child exits
+        yield
+
+
 def _child() -> None:
     """Step a small world under the responder read from stdin (one step: every kernel it needs)."""
     responder, joints, rounded, threads = pickle.loads(sys.stdin.buffer.read())
+    with one_child_per_cache():
+        _step_a_small_world(responder, joints, rounded, threads)
+
+
+def _step_a_small_world(responder: Any, joints: bool, rounded: bool, threads: int) -> None:
+    """One step of a small world with a box, a circle and (as asked) a capsule and a joint."""
     from ..world import World
 
     w = World(responder=responder, threads=threads)
