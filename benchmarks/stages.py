@@ -55,6 +55,7 @@ DT = engines.DT
 SCENES: dict[str, Callable[[phys2d.Responder], phys2d.World]] = {
     "pyramid_20": lambda r: phys2d.scenes.pyramid(20, responder=r),
     "pyramid_40": lambda r: phys2d.scenes.pyramid(40, responder=r),
+    "pyramid_100": lambda r: phys2d.scenes.pyramid(100, responder=r),
     "vertical_stack_10": lambda r: phys2d.scenes.vertical_stack(10, responder=r),
     "mixed_shapes": lambda r: phys2d.scenes.mixed_shapes(12, responder=r),
 }

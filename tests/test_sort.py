@@ -58,3 +58,33 @@ def test_sweep_pairs_are_every_overlap_sorted_by_pair(boxes):
         and aabb[b, 1] <= aabb[a, 3]
     ]
     assert [tuple(p) for p in pairs[:count].tolist()] == expected
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(-50, 50), st.floats(-50, 50), st.floats(0, 30), st.floats(0, 3), st.booleans()
+        ),  # x, y, height (up to a tall wall), width, static
+        max_size=40,
+    )
+)
+def test_the_strips_find_every_overlap_once_in_tall_and_flat_piles(boxes):
+    # second method: brute force over all pairs, less those of two static boxes; boxes of very
+    # different heights make strips that a box spans many of, and pairs that share several strips
+    aabb = np.array([(x, y, x + width, y + height) for x, y, height, width, _ in boxes], float).reshape(-1, 4)
+    n = aabb.shape[0]
+    static = np.array([s for *_, s in boxes], np.bool_)
+    pairs = np.zeros((n * n + 1, 2), np.int32)
+    no_filter = (np.ones(n, np.uint64), np.full(n, np.iinfo(np.uint64).max, np.uint64), np.zeros(n, np.int32))
+    count = sweep_and_prune(aabb, static, np.zeros(0, np.int64), pairs, no_filter)
+    expected = [
+        (a, b)
+        for a in range(n)
+        for b in range(a + 1, n)
+        if not (static[a] and static[b])
+        and aabb[a, 0] <= aabb[b, 2]
+        and aabb[b, 0] <= aabb[a, 2]
+        and aabb[a, 1] <= aabb[b, 3]
+        and aabb[b, 1] <= aabb[a, 3]
+    ]
+    assert [tuple(p) for p in pairs[:count].tolist()] == expected
