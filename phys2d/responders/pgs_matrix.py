@@ -3,9 +3,11 @@
 Each step this builds, exactly as docs/formulation.md writes them,
 
     J      (R, 3N)  sparse: row k has its 6 non-zeros in the columns of bodies a and b
+                    (3 for a row between a body and the world: a mouse joint's)
     M^-1   (3N,)    the diagonal [1/m_1, 1/m_1, 1/I_1, ...] (0 for static bodies)
     A      (R, R)   J M^-1 J^T, sparse: A_kl != 0 only where rows k and l share a
-                    dynamic body (static bodies have M^-1 = 0 and couple nothing)
+                    dynamic body (static bodies have M^-1 = 0 and couple nothing);
+                    plus a compliance on the mouse joints' 2x2 blocks (below)
     b      (R,)     xi - J V1 - dt J M^-1 F_ext
     lo, hi (R,)     bounds on lambda; a Coulomb friction row's are +-mu lambda_n of its
                     normal row, so they move as the sweeps go
@@ -27,13 +29,12 @@ target, not the rigid -C/dt), and the row loop skips them: after each sweep each
 pair is solved as one 2x2 block, and (x_k, x_k+1) is clamped to the disk of radius
 max_force dt (``solve_disk_block``), as the impulse form's ``mouse.solve_mice`` does.
 
-Row order, warm start (x starts at the
-cached lambdas), bounds and the residual (the largest |delta_k| A_kk of a sweep,
-m/s) are those of the impulse form, so the two forms make the same iterates: the
-test that the lecture's equations and the fast solver are one method. The split
-push is a second system on the same A, A x_p >= push over the contact normal rows
-from x_p = 0; positions move with V2 + M^-1 J^T x_p; then the restitution pass
-(shared with the impulse form) adds lam_bounce.
+Row order, warm start (x starts at the cached lambdas), bounds and the residual (the
+largest |delta_k| A_kk of a sweep, m/s) are those of the impulse form, so the two forms
+make the same iterates: the test that the lecture's equations and the fast solver are
+one method. The split push is a second system on the same A, A x_p >= push over the
+contact normal rows from x_p = 0; positions move with V2 + M^-1 J^T x_p; then the
+restitution pass (shared with the impulse form) adds lam_bounce.
 
 The sparse matrices are plain CSR arrays (``SparseMatrix``): no scipy. Everything
 assembled stays on ``w.last_step.system`` (a ``MatrixSystem``) for lessons;
