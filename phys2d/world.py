@@ -174,7 +174,7 @@ class World:
         if (mouse or self._mice) and not responder.solves_mouse_joints:
             raise ValueError(
                 f"responder {responder.name!r} cannot solve mouse joints: their soft pull has a solve of its own "
-                "(phys2d.responders.mouse); use phys2d.PGS() in impulse form or phys2d.SoftStep()"
+                "(phys2d.responders.mouse); use phys2d.PGS() or phys2d.SoftStep()"
             )
 
     @property

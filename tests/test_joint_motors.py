@@ -20,9 +20,11 @@ DT = 1.0 / 60.0
 RESPONDERS = {
     "pgs": lambda: phys2d.PGS(),
     "pgs-block": lambda: phys2d.PGS(block=True),
+    "pgs-matrix": lambda: phys2d.PGS(form="matrix"),
     "soft-step": lambda: phys2d.SoftStep(),
 }
 BOTH = pytest.mark.parametrize("responder", ["pgs", "soft-step"])
+MICE = pytest.mark.parametrize("responder", ["pgs", "pgs-matrix", "soft-step"])  # every responder's own mouse solve
 ALL = pytest.mark.parametrize("responder", list(RESPONDERS))
 
 
@@ -230,7 +232,7 @@ def test_a_welded_cantilever_stays_put(responder):
 
 
 # -- mouse ---------------------------------------------------------------------------------
-@BOTH
+@MICE
 def test_the_mouse_pulls_a_body_to_its_target_and_sags_g_over_omega_squared(responder):
     w = world(responder)
     box = w.add_box(position=(0.0, 0.0), half_extents=(0.3, 0.3))
@@ -247,7 +249,7 @@ def test_the_mouse_pulls_a_body_to_its_target_and_sags_g_over_omega_squared(resp
     assert mouse.impulse[1] == pytest.approx(box.mass * G * DT, rel=1e-3)  # it holds the weight
 
 
-@BOTH
+@MICE
 def test_the_mouse_reaches_its_target_without_gravity(responder):
     w = world(responder, gravity=(0.0, 0.0))
     ball = w.add_circle(position=(0.0, 0.0), radius=0.2)
@@ -258,7 +260,7 @@ def test_the_mouse_reaches_its_target_without_gravity(responder):
     assert mouse.error() < 1e-3
 
 
-@BOTH
+@MICE
 def test_the_mouse_cannot_lift_a_body_heavier_than_its_force(responder):
     w = world(responder)
     box = w.add_box(position=(0.0, 0.0), half_extents=(0.5, 0.5), density=4.0)
@@ -409,16 +411,14 @@ def test_reprs_say_what_each_joint_is():
     assert repr(mouse) == "<MouseJoint body 1, target (1, 0.5), max_force=4, hertz=5, damping_ratio=0.7>"
 
 
-def test_matrix_form_refuses_the_mouse_and_agrees_on_motors_and_limits():
+def test_matrix_form_takes_the_mouse_and_agrees_on_motors_and_limits():
     w = world("pgs")
     b = w.add_box(position=(1.0, 0.0))
     w.add_mouse_joint(b, target=(1.0, 0.0), max_force=1.0)
-    with pytest.raises(ValueError, match="mouse"):
-        w.responder = phys2d.PGS(form="matrix")
+    w.responder = phys2d.PGS(form="matrix")  # both forms solve mouse joints (tests/test_mouse_matrix.py)
     w2 = phys2d.World(responder=phys2d.PGS(form="matrix"))
-    with pytest.raises(ValueError, match="mouse"):
-        w2.add_mouse_joint(w2.add_box(), target=(0, 0), max_force=1.0)
-    assert w2.joints == ()
+    w2.add_mouse_joint(w2.add_box(), target=(0, 0), max_force=1.0)
+    assert len(w2.joints) == 1
 
     def scene(form):
         w = phys2d.World(gravity=(0.0, -G), responder=phys2d.PGS(form=form))
@@ -428,6 +428,7 @@ def test_matrix_form_refuses_the_mouse_and_agrees_on_motors_and_limits():
         car = w.add_box(position=(1.5, 0.0), half_extents=(0.2, 0.05))
         w.add_slider_joint(bar, car, anchor=(1.5, 0.0), axis=(1, 1), lower=-0.2, upper=0.2, motor_speed=0.5)
         w.add_weld_joint(car, w.add_box(position=(1.9, 0.0), half_extents=(0.2, 0.05)), anchor=(1.7, 0.0))
+        w.add_mouse_joint(car, target=(1.6, 0.0), max_force=3.0).target = (1.6, 0.5)
         return w
 
     impulse, matrix = scene("impulse"), scene("matrix")

@@ -13,12 +13,39 @@ import phys2d
 from tests.strategies import SceneSpec, build, dts, free_scene, pgs_settings, reals, scenes, vectors
 from tests.test_prop_pgs import jacobian
 
+mice = st.none() | st.fixed_dictionaries(
+    dict(
+        target=vectors(-3.0, 3.0),
+        max_force=st.sampled_from([0.0, 5.0, 1e4]) | reals(0.0, 200.0),
+        hertz=reals(0.5, 30.0),
+        damping_ratio=reals(0.0, 2.0),
+    )
+)
 
-@given(scene=scenes(max_bodies=6, ground=None, static=None), settings=pgs_settings(form="matrix"), dt=dts)
-def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settings: phys2d.PGS, dt: float) -> None:
+
+def add_mouse(w: phys2d.World, mouse: dict | None) -> None:
+    """A mouse joint on the first dynamic body, grabbed at its centre, dragged to mouse['target']."""
+    dragged = [b for b in w.bodies if not (b.static or b.kinematic)]
+    if mouse is not None and dragged:
+        joint = w.add_mouse_joint(
+            dragged[0],
+            target=dragged[0].position,
+            max_force=mouse["max_force"],
+            hertz=mouse["hertz"],
+            damping_ratio=mouse["damping_ratio"],
+        )
+        joint.target = mouse["target"]
+
+
+@given(scene=scenes(max_bodies=6, ground=None, static=None), settings=pgs_settings(form="matrix"), dt=dts, mouse=mice)
+def test_matrix_and_impulse_forms_give_the_same_lambdas(
+    scene: SceneSpec, settings: phys2d.PGS, dt: float, mouse: dict | None
+) -> None:
     """The lecture's matrix form (A and b assembled, rows swept with sum_l A_kl lambda_l)
     and the impulse form (J_k V read off the velocities) make the same iterates: after
-    each step their lambdas and velocities agree to round-off."""
+    each step their lambdas and velocities agree to round-off. With a mouse joint too: its
+    spring is a regularised 2x2 block of A in the matrix form (docs/formulation.md, "Mouse
+    rows"), the impulse form's soft update in the other."""
     impulse = phys2d.PGS(
         iterations=settings.iterations,
         warm_start=settings.warm_start,
@@ -30,6 +57,8 @@ def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settin
         form="impulse",
     )
     a, b = build(scene, settings), build(scene, impulse)
+    add_mouse(a, mouse)
+    add_mouse(b, mouse)
     for _ in range(8):
         try:
             a.step(dt)
@@ -44,6 +73,8 @@ def test_matrix_and_impulse_forms_give_the_same_lambdas(scene: SceneSpec, settin
         np.testing.assert_allclose(ca.normal_impulse, cb.normal_impulse, rtol=0, atol=1e-9 * scale)
         np.testing.assert_allclose(ca.tangent_impulse, cb.tangent_impulse, rtol=0, atol=1e-9 * scale)
         np.testing.assert_allclose(a.V, b.V, rtol=0, atol=1e-9 * (1.0 + float(np.abs(b.V).max())))
+        pulls = a.last_step.joint_impulses
+        np.testing.assert_allclose(pulls, b.last_step.joint_impulses, rtol=0, atol=1e-9 * (scale + np.abs(pulls).sum()))
         # resynchronise, so round-off does not grow over the steps
         b.x[:], b.theta[:], b.V[:] = a.x, a.theta, a.V
 

@@ -11,7 +11,10 @@ bias rate omega / a1, mass_scale, impulse_scale):
 which is Gauss-Seidel on (K + K / a2) lambda = -(J V0 + bias_rate C): a rigid pull softened
 by a compliance. The accumulated impulse is then clamped to the disk |lambda| <= max_force h,
 so the pull never exceeds max_force. The rows are swept by neither PGS's nor the soft step's
-row loop (their bound_row is ``OWN_SOLVE``); this does them.
+row loop (their bound_row is ``OWN_SOLVE``); this does them. PGS's matrix form solves the same
+block in its sweep (``pgs_matrix.solve_disk_block``): there the compliance is part of A, whose
+2x2 block for the two rows is K / (a2 a3) = K + K / a2, and ``mouse_springs`` gives it a2 a3 and
+omega / a1 row by row.
 """
 
 from __future__ import annotations
@@ -35,6 +38,16 @@ def has_mouse(joints):
     return False
 
 
+@njit(cache=True, inline="always")
+def clamp_to_disk(x, y, radius):
+    """(x, y) scaled back onto the disk |(x, y)| <= radius when it lies outside: the pull's cap,
+    max_force over the step (N s)."""
+    size = math.sqrt(x * x + y * y)  # (not hypot: numba's and Python's may differ in the last bit)
+    if size > radius:
+        return x * (radius / size), y * (radius / size)
+    return x, y
+
+
 @njit(cache=True)
 def solve_mouse(k, rows, V, C, soft, max_impulse):
     """One soft 2x2 solve of the mouse rows k (x) and k + 1 (y) with position error C = (C_x,
@@ -55,9 +68,7 @@ def solve_mouse(k, rows, V, C, soft, max_impulse):
     old_x, old_y = lam[k], lam[k + 1]
     new_x = old_x - mass_scale * (K22 * cx - K12 * cy) / det - impulse_scale * old_x  # K^-1 c
     new_y = old_y - mass_scale * (K11 * cy - K12 * cx) / det - impulse_scale * old_y
-    size = math.sqrt(new_x * new_x + new_y * new_y)  # (not hypot: numba's and Python's may differ in the last bit)
-    if size > max_impulse:  # the pull's cap: max_force over the step
-        new_x, new_y = new_x * (max_impulse / size), new_y * (max_impulse / size)
+    new_x, new_y = clamp_to_disk(new_x, new_y, max_impulse)
     lam[k], lam[k + 1] = new_x, new_y
     apply_row_impulse(k, b, b, JM, new_x - old_x, V)
     apply_row_impulse(k + 1, b, b, JM, new_y - old_y, V)
@@ -79,3 +90,19 @@ def solve_mice(joints, first_row, rows, V, h, rows_dt):
         C = (-rows.xi[k] * rows_dt, -rows.xi[k + 1] * rows_dt)
         worst = max(worst, solve_mouse(k, rows, V, C, soft, params[P_MOTOR_MAX] * h))
     return worst
+
+
+@njit(cache=True)
+def mouse_springs(joints, first_row, h, mass_scale, bias_rate):
+    """Each mouse row's spring over a step of h (s), for the matrix form: mass_scale[k] = a2 a3
+    and bias_rate[k] = omega / a1 (1/s), the ``soft_constants`` that ``solve_mice`` uses. The
+    other rows' entries are left as they are."""
+    for q in range(joints.kind.shape[0]):
+        if joints.kind[q] != JOINT_MOUSE:
+            continue
+        k = first_row + joints.row_offset[q]
+        params = joints.params[q]
+        soft = soft_constants(params[P_HERTZ], params[P_ZETA], h, np.inf)
+        for m in range(2):
+            bias_rate[k + m] = soft[0]
+            mass_scale[k + m] = soft[1]

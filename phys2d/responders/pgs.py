@@ -360,6 +360,7 @@ class PGS(Responder):
     """
 
     handles_joints = True
+    solves_mouse_joints = True  # both forms: ``mouse.solve_mice``, or the matrix sweep's ``solve_disk_block``
     counts = "sweeps"
 
     iterations = Setting(lambda v, name: check_int(v, name, 1), "sweeps per step")
@@ -427,11 +428,6 @@ class PGS(Responder):
         value = one_of(value, "form", FORMS)
         _check_block_and_form(self.block, value)
         self._form = value
-
-    @property
-    def solves_mouse_joints(self) -> bool:  # type: ignore[override]
-        """The impulse form solves mouse joints (``responders.mouse``); the matrix form, rigid rows only."""
-        return self._form == "impulse"
 
     @property
     def block(self) -> bool:

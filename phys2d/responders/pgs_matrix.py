@@ -3,9 +3,11 @@
 Each step this builds, exactly as docs/formulation.md writes them,
 
     J      (R, 3N)  sparse: row k has its 6 non-zeros in the columns of bodies a and b
+                    (3 for a row between a body and the world: a mouse joint's)
     M^-1   (3N,)    the diagonal [1/m_1, 1/m_1, 1/I_1, ...] (0 for static bodies)
     A      (R, R)   J M^-1 J^T, sparse: A_kl != 0 only where rows k and l share a
-                    dynamic body (static bodies have M^-1 = 0 and couple nothing)
+                    dynamic body (static bodies have M^-1 = 0 and couple nothing);
+                    plus a compliance on the mouse joints' 2x2 blocks (below)
     b      (R,)     xi - J V1 - dt J M^-1 F_ext
     lo, hi (R,)     bounds on lambda; a Coulomb friction row's are +-mu lambda_n of its
                     normal row, so they move as the sweeps go
@@ -17,13 +19,22 @@ and runs the lecture's pseudocode on them, skipping the zero entries of A:
             delta  = (b_k - sum_l A_kl x_l) / A_kk
             x_k    = clamp(x_k + delta, lo_k, hi_k)
 
-then V2 = V1 + M^-1 (dt F_ext + J^T x). Row order, warm start (x starts at the
-cached lambdas), bounds and the residual (the largest |delta_k| A_kk of a sweep,
-m/s) are those of the impulse form, so the two forms make the same iterates: the
-test that the lecture's equations and the fast solver are one method. The split
-push is a second system on the same A, A x_p >= push over the contact normal rows
-from x_p = 0; positions move with V2 + M^-1 J^T x_p; then the restitution pass
-(shared with the impulse form) adds lam_bounce.
+then V2 = V1 + M^-1 (dt F_ext + J^T x).
+
+A mouse joint's two rows (bound_row ``OWN_SOLVE``) are a soft spring, not rigid rows:
+with a1, a2, a3 of its spring over the step (docs/formulation.md, "Mouse"), their 2x2
+block of A is K / (a2 a3) = K + K / a2 (K = J M^-1 J^T there: the rigid block made
+compliant), their b_k = -(J V0 + (omega / a1) C) (xi_k = -(omega / a1) C: the spring's
+target, not the rigid -C/dt), and the row loop skips them: after each sweep each such
+pair is solved as one 2x2 block, and (x_k, x_k+1) is clamped to the disk of radius
+max_force dt (``solve_disk_block``), as the impulse form's ``mouse.solve_mice`` does.
+
+Row order, warm start (x starts at the cached lambdas), bounds and the residual (the
+largest |delta_k| A_kk of a sweep, m/s) are those of the impulse form, so the two forms
+make the same iterates: the test that the lecture's equations and the fast solver are
+one method. The split push is a second system on the same A, A x_p >= push over the
+contact normal rows from x_p = 0; positions move with V2 + M^-1 J^T x_p; then the
+restitution pass (shared with the impulse form) adds lam_bounce.
 
 The sparse matrices are plain CSR arrays (``SparseMatrix``): no scipy. Everything
 assembled stays on ``w.last_step.system`` (a ``MatrixSystem``) for lessons;
@@ -38,8 +49,11 @@ from types import SimpleNamespace
 import numpy as np
 from numba import njit
 
+from ..constraints.joints import JOINT_MOUSE, OWN_SOLVE, JointArrays
 from ..constraints.rows import Rows
+from ..pipeline.records import record_of_joints
 from .base import SolveResult, StepContext
+from .mouse import clamp_to_disk, has_mouse, mouse_springs
 from .restitution import bounce_after_moving
 
 DENSE_MAX_ENTRIES = 4_000_000  # dense() refuses matrices larger than this (8 bytes each)
@@ -124,6 +138,13 @@ class MatrixSystem:
     vectors in the lecture's order [.., vx_b, vy_b, omega_b, ..]. lo, hi are the
     bounds at the end of the solve (a Coulomb row's are +-mu lam of its normal row,
     ``bound_row``). lam holds the impulses found (N s; N m s for angle rows).
+
+    A mouse joint's rows (bound_row ``OWN_SOLVE``, -2; ``disk_blocks()`` lists each pair's
+    first row) are soft: their 2x2 diagonal block of A is K / mass_scale = K + K / a2 with
+    K = J M^-1 J^T there and mass_scale = a2 a3 of the spring (so A = J M^-1 J^T + the
+    compliance of ``dense()``), their xi is the spring's -(omega / a1) C, and the pair is
+    solved as one block with (lam_k, lam_k+1) clamped to the disk of radius hi_k =
+    max_force dt (lo, hi hold the square around it).
     """
 
     dt: float  # s
@@ -144,6 +165,7 @@ class MatrixSystem:
     bounce: np.ndarray  # (R,) m/s, bounce targets of the points that approached fast
     lam_bounce: np.ndarray  # (R,) N s, what the restitution pass added once the bodies moved:
     # the step's impulses (w.contacts) are lam + lam_bounce
+    mass_scale: np.ndarray  # (R,) a2 a3 of a mouse row's spring (A's block there is K / a2 a3), 1 on a rigid row
 
     def read_only(self) -> MatrixSystem:
         """Make every array of the system read-only, and return self."""
@@ -168,9 +190,15 @@ class MatrixSystem:
             self.lam_push,
             self.bounce,
             self.lam_bounce,
+            self.mass_scale,
         ):
             a.flags.writeable = False
         return self
+
+    def disk_blocks(self) -> np.ndarray:
+        """The first row k of each pair (k, k + 1) solved as one 2x2 block with its lam clamped to
+        a disk (a mouse joint's x and y rows), ascending."""
+        return disk_block_rows(self.bound_row)
 
     def velocities(self) -> np.ndarray:
         """V2 = V1 + M^-1 (dt F_ext + J^T (lam + lam_bounce)), (3N,): the step's new V."""
@@ -178,14 +206,22 @@ class MatrixSystem:
 
     def dense(self) -> SimpleNamespace:
         """J, M_inv (3N x 3N), A as dense numpy matrices, with b, lo, hi, lam: for lessons
-        on small scenes. ``np.allclose(d.A, d.J @ d.M_inv @ d.J.T)`` holds."""
+        on small scenes. ``np.allclose(d.A, d.J @ d.M_inv @ d.J.T + d.compliance)`` holds;
+        ``d.compliance`` (R x R) is zero but on the mouse joints' 2x2 blocks, where it is
+        K / a2 (A's block times 1 - a2 a3): with no mouse joint, A = J M^-1 J^T."""
         n = self.M_inv.shape[0]
         if n * n > DENSE_MAX_ENTRIES:
             raise ValueError(f"M_inv is {n} x {n}: too large to make dense")
+        A = self.A.dense()
+        compliance = np.zeros_like(A)
+        for k in self.disk_blocks():
+            pair = slice(k, k + 2)
+            compliance[pair, pair] = A[pair, pair] * (1.0 - self.mass_scale[k])
         return SimpleNamespace(
             J=self.J.dense(),
             M_inv=np.diag(self.M_inv),
-            A=self.A.dense(),
+            A=A,
+            compliance=compliance,
             b=self.b.copy(),
             lo=self.lo.copy(),
             hi=self.hi.copy(),
@@ -202,41 +238,58 @@ class MatrixSystem:
 
 # -- assembly ------------------------------------------------------------------------------
 def jacobian(rows: Rows, n_bodies: int) -> SparseMatrix:
-    """J as CSR: row k = [.. J_i in columns 3i..3i+2 .. J_j in columns 3j..3j+2 ..]."""
+    """J as CSR: row k = [.. J_i in columns 3i..3i+2 .. J_j in columns 3j..3j+2 ..]; a row
+    between a body and the world (a mouse joint's: body_a = body_b) has its body's 3 only."""
     R = len(rows)
-    indices = np.zeros(6 * R, np.int64)
-    data = np.zeros(6 * R)
-    _jacobian_entries(rows.body_a, rows.body_b, rows.J, indices, data)
-    return SparseMatrix(np.arange(0, 6 * R + 1, 6, dtype=np.int64), indices, data, (R, 3 * n_bodies))
+    indptr = np.zeros(R + 1, np.int64)
+    np.cumsum(np.where(rows.body_a == rows.body_b, 3, 6), out=indptr[1:])
+    indices = np.zeros(indptr[R], np.int64)
+    data = np.zeros(indptr[R])
+    _jacobian_entries(rows.body_a, rows.body_b, rows.J, indptr, indices, data)
+    return SparseMatrix(indptr, indices, data, (R, 3 * n_bodies))
 
 
 @njit(cache=True)
-def _jacobian_entries(body_a, body_b, J, indices, data):
-    """Each row's 6 entries, the lower-numbered body's block first (columns ascending)."""
+def _jacobian_entries(body_a, body_b, J, indptr, indices, data):
+    """Each row's 6 entries, the lower-numbered body's block first (columns ascending); a world
+    row's 3, its body's block (its body_a block is zero)."""
     for k in range(body_a.shape[0]):
+        s = indptr[k]
+        if body_a[k] == body_b[k]:
+            for c in range(3):
+                indices[s + c] = 3 * body_b[k] + c
+                data[s + c] = J[k, 3 + c]
+            continue
         first, second = (0, 3) if body_a[k] < body_b[k] else (3, 0)
         lo_body, hi_body = min(body_a[k], body_b[k]), max(body_a[k], body_b[k])
         for c in range(3):
-            indices[6 * k + c] = 3 * lo_body + c
-            data[6 * k + c] = J[k, first + c]
-            indices[6 * k + 3 + c] = 3 * hi_body + c
-            data[6 * k + 3 + c] = J[k, second + c]
+            indices[s + c] = 3 * lo_body + c
+            data[s + c] = J[k, first + c]
+            indices[s + 3 + c] = 3 * hi_body + c
+            data[s + 3 + c] = J[k, second + c]
 
 
 @njit(cache=True)
 def rows_of_bodies(body_a, body_b, M_inv):
-    """For each dynamic body b, the rows that touch it (ascending): CSR (start, rows)."""
+    """For each dynamic body b, the rows that touch it (ascending, each once: a world row has
+    body_a = body_b): CSR (start, rows)."""
     n = M_inv.shape[0]
     count = np.zeros(n + 1, np.int64)
     for k in range(body_a.shape[0]):
-        for b in (body_a[k], body_b[k]):
+        for side in range(2):
+            b = body_a[k] if side == 0 else body_b[k]
+            if side == 1 and b == body_a[k]:
+                continue  # a world row: its body once
             if M_inv[b, 0] > 0.0 or M_inv[b, 2] > 0.0:
                 count[b + 1] += 1
     start = np.cumsum(count)
     fill = start[:-1].copy()
     out = np.zeros(start[-1], np.int64)
     for k in range(body_a.shape[0]):
-        for b in (body_a[k], body_b[k]):
+        for side in range(2):
+            b = body_a[k] if side == 0 else body_b[k]
+            if side == 1 and b == body_a[k]:
+                continue
             if M_inv[b, 0] > 0.0 or M_inv[b, 2] > 0.0:
                 out[fill[b]] = k
                 fill[b] += 1
@@ -314,23 +367,29 @@ def diagonal(A, R):
 
 def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
     """J, M^-1, A, b = xi - J V1 - dt J M^-1 F_ext and the bounds of this step (lam: the warm
-    start, ctx.rows.lam)."""
+    start, ctx.rows.lam). A mouse joint's rows are its spring's (``soften_mouse_rows``)."""
     r = ctx.rows
     n = ctx.V.shape[0]
+    R = len(r)
     J = jacobian(r, n)
     M_inv = ctx.M_inv.reshape(-1).copy()
     V1, F_ext = ctx.V1.reshape(-1).copy(), ctx.F_ext.reshape(-1).copy()
     indptr, indices, data = assemble_A(r.body_a, r.body_b, r.J, ctx.M_inv)
-    A = SparseMatrix(indptr, indices, data, (len(r), len(r)))
+    A = SparseMatrix(indptr, indices, data, (R, R))
+    xi = xi.copy()
+    mass_scale = np.ones(R)
+    if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
+        joints = record_of_joints(ctx.joints, r.lam[r.first_joint_row :])  # (lam: not read)
+        if has_mouse(joints):
+            soften_mouse_rows(joints, r.first_joint_row, ctx.dt, A.csr, xi, mass_scale)
     b = xi - J.dot(V1) - ctx.dt * J.dot(M_inv * F_ext)
-    R = len(r)
     return MatrixSystem(
         ctx.dt,
         J,
         M_inv,
         V1,
         F_ext,
-        xi.copy(),
+        xi,
         A,
         b,
         r.lo.copy(),
@@ -342,19 +401,61 @@ def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
         lam_push=np.zeros(R),
         bounce=r.bounce.copy(),
         lam_bounce=np.zeros(R),
+        mass_scale=mass_scale,
     )
+
+
+@njit(cache=True)
+def soften_mouse_rows(joints, first_row, dt, A, xi, mass_scale):
+    """Make each mouse joint's two rows its spring's over the step dt (s): with a2 a3 and
+    omega / a1 from ``mouse_springs``, xi_k = -(omega / a1) C (C = -xi_k dt: xi held the rigid
+    -C/dt) and the pair's 2x2 block of A = (indptr, indices, data) becomes K / (a2 a3) =
+    K + K / a2: the block whose Gauss-Seidel step is the impulse form's soft update. Their
+    couplings to other rows stay J_k M^-1 J_l^T. mass_scale gets a2 a3 on these rows."""
+    bias_rate = np.zeros(xi.shape[0])
+    mouse_springs(joints, first_row, dt, mass_scale, bias_rate)
+    indptr, indices, data = A
+    for q in range(joints.kind.shape[0]):
+        if joints.kind[q] != JOINT_MOUSE:
+            continue
+        k = first_row + joints.row_offset[q]
+        for row in (k, k + 1):
+            xi[row] = bias_rate[row] * (xi[row] * dt)  # -(omega / a1) C with C = -xi dt
+            if mass_scale[row] <= 0.0:
+                continue  # a2 underflowed to 0: no spring (the sweep holds lam at 0)
+            for e in range(indptr[row], indptr[row + 1]):
+                if indices[e] == k or indices[e] == k + 1:
+                    data[e] /= mass_scale[row]
+
+
+@njit(cache=True)
+def disk_block_rows(bound_row):
+    """The first row k of each pair (k, k + 1) of rows marked ``OWN_SOLVE`` (a mouse joint's x
+    and y rows), ascending."""
+    n = 0
+    k = 0
+    out = np.empty(bound_row.shape[0] // 2, np.int64)
+    while k < bound_row.shape[0]:
+        if bound_row[k] == OWN_SOLVE:
+            out[n] = k
+            n += 1
+            k += 2
+        else:
+            k += 1
+    return out[:n].copy()
 
 
 # -- the lecture's PGS on A x = b -----------------------------------------------------------
 @njit(cache=True)
-def pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x):
-    """One sweep of the lecture's pseudocode on A = (indptr, indices, data) (CSR); returns the
-    largest |delta_k| A_kk (m/s)."""
+def pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x, mass_scale):
+    """One sweep of the lecture's pseudocode on A = (indptr, indices, data) (CSR), then each
+    mouse joint's pair of rows (bound_row ``OWN_SOLVE``) as one block (``solve_disk_block``);
+    returns the largest |delta_k| K_kk (m/s), K_kk = mass_scale_k A_kk (A_kk on a rigid row)."""
     indptr, indices, data = A
     worst = 0.0
     for k in range(x.shape[0]):
-        if A_kk[k] <= 0.0:
-            continue  # both bodies static: the row has no entries
+        if A_kk[k] <= 0.0 or bound_row[k] == OWN_SOLVE:
+            continue  # both bodies static: the row has no entries; or a mouse row: below
         s = 0.0
         for e in range(indptr[k], indptr[k + 1]):  # only the non-zero A_kl
             s += data[e] * x[indices[e]]
@@ -368,14 +469,59 @@ def pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x):
         new = min(max(x[k] + delta, low), top)
         worst = max(worst, abs(new - x[k]) * A_kk[k])
         x[k] = new
+    k = 0
+    while k < x.shape[0]:  # after the sweep, as the impulse form's solve_mice
+        if bound_row[k] == OWN_SOLVE:
+            worst = max(worst, solve_disk_block(A, k, b, hi[k], x, mass_scale))
+            k += 2
+        else:
+            k += 1
     return worst
 
 
 @njit(cache=True)
-def pgs_matrix_solve(A, A_kk, b, lo, hi, bound_row, mu, x, iterations, tolerance, residuals):
+def solve_disk_block(A, k, b, radius, x, mass_scale):
+    """Rows k and k + 1 of A x = b together, the other x held: (x_k, x_k+1) = A_blk^-1 (b_blk -
+    sum over the other rows l of A_kl x_l), then clamped to the disk of radius ``radius`` (N s).
+    With a mouse joint's A_blk = K / (a2 a3) this is the impulse form's soft update exactly
+    (docs/formulation.md, "Matrix form"). Returns the largest |delta x| K_kk (m/s)."""
+    K11, K12, r_x = _block_row(A, k, k, b, x)
+    K21, K22, r_y = _block_row(A, k + 1, k, b, x)
+    det = K11 * K22 - K12 * K21
+    if det <= 0.0:
+        return 0.0  # a static body: nothing to pull
+    new_x, new_y = 0.0, 0.0  # a spring of no stiffness (a2 a3 = 0) pulls nothing
+    if mass_scale[k] > 0.0:
+        new_x = (K22 * r_x - K12 * r_y) / det  # A_blk^-1 r
+        new_y = (K11 * r_y - K21 * r_x) / det
+    new_x, new_y = clamp_to_disk(new_x, new_y, radius)
+    worst = max(abs(new_x - x[k]) * K11 * mass_scale[k], abs(new_y - x[k + 1]) * K22 * mass_scale[k + 1])
+    x[k], x[k + 1] = new_x, new_y
+    return worst
+
+
+@njit(cache=True, inline="always")
+def _block_row(A, row, k, b, x):
+    """Row ``row`` of A x = b seen from the block of rows (k, k + 1): (A_row,k, A_row,k+1,
+    b_row - sum over the other rows l of A_row,l x_l)."""
+    indptr, indices, data = A
+    first, second, rest = 0.0, 0.0, b[row]
+    for e in range(indptr[row], indptr[row + 1]):
+        l = indices[e]
+        if l == k:
+            first = data[e]
+        elif l == k + 1:
+            second = data[e]
+        else:
+            rest -= data[e] * x[l]
+    return first, second, rest
+
+
+@njit(cache=True)
+def pgs_matrix_solve(A, A_kk, b, lo, hi, bound_row, mu, x, mass_scale, iterations, tolerance, residuals):
     """Sweep until the residual <= tolerance or out of sweeps; returns the sweeps made."""
     for s in range(iterations):
-        residuals[s] = pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x)
+        residuals[s] = pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x, mass_scale)
         if residuals[s] <= tolerance:
             return s + 1
     return iterations
@@ -433,8 +579,8 @@ def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, toleran
     A_kk = diagonal(A.csr, A.shape[0])
     residuals = np.zeros(iterations)
     n = pgs_matrix_solve(
-        A.csr, A_kk, system.b, system.lo, system.hi, system.bound_row, system.mu, system.lam, iterations, tolerance,
-        residuals,
+        A.csr, A_kk, system.b, system.lo, system.hi, system.bound_row, system.mu, system.lam, system.mass_scale,
+        iterations, tolerance, residuals,
     )  # fmt: skip
     final_bounds(system.bound_row, system.mu, system.lam, system.lo, system.hi)
     V2 = system.velocities()
