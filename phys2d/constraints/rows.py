@@ -219,6 +219,20 @@ def apply_row_impulse(k, a, b, JM, impulse, V):
         V[b, c] += JM[k, 3 + c] * impulse
 
 
+@njit(cache=True)
+def coupling(k, l, body_a, body_b, J, JM):
+    """A_kl = J_k M^-1 J_l^T = J_k . (M^-1 J_l^T): nonzero only through a body rows k and l share."""
+    a = 0.0
+    for side_k in range(2):
+        body_k = body_a[k] if side_k == 0 else body_b[k]
+        for side_l in range(2):
+            body_l = body_a[l] if side_l == 0 else body_b[l]
+            if body_k == body_l:
+                for c in range(3):
+                    a += J[k, 3 * side_k + c] * JM[l, 3 * side_l + c]
+    return a
+
+
 @njit(cache=True, inline="always")
 def pair_velocity(a, b, V):
     """V_ab = (v_a, omega_a, v_b, omega_b): the part of V that a row between bodies a and b

@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from ..constraints.joints import JOINT_MOUSE, OWN_SOLVE, JointArrays
-from ..constraints.rows import Rows
+from ..constraints.rows import Rows, coupling
 from ..pipeline.records import record_of_joints
 from .base import SolveResult, StepContext
 from .mouse import clamp_to_disk, has_mouse, mouse_springs
@@ -297,20 +297,6 @@ def rows_of_bodies(body_a, body_b, M_inv):
 
 
 @njit(cache=True)
-def coupling(k, l, body_a, body_b, J, M_inv):
-    """A_kl = J_k M^-1 J_l^T: the sum over the bodies rows k and l share (1/s per kg...)."""
-    a = 0.0
-    for s in range(2):
-        bk = body_a[k] if s == 0 else body_b[k]
-        for t in range(2):
-            bl = body_a[l] if t == 0 else body_b[l]
-            if bk == bl:
-                for c in range(3):
-                    a += J[k, 3 * s + c] * M_inv[bk, c] * J[l, 3 * t + c]
-    return a
-
-
-@njit(cache=True)
 def _neighbours(k, body_a, body_b, start, body_rows, out):
     """Rows sharing a dynamic body with row k, ascending and without repeats; returns the count."""
     a, b = body_a[k], body_b[k]
@@ -334,7 +320,7 @@ def _neighbours(k, body_a, body_b, start, body_rows, out):
 
 
 @njit(cache=True)
-def assemble_A(body_a, body_b, J, M_inv):
+def assemble_A(body_a, body_b, J, JM, M_inv):
     """A = J M^-1 J^T in CSR, one entry per pair of rows sharing a dynamic body."""
     R = body_a.shape[0]
     start, body_rows = rows_of_bodies(body_a, body_b, M_inv)
@@ -349,7 +335,7 @@ def assemble_A(body_a, body_b, J, M_inv):
         for e in range(n):
             l = buf[e]
             indices[indptr[k] + e] = l
-            data[indptr[k] + e] = coupling(k, l, body_a, body_b, J, M_inv)
+            data[indptr[k] + e] = coupling(k, l, body_a, body_b, J, JM)
     return indptr, indices, data
 
 
@@ -374,7 +360,7 @@ def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
     J = jacobian(r, n)
     M_inv = ctx.M_inv.reshape(-1).copy()
     V1, F_ext = ctx.V1.reshape(-1).copy(), ctx.F_ext.reshape(-1).copy()
-    indptr, indices, data = assemble_A(r.body_a, r.body_b, r.J, ctx.M_inv)
+    indptr, indices, data = assemble_A(r.body_a, r.body_b, r.J, r.JM, ctx.M_inv)
     A = SparseMatrix(indptr, indices, data, (R, R))
     xi = xi.copy()
     mass_scale = np.ones(R)

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from ..constraints.joints import OWN_SOLVE, joint_rows
-from ..constraints.rows import MET, apply_row_impulse, row_velocity
+from ..constraints.rows import MET, apply_row_impulse, coupling, row_velocity
 from .soft_contacts import soft_push
 
 DIRECT_JOINT_ROWS_MAX = 256  # more equality joint rows than this are swept, not factored
@@ -54,20 +54,6 @@ def _equality_rows(first_joint_row, n_rows, lo):
 
 
 @njit(cache=True)
-def _coupling(p, q, body_a, body_b, J, JM):
-    """A_pq = J_p M^-1 J_q^T: nonzero only through a body rows p and q share."""
-    s = 0.0
-    for side_p in range(2):
-        body_p = body_a[p] if side_p == 0 else body_b[p]
-        for side_q in range(2):
-            body_q = body_a[q] if side_q == 0 else body_b[q]
-            if body_p == body_q:
-                for m in range(3):
-                    s += J[p, 3 * side_p + m] * JM[q, 3 * side_q + m]
-    return s
-
-
-@njit(cache=True)
 def factor_joint_rows(eq, body_a, body_b, J, JM, L, first):
     """Cholesky factor L L^T = A of the equality joint rows ``eq`` (A_pq = J_p M^-1 J_q^T).
 
@@ -87,13 +73,13 @@ def factor_joint_rows(eq, body_a, body_b, J, JM, L, first):
         first_touch[b] = min(first_touch[b], p)
     for p in range(n):
         for q in range(first[p], p + 1):
-            s = _coupling(eq[p], eq[q], body_a, body_b, J, JM)
+            s = coupling(eq[p], eq[q], body_a, body_b, J, JM)
             for m in range(max(first[p], first[q]), q):
                 s -= L[p, m] * L[q, m]
             if q < p:
                 L[p, q] = s / L[q, q] if L[q, q] > 0.0 else 0.0
             else:
-                A_pp = _coupling(eq[p], eq[p], body_a, body_b, J, JM)
+                A_pp = coupling(eq[p], eq[p], body_a, body_b, J, JM)
                 L[p, p] = np.sqrt(s) if s > PIVOT_TOL * A_pp else 0.0
 
 
