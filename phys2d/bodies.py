@@ -22,6 +22,7 @@ mass) is set for both; ``kinematic`` tells them apart.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple, TypedDict
 
 import numpy as np
@@ -321,6 +322,28 @@ class BodyArrays:
         self.x[:], self.theta[:], self.V[:] = snap
 
 
+class PerBody:
+    """A body's setting (float) held in one of the world's per-body arrays (column ``column`` of
+    a 2-D one), checked by ``check(value, name)`` when set."""
+
+    def __init__(self, array: str, check: Callable[[object, str], float], doc: str, column: int | None = None) -> None:
+        self.array, self.check, self.column, self.__doc__ = array, check, column, doc
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def _at(self, body: Body) -> tuple:
+        return (body._index,) if self.column is None else (body._index, self.column)
+
+    def __get__(self, body: Body | None, owner: type | None = None) -> float:
+        if body is None:
+            return self  # type: ignore[return-value]  # the class's attribute: the descriptor itself
+        return float(getattr(body._arrays(), self.array)[self._at(body)])
+
+    def __set__(self, body: Body, value: float) -> None:
+        getattr(body._arrays(), self.array)[self._at(body)] = self.check(value, self.name)
+
+
 class Body:
     """A handle onto one body's row of the world's arrays.
 
@@ -436,35 +459,17 @@ class Body:
         impulse or contact changes it."""
         return bool(self._arrays().kinematic[self._index])
 
-    @property
-    def gravity_scale(self) -> float:
-        """The body's gravity is gravity_scale g (1: the world's; 0: none; negative: it rises)."""
-        return float(self._arrays().gravity_scale[self._index])
-
-    @gravity_scale.setter
-    def gravity_scale(self, value: float) -> None:
-        v = finite_float(value, "gravity_scale")
-        self._arrays().gravity_scale[self._index] = v
-
-    @property
-    def linear_damping(self) -> float:
-        """c >= 0 (1/s): every step v /= 1 + c dt (Box2D's damping), after the forces."""
-        return float(self._arrays().damping[self._index, 0])
-
-    @linear_damping.setter
-    def linear_damping(self, value: float) -> None:
-        v = non_negative_float(value, "linear_damping")
-        self._arrays().damping[self._index, 0] = v
-
-    @property
-    def angular_damping(self) -> float:
-        """c >= 0 (1/s): every step omega /= 1 + c dt, after the forces."""
-        return float(self._arrays().damping[self._index, 1])
-
-    @angular_damping.setter
-    def angular_damping(self, value: float) -> None:
-        v = non_negative_float(value, "angular_damping")
-        self._arrays().damping[self._index, 1] = v
+    gravity_scale = PerBody(
+        "gravity_scale",
+        finite_float,
+        "The body's gravity is gravity_scale g (1: the world's; 0: none; negative: it rises).",
+    )
+    linear_damping = PerBody(
+        "damping", non_negative_float, "c >= 0 (1/s): every step v /= 1 + c dt (Box2D's damping), after the forces.", 0
+    )
+    angular_damping = PerBody(
+        "damping", non_negative_float, "c >= 0 (1/s): every step omega /= 1 + c dt, after the forces.", 1
+    )
 
     @property
     def awake(self) -> bool:
@@ -524,25 +529,14 @@ class Body:
         self._world._pipeline.bodies_changed()  # the broadphase's pairs are found anew
         self._world._wake(self._index)
 
-    @property
-    def friction(self) -> float:
-        """Friction coefficient mu of the body's shape (pairs mix sqrt(mu_a mu_b))."""
-        return float(self._arrays().friction[self._index])
-
-    @friction.setter
-    def friction(self, value: float) -> None:
-        v = non_negative_float(value, "friction")
-        self._arrays().friction[self._index] = v
-
-    @property
-    def restitution(self) -> float:
-        """Restitution e in [0, 1] (pairs take max(e_a, e_b))."""
-        return float(self._arrays().restitution[self._index])
-
-    @restitution.setter
-    def restitution(self, value: float) -> None:
-        v = float_in(value, "restitution", 0.0, 1.0)
-        self._arrays().restitution[self._index] = v
+    friction = PerBody(
+        "friction", non_negative_float, "Friction coefficient mu of the body's shape (pairs mix sqrt(mu_a mu_b))."
+    )
+    restitution = PerBody(
+        "restitution",
+        lambda v, name: float_in(v, name, 0.0, 1.0),
+        "Restitution e in [0, 1] (pairs take max(e_a, e_b)).",
+    )
 
     # -- shape ------------------------------------------------------------
     @property

@@ -409,7 +409,7 @@ class Pipeline:
 
     def _counts(self, colour_order: bool) -> Counts:
         store = self.store
-        return Counts._make((  # (_make: the fastest way to build a NamedTuple, once a step)
+        return Counts._make((  # the counts a kernel reads, as one tuple
             self.side, self.n_pairs, self.manifolds, self.cached, store.rows_used, store.points_used, colour_order,
             self.sweep_again,
         ))  # fmt: skip

@@ -233,6 +233,13 @@ class Responder:
         super().__setattr__(name, value)  # a Setting checks the value here
         self.__dict__.pop("_tick_spec", None)  # the world reads its settings again for the next step
 
+    def _take(self, arguments: dict[str, object]) -> None:
+        """Assign a constructor's arguments (its ``locals()``) in the signature's order, each
+        checked by its Setting or setter, as a later assignment is."""
+        for name, value in arguments.items():
+            if name != "self" and not name.startswith("_"):
+                setattr(self, name, value)
+
     @property
     def name(self) -> str:
         """The responder's name in reports (a subclass may set a plain class attribute)."""

@@ -386,17 +386,8 @@ class PGS(Responder):
         push_max: float = 3.0,
         split: bool = True,
     ) -> None:
-        self.iterations = iterations
-        self.warm_start = warm_start
-        self.beta = beta
-        self.slop = slop
-        self.push_max = push_max
-        self.split = split
-        self.tolerance = tolerance
-        self.restitution_threshold = restitution_threshold
-        self.friction = friction
-        self._form = one_of(form, "form", FORMS)
-        self.block = block
+        self._form, self._block = "impulse", False  # form and block check each other when set
+        self._take(locals())
 
     @property
     def name(self) -> str:

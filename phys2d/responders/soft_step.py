@@ -238,17 +238,7 @@ class SoftStep(Responder):
         joint_damping_ratio: float = 2.0,
         direct_joints: bool = True,
     ) -> None:
-        self.substeps = substeps
-        self.relax = relax
-        self.contact_hertz = contact_hertz
-        self.damping_ratio = damping_ratio
-        self.push_max = push_max
-        self.restitution_threshold = restitution_threshold
-        self.warm_start = warm_start
-        self.block = block
-        self.joint_hertz = joint_hertz
-        self.joint_damping_ratio = joint_damping_ratio
-        self.direct_joints = direct_joints
+        self._take(locals())
 
     @property
     def settings(self) -> SoftSettings:

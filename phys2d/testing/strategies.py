@@ -285,23 +285,17 @@ dts = st.sampled_from([1 / 30, 1 / 60, 1 / 120, 1 / 240]) | reals(1e-4, 0.05)
 # -- helpers shared by the properties -----------------------------------------------
 
 
+# every per-contact array of ``World.contacts``
+CONTACT_ARRAYS = (
+    "body_a body_b point normal separation normal_impulse tangent_impulse feature key warm_started"
+).split()
+
+
 def fingerprint(w: phys2d.World) -> tuple:
     """Everything a World holds, as bytes: two equal fingerprints mean bit-identical worlds."""
     b = w._bodies
     arrays = [getattr(b, name) for name in b._PER_BODY] + [b.local_v, b.local_n]
-    c = w.contacts
-    contact_arrays = [
-        c.body_a,
-        c.body_b,
-        c.point,
-        c.normal,
-        c.separation,
-        c.normal_impulse,
-        c.tangent_impulse,
-        c.feature,
-        c.key,
-        c.warm_started,
-    ]
+    contact_arrays = [getattr(w.contacts, name) for name in CONTACT_ARRAYS]
     cache_keys, cache_lambda_n, cache_lambda_t = w._pipeline.cache()
     return (
         b.n,
@@ -337,18 +331,8 @@ def state(w: phys2d.World) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def all_finite(w: phys2d.World) -> bool:
     c = w.contacts
-    parts = [
-        w.x,
-        w.theta,
-        w.V,
-        w.M_inv,
-        c.point,
-        c.normal,
-        c.separation,
-        c.normal_impulse,
-        c.tangent_impulse,
-        w.last_step.residuals,
-    ]
+    floats = [getattr(c, name) for name in CONTACT_ARRAYS if getattr(c, name).dtype.kind == "f"]
+    parts = [w.x, w.theta, w.V, w.M_inv, w.last_step.residuals, *floats]
     return all(bool(np.all(np.isfinite(p))) for p in parts)
 
 
