@@ -39,7 +39,7 @@ from ..constraints.rows import (
     pair_velocity,
     row_velocity,
     store_pair_velocity,
-    unsigned_rows,
+    unsigned_indices,
 )
 from ..integrate import integrate_positions
 from ..pipeline.records import RowRecord, new_bodies, record_of_joints, record_of_rows
@@ -88,11 +88,7 @@ def sweep(rows, V, visit):
     for k in visit:
         if A_kk[k] <= 0.0:
             continue  # both bodies static: nothing can move
-        if bound_row[k] >= 0:  # friction: the Coulomb cone +-mu lambda_n of its normal row
-            high = mu[k] * lam[bound_row[k]]
-            low = -high
-        else:
-            low, high = lo[k], hi[k]
+        low, high = row_bounds(k, lo, hi, bound_row, mu, lam)  # friction: the cone +-mu lambda_n
         if high == 0.0 and lam[k] == 0.0:
             continue  # friction of a point that does not push: its cone [0, 0] holds lambda_k = 0 already
         a, b = body_a[k], body_b[k]
@@ -137,15 +133,42 @@ def solve_normal_pair(n1, n2, a, b, J, JM, A_kk, xi, lam, V):
     return max(abs(x1 - a1) * K11, abs(x2 - a2) * K22)
 
 
+@njit(cache=True, inline="always")
+def row_bounds(k, lo, hi, bound_row, mu, lam):
+    """lambda_k's bounds (low, high): for friction the Coulomb cone +-mu lambda_n of its normal
+    row bound_row[k], else [lo_k, hi_k]."""
+    if bound_row[k] >= 0:
+        high = mu[k] * lam[bound_row[k]]
+        return -high, high
+    return lo[k], hi[k]
+
+
+@njit(cache=True)
+def solve_row(k, a, b, bounds, J_hat, JM, A_kk, xi_hat, lam, V):
+    """Row k between bodies a and b alone, as ``sweep``'s loop does it: delta = xi_hat_k - J_hat_k V,
+    clamp the accumulated impulse to bounds = (low, high), apply. Returns |delta lambda_k| A_kk (m/s)."""
+    low, high = bounds
+    if A_kk[k] <= 0.0 or (high == 0.0 and lam[k] == 0.0):
+        return 0.0  # both bodies static, or friction of a point that does not push: nothing to do
+    delta = xi_hat[k] - row_velocity(k, a, b, J_hat, V)  # (xi_k - J_k V) / A_kk
+    new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
+    delta = new - lam[k]
+    lam[k] = new
+    apply_row_impulse(k, a, b, JM, delta, V)  # V += M^-1 J_k^T delta
+    return abs(delta) * A_kk[k]
+
+
 @njit(cache=True)
 def block_sweep(rows, rows_hat, V, joint_rows):
     """One block Gauss-Seidel sweep (Box2D's block solver): a two-point manifold's normal
     rows together (``solve_normal_pair``, on ``rows``), then its friction rows; other contacts
-    and the joint rows ``joint_rows`` row by row (``sweep``, on ``rows_hat``, the same rows per
-    unit A_kk). Returns the largest |delta lambda_k| A_kk (m/s). With no friction rows
-    (``rows.friction_row`` empty) only the normal rows are swept."""
+    row by row (``solve_row``, on ``rows_hat``, the same rows per unit A_kk), and the joint
+    rows ``joint_rows`` in a ``sweep``. Returns the largest |delta lambda_k| A_kk (m/s). With no
+    friction rows (``rows.friction_row`` empty) only the normal rows are swept."""
     normal_row, friction_row = rows_hat.normal_row, rows_hat.friction_row  # unsigned: the sweep's visit
     body_a, body_b, J, JM, A_kk, xi, lam = rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.lam
+    J_hat, xi_hat = rows_hat.J, rows_hat.xi  # per unit A_kk, for the rows solved one by one
+    lo, hi, bound_row, mu = rows.lo, rows.hi, rows.bound_row, rows.mu
     worst = 0.0
     n_contacts = normal_row.shape[0]
     frictionless = friction_row.shape[0] == 0
@@ -159,10 +182,11 @@ def block_sweep(rows, rows_hat, V, joint_rows):
             if err >= 0.0:  # solved as a block: then the two friction rows
                 worst = max(worst, err)
                 together = 2
-        if together == 1:
-            worst = max(worst, sweep(rows_hat, V, normal_row[q : q + 1]))
-        if not frictionless:
-            worst = max(worst, sweep(rows_hat, V, friction_row[q : q + together]))
+        lone = 1 if together == 1 else 0  # a normal row not solved in a block goes first
+        for i in range(lone + (0 if frictionless else together)):  # then the friction rows
+            k = n1 if i < lone else friction_row[q + i - lone]
+            bounds = row_bounds(k, lo, hi, bound_row, mu, lam)
+            worst = max(worst, solve_row(k, a, b, bounds, J_hat, JM, A_kk, xi_hat, lam, V))
         q += together
     return max(worst, sweep(rows_hat, V, joint_rows))
 
@@ -180,7 +204,11 @@ def with_target(rows, xi, lam, friction_row):
 @njit(cache=True)
 def per_unit_A(rows):
     """The rows per unit A_kk, for ``sweep``: the same rows with J_hat_k = J_k / A_kk in J and
-    xi_hat_k = xi_k / A_kk in xi (0 where A_kk = 0)."""
+    xi_hat_k = xi_k / A_kk in xi (0 where A_kk = 0), their row map and bodies as uint32
+    (``unsigned_indices``)."""
+    normal_row, friction_row, body_a, body_b = unsigned_indices(
+        rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
+    )
     J, xi = rows.J, rows.xi
     inv_A_kk = inverse_diagonal(rows.A_kk)
     J_hat = np.empty_like(J)
@@ -190,8 +218,8 @@ def per_unit_A(rows):
             J_hat[k, c] = J[k, c] * inv_A_kk[k]
         xi_hat[k] = xi[k] * inv_A_kk[k]
     return RowRecord(
-        rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, J_hat, rows.JM, rows.A_kk, xi_hat, rows.push,
-        rows.bounce, rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
+        normal_row, friction_row, body_a, body_b, J_hat, rows.JM, rows.A_kk, xi_hat, rows.push, rows.bounce,
+        rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
     )  # fmt: skip
 
 
@@ -220,7 +248,7 @@ def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt):
     None in a world without joints (then none of this joint code is compiled); its mouse
     joints' rows are solved after each sweep by their own soft solve (``solve_mice``, over dt)."""
     apply_impulses(rows, V)
-    rows_hat = per_unit_A(unsigned_rows(rows))
+    rows_hat = per_unit_A(rows)
     all_rows = np.arange(rows.lam.shape[0], dtype=np.uint32)  # unsigned, as rows_hat's row map: sweep compiles once
     first_joint_row = 2 * rows.normal_row.shape[0]
     mice = False
@@ -265,7 +293,7 @@ def push_out(rows, V_push, iterations, tolerance, block):
         return 0
     none = rows.normal_row[:0]  # no friction rows, no joint rows: the normal rows only
     push_rows = with_target(rows, rows.push, np.zeros(rows.lam.shape[0]), none)
-    push_hat = per_unit_A(unsigned_rows(push_rows))
+    push_hat = per_unit_A(push_rows)
     for s in range(iterations):
         if block is not None:
             worst = block_sweep(push_rows, push_hat, V_push, none)
