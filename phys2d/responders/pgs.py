@@ -327,8 +327,9 @@ def pgs_step(bodies, rows, separation, dt, settings, residuals, joints):
     in a world without joints. Returns the sweeps made on A lambda = b."""
     iterations, tolerance, block, split = settings
     V = bodies.V
-    target = rows.xi if split else rows.xi + rows.push  # the lecture: the push is part of the target
-    system = with_target(rows, target, rows.lam, rows.friction_row)
+    system = rows  # split: the push goes through pseudo-velocities of its own (push_out)
+    if not split:  # the lecture: the push is part of the target
+        system = with_target(rows, rows.xi + rows.push, rows.lam, rows.friction_row)
     n = pgs_solve(system, V, iterations, tolerance, residuals, block, joints, dt)
     V_move = V
     if split and pushes(system):
