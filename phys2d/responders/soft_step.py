@@ -49,7 +49,14 @@ from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .block import inverse_diagonal
 from .mouse import solve_mice
-from .soft_contacts import prepare_manifolds, soft_constants, soft_sweep, warm_start
+from .soft_contacts import (
+    prepare_manifolds,
+    soft_constants,
+    soft_friction_rows,
+    soft_normal_rows,
+    warm_start_joints,
+    warm_start_manifolds,
+)
 from .soft_integrate import integrate_positions, integrate_velocities, split_forces
 from .soft_joints import first_joint_row_of, joint_system, prepare_joints, solve_joints
 from .soft_points import note_approach, note_impacts, prepare_points, restitution, separations, store
@@ -87,16 +94,19 @@ def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, sy
 def sweep_contacts(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
     """``soft_sweep`` on one thread (runs None), or run by run on several (``pipeline.parallel``).
     (runs is an argument here, so numba drops the branch its type rules out.)"""
-    if runs is None:
-        return soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+    if runs is None:  # ``soft_sweep``'s two passes, called here: one call less a sweep
+        n = manifolds[0].shape[0] - 1
+        worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+        return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, V, h))
     return soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
 
 
 @njit(cache=True)
 def warm_start_contacts(manifolds, rows, V, runs):
     """``warm_start`` on one thread (runs None), or run by run on several (``pipeline.parallel``)."""
-    if runs is None:
-        warm_start(manifolds, rows, V)
+    if runs is None:  # ``warm_start``'s two parts, called here
+        warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
+        warm_start_joints(rows, V)
     else:
         warm_start_in_runs(runs, manifolds, rows, V)
 
