@@ -78,37 +78,21 @@ class SoftSettings(NamedTuple):
 
 
 @njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, system, runs):
+def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, system, threads, runs):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). springs: (contacts with a dynamic partner, with
-    a static one, joints) (``soft_constants``); runs: None on one thread, else the contacts'
-    sweep runs on several (``pipeline.parallel``). Returns the largest velocity correction (m/s)."""
+    a static one, joints) (``soft_constants``); on one thread (threads None) the contacts'
+    ``soft_sweep``, else its runs on several (``pipeline.parallel``, runs: ``runs_for``).
+    Returns the largest velocity correction (m/s)."""
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
         worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
-    return max(worst, sweep_contacts(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
-
-
-@njit(cache=True)
-def sweep_contacts(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
-    """``soft_sweep`` on one thread (runs None), or run by run on several (``pipeline.parallel``).
-    (runs is an argument here, so numba drops the branch its type rules out.)"""
-    if runs is None:  # ``soft_sweep``'s two passes, called here: one call less a sweep
+    if threads is None:  # ``soft_sweep``'s two passes, called here (numba drops the branch not taken)
         n = manifolds[0].shape[0] - 1
-        worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
+        worst = max(worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
         return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, V, h))
-    return soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
-
-
-@njit(cache=True)
-def warm_start_contacts(manifolds, rows, V, runs):
-    """``warm_start`` on one thread (runs None), or run by run on several (``pipeline.parallel``)."""
-    if runs is None:  # ``warm_start``'s two parts, called here
-        warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
-        warm_start_joints(rows, V)
-    else:
-        warm_start_in_runs(runs, manifolds, rows, V)
+    return max(worst, soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
 
 
 @njit(cache=True)
@@ -172,8 +156,12 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                 note_approach(rows, points, n_pending, V)
             if with_bias:
                 integrate_velocities(V, dv)
-                warm_start_contacts(manifolds, rows, V, runs)
-            worst = solve(rows, manifolds, inv_A_kk, points, V, h, with_bias, springs, joints, system, runs)
+                if threads is None:  # ``warm_start``'s two parts
+                    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
+                    warm_start_joints(rows, V)
+                else:
+                    warm_start_in_runs(runs, manifolds, rows, V)
+            worst = solve(rows, manifolds, inv_A_kk, points, V, h, with_bias, springs, joints, system, threads, runs)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
             if with_bias:
