@@ -88,7 +88,11 @@ def sweep(rows, V, visit):
     for k in visit:
         if A_kk[k] <= 0.0:
             continue  # both bodies static: nothing can move
-        low, high = row_bounds(k, lo, hi, bound_row, mu, lam)  # friction: the cone +-mu lambda_n
+        if bound_row[k] >= 0:  # friction: the Coulomb cone +-mu lambda_n of its normal row
+            high = mu[k] * lam[bound_row[k]]
+            low = -high
+        else:
+            low, high = lo[k], hi[k]
         if high == 0.0 and lam[k] == 0.0:
             continue  # friction of a point that does not push: its cone [0, 0] holds lambda_k = 0 already
         a, b = body_a[k], body_b[k]
