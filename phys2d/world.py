@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import shapes
+from . import heap, shapes
 from . import sleep as sleeping
 from .bodies import MAX_BODY_UID, Body, BodyArrays, BodyOptions, PlacedBodyOptions, body_settings
 from .collision import queries
@@ -126,6 +126,7 @@ class World:
         self.contact_margin = contact_margin
         self.max_speed = max_speed
         self._pipeline = Pipeline()  # the buffers of a step, and the step that fills them
+        heap.keep_freed_pages()  # a tick's scratch reuses the last tick's pages (phys2d.heap)
         self.contact_recycle_distance = contact_recycle_distance
         self._bodies = BodyArrays()
         self._handles: list[Body] = []
