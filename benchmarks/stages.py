@@ -58,6 +58,7 @@ SCENES: dict[str, Callable[[phys2d.Responder], phys2d.World]] = {
     "pyramid_100": lambda r: phys2d.scenes.pyramid(100, responder=r),
     "vertical_stack_10": lambda r: phys2d.scenes.vertical_stack(10, responder=r),
     "mixed_shapes": lambda r: phys2d.scenes.mixed_shapes(12, responder=r),
+    "many_pyramids": lambda r: phys2d.scenes.many_pyramids(responder=r),
 }
 RESPONDERS: dict[str, Callable[[], phys2d.Responder]] = {"PGS": phys2d.PGS, "SoftStep": phys2d.SoftStep}
 # the stages in the order Pipeline._in_stages calls them: (owner, name); "respond" is the responder's

@@ -130,17 +130,17 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     def serial() -> None:
         rows_of(*row_args[:-1], None)
         for _ in range(soft.substeps):
-            warm_start(manifolds, rows, V)
-            soft_sweep(rows, manifolds, inv_A_kk, points, V, h, True, springs)
-            soft_sweep(rows, manifolds, inv_A_kk, points, V, h, False, springs)
+            warm_start(manifolds, rows, ctx.M_inv, V)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs)
 
     def parallel() -> None:
         with using_threads(2):
             rows_of(*row_args[:-1], 2)
             for _ in range(soft.substeps):
-                warm_start_in_runs(runs, manifolds, rows, V)
-                soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, True, springs)
-                soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, False, springs)
+                warm_start_in_runs(runs, manifolds, rows, ctx.M_inv, V)
+                soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs)
+                soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs)
 
     serial()
     parallel()  # compiled or loaded

@@ -81,7 +81,7 @@ def slice_of(run_start, r, t, n_slices):
 
 
 @njit(cache=True, parallel=True)
-def soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
+def soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
     """``soft_sweep`` run by run, each run's manifolds in parallel, a slice per thread (runs:
     ``runs_for``); the same arguments, the same results. Returns the largest |delta lambda| A_kk
     (m/s)."""
@@ -92,24 +92,25 @@ def soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, 
         for t in prange(n_slices):
             first, last = slice_of(run_start, r, t, n_slices)
             soft = (dynamic, static, joint)
-            w = soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_bias, soft)
+            w = soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft)
             worst[t] = max(worst[t], w)
     for r in range(run_start.shape[0] - 1):  # then the friction rows
         for t in prange(n_slices):
             first, last = slice_of(run_start, r, t, n_slices)
-            worst[t] = max(worst[t], soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, V, h))
+            w = soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h)
+            worst[t] = max(worst[t], w)
     return worst.max()
 
 
 @njit(cache=True, parallel=True)
-def warm_start_in_runs(runs, manifolds, rows, V):
+def warm_start_in_runs(runs, manifolds, rows, M_inv, V):
     """``soft_contacts.warm_start`` run by run, each run's manifolds in parallel, a slice per
     thread (runs: ``runs_for``); the joint rows after."""
     run_start, n_slices = runs
     for r in range(run_start.shape[0] - 1):
         for t in prange(n_slices):
             first, last = slice_of(run_start, r, t, n_slices)
-            warm_start_manifolds(first, last, manifolds[0], rows, V)
+            warm_start_manifolds(first, last, manifolds[0], rows, M_inv, V)
     warm_start_joints(rows, V)
 
 

@@ -20,7 +20,8 @@ from numba import njit
 from ..constraints.rows import (
     MET,
     apply_row_impulse,
-    pair_row_impulse,
+    pair_inverse_mass,
+    pair_row_impulse_of,
     pair_row_velocity,
     pair_velocity,
     speculative_friction_target,
@@ -52,23 +53,25 @@ def soft_push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
+def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias,
     ``soft_normal_rows``), then the friction rows (``soft_friction_rows``). points.C[c] is
     point c's separation now (m); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
-    1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); springs: the soft push
-    against a dynamic and a static partner (``soft_constants``). The same updates run colour by
-    colour on several threads in ``pipeline.parallel.soft_sweep_in_runs``.
+    1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); M_inv: the bodies'
+    M^-1, from which each manifold forms M^-1 J^T as it applies an impulse
+    (``pair_row_impulse_of``: the products the rows' JM holds, not read); springs: the soft
+    push against a dynamic and a static partner (``soft_constants``). The same updates run
+    colour by colour on several threads in ``pipeline.parallel.soft_sweep_in_runs``.
 
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
     n = manifolds[0].shape[0] - 1
-    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs)
-    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, V, h))
+    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs)
+    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
 
 
 @njit(cache=True)
-def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs):
+def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
     """The normal rows of manifolds first up to last, one manifold after another, with the soft
     push if use_bias (``soft_sweep``'s arguments). Returns the largest |delta lambda| A_kk (m/s).
 
@@ -77,7 +80,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_b
         K lambda + [m_p (J_p V + bias_p) + s_p A_pp a_p - (K a)_p] >= 0, lambda >= 0.
     """
     normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
-    J, JM, A_kk, lam = rows.J, rows.JM, rows.A_kk, rows.lam
+    J, A_kk, lam = rows.J, rows.A_kk, rows.lam
     soft_dyn, soft_static = springs[0], springs[1]
     C = points.C
     start, static_pair, K12, as_block, inv_det = manifolds
@@ -89,6 +92,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_b
         soft = soft_static if static_pair[m] else soft_dyn
         s1 = C[c]
         V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
+        M_ab = pair_inverse_mass(a, b, M_inv)  # and its M^-1: M^-1 J^T formed from J, JM not read
         if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
             k2 = normal_row[c + 1]
             s2 = C[c + 1]
@@ -101,7 +105,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_b
             x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
             lam[k] = x1
             lam[k2] = x2
-            V_ab = pair_row_impulse(k2, JM, x2 - a2, pair_row_impulse(k, JM, x1 - a1, V_ab))
+            V_ab = pair_row_impulse_of(k2, J, M_ab, x2 - a2, pair_row_impulse_of(k, J, M_ab, x1 - a1, V_ab))
             worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22)
         else:
             # relax leaves a point still apart alone: the next sweep with the push limits its
@@ -115,27 +119,27 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, V, h, use_b
                     new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
                     d = new - lam[k]
                     lam[k] = new
-                    V_ab = pair_row_impulse(k, JM, d, V_ab)
+                    V_ab = pair_row_impulse_of(k, J, M_ab, d, V_ab)
                     worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
     return worst
 
 
 @njit(cache=True)
-def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, V, h):
+def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h):
     """The friction rows of manifolds first up to last, one manifold after another
     (``soft_sweep``'s arguments): Coulomb's cone mu lambda_n; a point still apart that has not
     yet met its partner lets friction act only once it touches (``speculative_friction_target``
     of points.vn, points.vt). Returns the largest |delta lambda| A_kk (m/s)."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
-    J, JM, A_kk, mu, lam = rows.J, rows.JM, rows.A_kk, rows.mu, rows.lam
+    J, A_kk, mu, lam = rows.J, rows.A_kk, rows.mu, rows.lam
     C, vn, vt, impacted = points.C, points.vn, points.vt, points.impacted
     start = manifolds[0]
     worst = 0.0
     for m in range(first, last):
         k = friction_row[start[m]]
         a, b = body_a[k], body_b[k]
-        V_ab = pair_velocity(a, b, V)
+        V_ab, M_ab = pair_velocity(a, b, V), pair_inverse_mass(a, b, M_inv)
         for c in range(start[m], start[m + 1]):
             k, kn = friction_row[c], normal_row[c]
             if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
@@ -148,7 +152,7 @@ def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, V, h):
             new = min(max(lam[k] + d, -top), top)
             d = new - lam[k]
             lam[k] = new
-            V_ab = pair_row_impulse(k, JM, d, V_ab)
+            V_ab = pair_row_impulse_of(k, J, M_ab, d, V_ab)
             worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
     return worst
@@ -199,28 +203,29 @@ def prepare_manifolds(rows, M_inv, block):
 
 
 @njit(cache=True)
-def warm_start(manifolds, rows, V):
+def warm_start(manifolds, rows, M_inv, V):
     """Apply last sub-step's impulses (N s) to V: manifold by manifold (``warm_start_manifolds``),
     then the joint rows (``warm_start_joints``)."""
-    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
+    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, M_inv, V)
     warm_start_joints(rows, V)
 
 
 @njit(cache=True)
-def warm_start_manifolds(first, last, start, rows, V):
+def warm_start_manifolds(first, last, start, rows, M_inv, V):
     """The last impulses (N s) of manifolds first up to last on V, one manifold after another:
     its rows (normal, then friction, point by point) on its pair's velocities held in hand
-    (``pair_velocity``), stored once."""
+    (``pair_velocity``), stored once, with M^-1 J^T formed from J and the pair's M^-1
+    (``pair_row_impulse_of``)."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
-    JM, lam = rows.JM, rows.lam
+    J, lam = rows.J, rows.lam
     for m in range(first, last):
         k = normal_row[start[m]]
         a, b = body_a[k], body_b[k]
-        V_ab = pair_velocity(a, b, V)
+        V_ab, M_ab = pair_velocity(a, b, V), pair_inverse_mass(a, b, M_inv)
         for c in range(start[m], start[m + 1]):
             for k in (normal_row[c], friction_row[c]):
                 if lam[k] != 0.0:
-                    V_ab = pair_row_impulse(k, JM, lam[k], V_ab)
+                    V_ab = pair_row_impulse_of(k, J, M_ab, lam[k], V_ab)
         store_pair_velocity(a, b, V_ab, V)
 
 

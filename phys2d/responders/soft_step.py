@@ -78,9 +78,10 @@ class SoftSettings(NamedTuple):
 
 
 @njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, system, threads, runs):
+def solve(rows, contacts, V, h, use_bias, springs, joints, system, threads, runs):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
-    last (they have the last word on overlap). springs: (contacts with a dynamic partner, with
+    last (they have the last word on overlap). contacts: (manifolds, inv_A_kk, points, M_inv),
+    what ``soft_sweep`` reads besides the rows; springs: (contacts with a dynamic partner, with
     a static one, joints) (``soft_constants``); on one thread (threads None) the contacts'
     ``soft_sweep``, else its runs on several (``pipeline.parallel``, runs: ``runs_for``).
     Returns the largest velocity correction (m/s)."""
@@ -88,11 +89,12 @@ def solve(rows, manifolds, inv_A_kk, points, V, h, use_bias, springs, joints, sy
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
         worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
+    manifolds, inv_A_kk, points, M_inv = contacts
     if threads is None:  # ``soft_sweep``'s two passes, called here (numba drops the branch not taken)
         n = manifolds[0].shape[0] - 1
-        worst = max(worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
-        return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, V, h))
-    return max(worst, soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, V, h, use_bias, springs))
+        worst = max(worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
+        return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
+    return max(worst, soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
 
 
 @njit(cache=True)
@@ -157,11 +159,12 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             if with_bias:
                 integrate_velocities(V, dv)
                 if threads is None:  # ``warm_start``'s two parts
-                    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, V)
+                    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, bodies.M_inv, V)
                     warm_start_joints(rows, V)
                 else:
-                    warm_start_in_runs(runs, manifolds, rows, V)
-            worst = solve(rows, manifolds, inv_A_kk, points, V, h, with_bias, springs, joints, system, threads, runs)
+                    warm_start_in_runs(runs, manifolds, rows, bodies.M_inv, V)
+            contacts = (manifolds, inv_A_kk, points, bodies.M_inv)
+            worst = solve(rows, contacts, V, h, with_bias, springs, joints, system, threads, runs)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
             if with_bias:
