@@ -123,7 +123,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     springs = tuple(soft_constants(f * hertz, soft.damping_ratio, h, soft.push_max) for f in (1.0, 2.0, 1.0))
     moved = np.zeros((ctx.x.shape[0], 4))  # (the bodies as the tick began: the points' separations as found)
     moved[:, 2] = 1.0
-    separations(rows, points, moved)
+    separations(0, ctx.n_contacts, rows, points, moved)
     runs = (manifold_runs(manifolds[0], rows, ctx.M_inv), 2)  # (``runs_for``: a slice per thread)
     V = ctx.V.copy()
 

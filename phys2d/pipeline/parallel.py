@@ -38,6 +38,8 @@ import numpy as np
 from numba import config, njit, prange
 
 from ..responders.soft_contacts import soft_friction_rows, soft_normal_rows, warm_start_joints, warm_start_manifolds
+from ..responders.soft_integrate import integrate_positions
+from ..responders.soft_points import note_approach, separations
 
 
 @njit(cache=True)
@@ -114,6 +116,59 @@ def warm_start_in_runs(runs, manifolds, rows, M_inv, V):
     warm_start_joints(rows, V)
 
 
+# The sub-step's passes in which each point or body writes only its own entries: one call on
+# one thread (threads None: numba drops the parallel branch), else a slice per thread, with the
+# same results.
+
+
+@njit(cache=True)
+def separations_on(threads, rows, points, moved):
+    """``soft_points.separations`` of every point."""
+    n = rows.normal_row.shape[0]
+    if threads is None:
+        separations(0, n, rows, points, moved)
+    else:
+        separations_in_slices(threads, rows, points, moved)
+
+
+@njit(cache=True, parallel=True)
+def separations_in_slices(n_slices, rows, points, moved):
+    n = rows.normal_row.shape[0]
+    for t in prange(n_slices):
+        separations(n * t // n_slices, n * (t + 1) // n_slices, rows, points, moved)
+
+
+@njit(cache=True)
+def note_approach_on(threads, rows, points, n_pending, V):
+    """``soft_points.note_approach`` of the n_pending points not yet met."""
+    if threads is None:
+        note_approach(0, n_pending, rows, points, V)
+    else:
+        note_approach_in_slices(threads, rows, points, n_pending, V)
+
+
+@njit(cache=True, parallel=True)
+def note_approach_in_slices(n_slices, rows, points, n_pending, V):
+    for t in prange(n_slices):
+        note_approach(n_pending * t // n_slices, n_pending * (t + 1) // n_slices, rows, points, V)
+
+
+@njit(cache=True)
+def integrate_positions_on(threads, bodies, h, x0, theta0, moved):
+    """``soft_integrate.integrate_positions`` of every body."""
+    if threads is None:
+        integrate_positions(0, x0.shape[0], bodies, h, x0, theta0, moved)
+    else:
+        integrate_positions_in_slices(threads, bodies, h, x0, theta0, moved)
+
+
+@njit(cache=True, parallel=True)
+def integrate_positions_in_slices(n_slices, bodies, h, x0, theta0, moved):
+    n = x0.shape[0]
+    for t in prange(n_slices):
+        integrate_positions(n * t // n_slices, n * (t + 1) // n_slices, bodies, h, x0, theta0, moved)
+
+
 @contextmanager
 def using_threads(threads: int) -> Iterator[None]:
     """Within it, numba's parallel loops use ``threads`` threads (at most the NUMBA_NUM_THREADS
@@ -130,4 +185,14 @@ def using_threads(threads: int) -> Iterator[None]:
         numba.set_num_threads(before)
 
 
-__all__ = ["manifold_runs", "runs_for", "slice_of", "soft_sweep_in_runs", "using_threads", "warm_start_in_runs"]
+__all__ = [
+    "integrate_positions_on",
+    "manifold_runs",
+    "note_approach_on",
+    "runs_for",
+    "separations_on",
+    "slice_of",
+    "soft_sweep_in_runs",
+    "using_threads",
+    "warm_start_in_runs",
+]

@@ -46,10 +46,11 @@ def integrate_velocities(V, dv):
 
 
 @njit(cache=True)
-def integrate_positions(bodies, h, x0, theta0, moved):
-    """x += h v, theta += h omega; moved[b] = (dx, dy, cos dtheta, sin dtheta) since the tick began."""
+def integrate_positions(first, last, bodies, h, x0, theta0, moved):
+    """x += h v, theta += h omega of bodies first up to last; moved[b] = (dx, dy, cos dtheta,
+    sin dtheta) since the tick began (each body its own: ``pipeline.parallel.integrate_positions_on``)."""
     x, theta, V = bodies.x, bodies.theta, bodies.V
-    for b in range(x.shape[0]):
+    for b in range(first, last):
         x[b, 0] += h * V[b, 0]
         x[b, 1] += h * V[b, 1]
         theta[b] += h * V[b, 2]

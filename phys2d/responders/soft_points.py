@@ -64,22 +64,23 @@ def separation_now(c, k, a, b, C0, r, J, moved):
 
 
 @njit(cache=True)
-def separations(rows, points, moved):
-    """Every point's separation C at the positions now (m)."""
+def separations(first, last, rows, points, moved):
+    """The separation C (m) of points first up to last at the positions now (each point its own:
+    ``pipeline.parallel.separations_on`` runs them a slice per thread)."""
     normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
     C0, r, C = points.C0, points.r, points.C
-    for c in range(normal_row.shape[0]):
+    for c in range(first, last):
         k = normal_row[c]
         C[c] = separation_now(c, k, body_a[k], body_b[k], C0, r, J, moved)
 
 
 @njit(cache=True)
-def note_approach(rows, points, n_pending, V):
-    """Before a sweep: J V (m/s) of the normal and friction rows of the points not yet met
-    (pending[:n_pending])."""
+def note_approach(first, last, rows, points, V):
+    """Before a sweep: J V (m/s) of the normal and friction rows of the points not yet met,
+    pending[first:last] (each point its own: ``pipeline.parallel.note_approach_on``)."""
     normal_row, friction_row, body_a, body_b, J = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, rows.J
     pending, vn, vt = points.pending, points.vn, points.vt
-    for q in range(n_pending):
+    for q in range(first, last):
         c = pending[q]
         k, kt = normal_row[c], friction_row[c]
         vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)

@@ -44,7 +44,14 @@ from numba import njit
 from ..constraints.joints import JointArrays
 from ..constraints.rows import unsigned_rows
 from ..pipeline import records
-from ..pipeline.parallel import runs_for, soft_sweep_in_runs, warm_start_in_runs
+from ..pipeline.parallel import (
+    integrate_positions_on,
+    note_approach_on,
+    runs_for,
+    separations_on,
+    soft_sweep_in_runs,
+    warm_start_in_runs,
+)
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
 from .block import inverse_diagonal
@@ -57,9 +64,9 @@ from .soft_contacts import (
     warm_start_joints,
     warm_start_manifolds,
 )
-from .soft_integrate import integrate_positions, integrate_velocities, split_forces
+from .soft_integrate import integrate_velocities, split_forces
 from .soft_joints import first_joint_row_of, joint_system, prepare_joints, solve_joints
-from .soft_points import note_approach, note_impacts, prepare_points, restitution, separations, store
+from .soft_points import note_impacts, prepare_points, restitution, store
 
 
 class SoftSettings(NamedTuple):
@@ -153,9 +160,9 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
         for sweep in range(2 if relax else 1):  # with bias, then the relax sweep without
             with_bias = sweep == 0
             if not with_bias or i == 0 or not relax:  # (after a relax sweep the positions have not moved)
-                separations(rows, points, moved)
+                separations_on(threads, rows, points, moved)
             if n_pending > 0:  # (once every point has met its partner, nothing is left to note)
-                note_approach(rows, points, n_pending, V)
+                note_approach_on(threads, rows, points, n_pending, V)
             if with_bias:
                 integrate_velocities(V, dv)
                 if threads is None:  # ``warm_start``'s two parts
@@ -168,7 +175,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
             if with_bias:
-                integrate_positions(bodies, h, x0, theta0, moved)
+                integrate_positions_on(threads, bodies, h, x0, theta0, moved)
             residuals[n_sweeps] = 0.0 if with_bias else worst  # the relax sweep's, when there is one
         n_sweeps += 1
         store(rows, total, points)
