@@ -11,7 +11,9 @@ other within each repeat: the ratio (1 thread / 2 threads) is taken within each 
 medians over the repeats. The script checks that both worlds end bit-identical.
 
 Then, for SoftStep, the share of its one-thread step that threads split (Amdahl's p): the contact rows
-(``contact_rows``), contact sweeps and warm starts of one step, replayed on the settled world (as many
+(``contact_rows``), contact sweeps and warm starts of one step (not the per-point and per-body passes that
+``pipeline.parallel.*_on`` split too: called from Python, each would add a call's overhead the tick does
+not pay, so p and s are of the larger parts only), replayed on the settled world (as many
 as ``soft_step_solve`` makes: 2 sweeps and 1 warm start per sub-step), timed against the whole step;
 the same replay on 2 threads (``contact_rows_in_slices``, ``soft_sweep_in_runs``) gives those parts' own
 speed-up s, and 1 / ((1 - p) + p / s) the step's best case. The machine should be quiet: threads wait for a busy core.
