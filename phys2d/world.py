@@ -105,9 +105,10 @@ class World:
                 stops moving and costs almost nothing to step until something wakes it
                 (``Body.awake``); default False, settable between steps (False wakes all)
     threads     how many cores a step may use (default 1, settable between steps): with more
-                than one, the contact rows are built on several threads, and the soft
+                than one, the contact rows are built on several threads, the soft
                 step's sweeps run colour by colour, each colour's manifolds on several
-                threads (``pipeline.parallel``); the results are bit-identical for every count
+                threads, and its per-point and per-body passes a slice per thread
+                (``pipeline.parallel``); the results are bit-identical for every count
     """
 
     def __init__(
