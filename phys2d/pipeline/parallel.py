@@ -22,6 +22,11 @@ nothing moves (M^-1 = 0: static, kinematic or asleep) may sit in several manifol
 each writes back the velocity it read, plus 0 times its impulse, the same value whichever
 writes last.
 
+The sub-step's passes over points and bodies (the separations, the noted approaches, the
+positions' integration) have no order to keep: each point or body writes only its own
+entries. ``separations_on``, ``note_approach_on`` and ``integrate_positions_on`` run them in
+one call on one thread, else a slice per thread.
+
 Numba runs the inner loops (``prange``) on ``World.threads`` threads. The kernels here are
 compiled with ``parallel=True``, only for a world whose threads > 1 (``runs_for`` returns
 None for one thread, and numba drops every branch that would call them); with
