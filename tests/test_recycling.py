@@ -7,7 +7,14 @@ import pytest
 
 import phys2d
 from phys2d import scenes
-from phys2d.collision.recycle import RECYCLE_MAX_TURN, angle_difference, has_room, may_recycle, turn_since_cached
+from phys2d.collision.recycle import (
+    RECYCLE_MASS_RATIO,
+    RECYCLE_MAX_TURN,
+    angle_difference,
+    has_room,
+    may_recycle,
+    turn_since_cached,
+)
 from tests.probe import manifolds_of, records_now
 
 
@@ -69,6 +76,23 @@ def test_a_pair_that_moved_more_than_the_recycle_distance_is_collided_anew():
     assert w._pipeline.store.recycled == 0
     fresh = narrowphase_now(w)
     np.testing.assert_allclose(np.sort(w.contacts.point[:, 0]), np.sort(fresh["point"][:, 0]), atol=1e-9)
+
+
+@pytest.mark.parametrize("top_density", [1.0, 20.0])
+def test_a_fast_pair_keeps_its_manifold_while_it_moves_as_one_if_alike_in_mass(top_density):
+    # two boxes resting on each other in zero gravity, both moving at 5 m/s: each moves 8 cm a step,
+    # four times the 2 cm margin, but not at all relative to the other. Alike in mass (1:1), the pair
+    # is judged by that relative motion and keeps its points (Box2D v3's rule); 20:1, by each body's
+    # own motion, and it is collided anew (a light body under a heavy one: ``pair_travel``)
+    w = phys2d.World(gravity=(0.0, 0.0), responder=phys2d.SoftStep())
+    low = w.add_box(position=(0.0, 0.0), half_extents=(0.5, 0.5))
+    top = w.add_box(position=(0.0, 1.0), half_extents=(0.5, 0.5), density=top_density)
+    low.velocity = top.velocity = (5.0, 0.0)
+    for _ in range(3):
+        w.step(1 / 60)
+        assert len(w.contacts.key) == 2  # the face to face pair's two points, every step
+    assert w._pipeline.store.recycled == (1 if top_density < RECYCLE_MASS_RATIO else 0)
+    np.testing.assert_allclose(w.V[:, :2], [[5.0, 0.0], [5.0, 0.0]], atol=1e-9)  # still moving as one
 
 
 def test_a_fresh_point_has_the_lever_arms_from_each_centre_to_it():

@@ -140,7 +140,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
         (order_contacts, (shapes, found, i64, typeof((0, 0, True)), typeof(True))),
         (
             collide_recycling,
-            (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0)), typeof(rounded)),
+            (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0, 0.0)), typeof(rounded)),
         ),
     ]
     del sides, counts, step, i32

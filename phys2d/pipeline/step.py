@@ -544,7 +544,7 @@ class Pipeline:
         store, t = self.store, self.buffers
         old = t.sides[self.side]
         now = (self.n_pairs, self.manifolds, store.rows_used, store.points_used)
-        margins = (step.contact_margin, step.recycle_distance)
+        margins = (step.contact_margin, step.recycle_distance, step.dt)
         old_record, new_record = self.side_records[self.side], self.side_records[1 - self.side]
         records_in = (self.bodies_record, self.shapes_record, self.store_record, old_record, new_record)
         k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(*records_in, now, margins, self.rounded)
