@@ -4,9 +4,8 @@ A tick allocates its scratch arrays afresh: the soft step's per-tick impulses, t
 points' separations, the manifolds' blocks (``np.zeros`` inside the kernels), the
 rows of new contacts. glibc hands the freed top of its heap back to the operating
 system and maps it again on the next tick's first touch, one zeroed 4 KiB page at a
-time. On Box2D's many_pyramids (116,000 contacts) that was about 4,000 page faults per
-step under SoftStep(4), some 10-15 % of the step. Box2D v3 keeps such scratch in an
-arena for the same reason.
+time: on a scene of a hundred thousand contacts, thousands of page faults a step. Box2D
+v3 keeps such scratch in an arena for the same reason.
 
 ``keep_freed_pages`` asks glibc (``mallopt(M_TOP_PAD)``) to keep a pad of freed pages
 at the heap's top instead, and to take blocks up to 32 MB from the heap (the ceiling of

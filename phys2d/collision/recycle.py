@@ -92,7 +92,7 @@ def pair_travel(a, b, bodies, extent, travel, dt):
     relative motion, dt (|v_b - v_a| + |omega_a| extent_a + |omega_b| extent_b)
     (``body_extents``). Any other pair: each body's own travel, summed (``update_geometry``'s
     travel): a light body under a heavy one is collided anew while either moves fast (kept by
-    their relative motion, high_mass_ratio's light bodies went on moving in 3 of 12 runs)."""
+    their relative motion, the light bodies of ``high_mass_ratio`` did not come to rest)."""
     V, M_inv = bodies.V, bodies.M_inv
     m_a, m_b = M_inv[a, 0], M_inv[b, 0]  # 1/m: 0 for a static or kinematic body
     if m_a > 0.0 and m_b > 0.0 and m_a < RECYCLE_MASS_RATIO * m_b and m_b < RECYCLE_MASS_RATIO * m_a:

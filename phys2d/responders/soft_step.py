@@ -152,6 +152,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     points = prepare_points(found, n_contacts)
     system = joint_system(joints, rows, settings.direct_joints)
     dv = split_forces(bodies, substeps)
+    contacts = (manifolds, inv_A_kk, points, bodies.M_inv)  # what the contacts' sweeps read besides the rows
     n_pending = n_contacts  # the points not yet met: their approach is still to come
     n_sweeps = 0
     for i in range(substeps):
@@ -170,7 +171,6 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                     warm_start_joints(rows, V)
                 else:
                     warm_start_in_runs(runs, manifolds, rows, bodies.M_inv, V)
-            contacts = (manifolds, inv_A_kk, points, bodies.M_inv)
             worst = solve(rows, contacts, V, h, with_bias, springs, joints, system, threads, runs)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
