@@ -3,6 +3,8 @@
     python benchmarks/scale.py --quick                       # a short smoke run, tables to stdout
     python benchmarks/scale.py --out benchmarks/SCALE.md     # the full run (a quiet machine, ~1 h)
     python benchmarks/scale.py --box2d-v3 ~/src/box2d        # plus Box2D v3, 1 and 2 workers
+    python benchmarks/scale.py --box2d-v3 ~/src/box2d --repeats 5 --scenes pyramid_20,large_pyramid,many_pyramids
+                                   # issue 28's ratios, each taken within a round, and their medians
 
 Engines:
 
@@ -39,6 +41,7 @@ import math
 import os
 import platform
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -325,6 +328,74 @@ def fill_v3_contacts(rows: list[dict]) -> None:
             r["contacts_from"] = "phys2d-soft4"
 
 
+def merge_rounds(rounds: list[list[dict]], names: list[str], engines: list[str]) -> list[dict]:
+    """One row per (scene, engine): the median over the rounds of us/step and of the median us,
+    the largest peak memory, the rest from the first round that ran it."""
+    merged = []
+    for scene in names:
+        for engine in engines:
+            runs = [r for rows in rounds for r in rows if r["scene"] == scene and r["engine"] == engine]
+            timed = [r for r in runs if "us_per_step" in r]
+            if not runs:
+                continue
+            if not timed:
+                merged.append(runs[0])
+                continue
+            row = dict(timed[0])
+            for field in ("us_per_step", "median_us", "build_s", "scene_mb"):
+                row[field] = statistics.median(r[field] for r in timed)
+            row["peak_mb"] = max(r["peak_mb"] for r in timed)
+            merged.append(row)
+    return merged
+
+
+def ratios(rounds: list[list[dict]], names: list[str]) -> str:
+    """Issue 28's ratios, each taken within a round, then their median over the rounds: phys2d's
+    time over Box2D v3's (1 worker) on its scenes, and phys2d's ns per contact on large_pyramid over
+    its ns per contact on the smallest pyramid run."""
+
+    def times(rows: list[dict]) -> dict[tuple[str, str], dict]:
+        return {(r["scene"], r["engine"]): r for r in rows if "us_per_step" in r and r.get("contacts")}
+
+    lines = ["| ratio, within each round | " + " | ".join(f"round {i + 1}" for i in range(len(rounds))) + " | median |"]
+    lines.append("| --- |" + " ---: |" * (len(rounds) + 1))
+
+    def add(label: str, values: list[float | None]) -> None:
+        got = [v for v in values if v is not None]
+        if got:
+            cells = [f"{v:.2f}x" if v is not None else "" for v in values]
+            lines.append(f"| {label} | " + " | ".join(cells) + f" | {statistics.median(got):.2f}x |")
+
+    def per_contact(r: dict) -> float:
+        return r["us_per_step"] / r["contacts"]
+
+    by_round = [times(rows) for rows in rounds]
+    for scene in (s for s in names if s in V3_SCENES):
+        for engine in PHYS2D_ENGINES:
+            add(
+                f"{scene}: {engine} / box2d-v3-1w",
+                [
+                    t[(scene, engine)]["us_per_step"] / t[(scene, "box2d-v3-1w")]["us_per_step"]
+                    if (scene, engine) in t and (scene, "box2d-v3-1w") in t
+                    else None
+                    for t in by_round
+                ],
+            )
+    small = next((s for s in names if s.startswith("pyramid_")), None)
+    if small is not None and "large_pyramid" in names:
+        for engine in PHYS2D_ENGINES:
+            add(
+                f"{engine} ns per contact, {small} -> large_pyramid",
+                [
+                    per_contact(t[("large_pyramid", engine)]) / per_contact(t[(small, engine)])
+                    if (small, engine) in t and ("large_pyramid", engine) in t
+                    else None
+                    for t in by_round
+                ],
+            )
+    return "\n".join(lines)
+
+
 def table(rows: list[dict]) -> str:
     head = "| scene | engine | bodies | contacts | us/step | median us | ns/contact | build s | peak MB | scene MB |"
     lines = [head, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
@@ -365,7 +436,14 @@ def header(args: argparse.Namespace, v3_label: str | None) -> str:
             f"numba {numba.__version__}, phys2d {getattr(phys2d, '__version__', '?')}, pymunk {pm}",
             f"- Box2D v3: {v3_label}" if v3_label else "- Box2D v3: not run (no --box2d-v3)",
             f"- {args.warmup} warm-up steps, then {args.steps} timed steps of 1/60 s; each (scene, engine) "
-            "in a fresh process" + (" (--quick)" if args.quick else ""),
+            "in a fresh process"
+            + (" (--quick)" if args.quick else "")
+            + (
+                f"; {args.repeats} rounds, the engines in reverse order every other round: each figure is the "
+                "median over the rounds (peak MB: the largest)"
+                if args.repeats > 1
+                else ""
+            ),
             "",
         ]
     )
@@ -380,6 +458,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--engines", default=None, help="comma-separated engines (default: all available)")
     p.add_argument("--box2d-v3", default=None, metavar="PATH", help="a Box2D v3 source tree to build and run")
     p.add_argument("--out", default=None, help="also write the tables to this Markdown file")
+    p.add_argument("--repeats", type=int, default=1, help="rounds of every (scene, engine); medians, ratios per round")
     p.add_argument("--timeout", type=float, default=3600.0, help="seconds per (scene, engine)")
     p.add_argument("--one", nargs=2, metavar=("SCENE", "ENGINE"), help=argparse.SUPPRESS)
     p.add_argument("--v3-library", default=None, help=argparse.SUPPRESS)
@@ -390,6 +469,8 @@ def main(argv: list[str] | None = None) -> int:
         args.warmup = 2 if args.quick else 30
     if args.steps < 1 or args.warmup < 1:
         p.error("--steps and --warmup must be >= 1 (the first step compiles)")
+    if args.repeats < 1:
+        p.error("--repeats must be >= 1")
     if args.one:
         return run_child(args)
     v3_library = v3_label = None
@@ -400,17 +481,23 @@ def main(argv: list[str] | None = None) -> int:
     engines = [*PHYS2D_ENGINES, "pymunk", *(V3_ENGINES if v3_library else ())]
     if args.engines is not None:
         engines = args.engines.split(",")
-    rows = []
-    for scene in names:
-        for engine in engines:
-            if engine in V3_ENGINES and scene not in V3_SCENES:
-                continue
-            row = run_one(scene, engine, args, v3_library)
-            rows.append(row)
-            done = f"{row['us_per_step']:,.0f} us/step" if "us_per_step" in row else row.get("unsupported", "error")
-            print(f"{scene} / {engine}: {done}", file=sys.stderr, flush=True)
-    fill_v3_contacts(rows)
-    text = header(args, v3_label) + "\n" + table(rows) + "\n"
+    rounds: list[list[dict]] = []
+    for i in range(args.repeats):
+        rows = []
+        for scene in names:
+            # every other round the engines go in reverse order: a drift of the host falls on each alike
+            for engine in engines if i % 2 == 0 else engines[::-1]:
+                if engine in V3_ENGINES and scene not in V3_SCENES:
+                    continue
+                row = run_one(scene, engine, args, v3_library)
+                rows.append(row)
+                done = f"{row['us_per_step']:,.0f} us/step" if "us_per_step" in row else row.get("unsupported", "error")
+                print(f"[{i + 1}/{args.repeats}] {scene} / {engine}: {done}", file=sys.stderr, flush=True)
+        fill_v3_contacts(rows)
+        rounds.append(rows)
+    text = header(args, v3_label) + "\n" + table(merge_rounds(rounds, names, engines)) + "\n"
+    if args.repeats > 1:
+        text += "\n" + ratios(rounds, names) + "\n"
     print(text)
     if args.out:
         Path(args.out).write_text(text)
