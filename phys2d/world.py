@@ -108,7 +108,9 @@ class World:
                 than one, the contact rows are built on several threads, the soft
                 step's sweeps run colour by colour, each colour's manifolds on several
                 threads, and its per-point and per-body passes a slice per thread
-                (``pipeline.parallel``); the results are bit-identical for every count
+                (``pipeline.parallel``); the results are bit-identical for every count.
+                Threads pay on scenes of several thousand contacts and up; on smaller ones
+                waking them costs more than they save (benchmarks/SCALE.md)
     """
 
     def __init__(
@@ -247,7 +249,8 @@ class World:
     def threads(self) -> int:
         """How many cores a step may use: 1 (the default) runs every kernel on one; more split the
         contact rows and the soft step's sweeps over numba threads (at most the NUMBA_NUM_THREADS
-        numba started with), with bit-identical results (``pipeline.parallel``)."""
+        numba started with), with bit-identical results (``pipeline.parallel``). They pay on scenes
+        of several thousand contacts and up: below, one thread is faster."""
         return self._threads
 
     @threads.setter
