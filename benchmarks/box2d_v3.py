@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 from dataclasses import dataclass
@@ -82,6 +83,13 @@ def _git(source: Path, *args: str) -> str:
     except OSError:
         return "unknown"
     return p.stdout.strip() if p.returncode == 0 and p.stdout.strip() else "unknown"
+
+
+def cmake_version(source: Path) -> str:
+    """The VERSION of ``project(box2d ...)`` in the tree's CMakeLists.txt, or "unknown"."""
+    text = (source / "CMakeLists.txt").read_text(errors="replace")
+    found = re.search(r"project\s*\(\s*box2d\b[^)]*?\bVERSION\s+([0-9][0-9.]*)", text, re.IGNORECASE)
+    return found.group(1) if found else "unknown"
 
 
 def check_source(source: Path) -> Path:
@@ -152,4 +160,6 @@ def build(source: Path, build_root: Path = DEFAULT_BUILD_ROOT, jobs: int = 2, lo
     version = _run([cc, "--version"], "the compiler's version", log_path).splitlines()
     commit = _git(source, "rev-parse", "HEAD")
     describe = _git(source, "describe", "--tags", "--always", "--dirty")
+    if describe == "unknown":  # a tree without its .git: at least the version its CMakeLists.txt declares
+        describe = f"CMake project version {cmake_version(source)}, not a git checkout"
     return V3Build(source, commit, describe, library, version[0] if version else cc)
