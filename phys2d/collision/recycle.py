@@ -301,34 +301,28 @@ def has_room(n_rows, rows_used, n_points, points_used, n_pairs):
     return n_rows - rows_used >= n_pairs and n_points - points_used >= 2 * n_pairs
 
 
-@njit(cache=True)
-def compact(cached_row, store, rows):
+def compact(cached_row: np.ndarray, store: ManifoldStore, rows: int) -> tuple:
     """The store's live rows (cached_row's, in its order) and their points copied into a new store of
     ``rows`` rows and 2 rows points: (found_pose, found_rotation, span, anchor, normal, separation,
-    feature, points used). Slot s's row becomes s."""
+    feature, points used). Slot s's row becomes s.
+
+    numpy, not a kernel: a store is compacted once in many steps, and a kernel run that rarely
+    would be loaded from numba's cache mid-simulation, a hitch of milliseconds."""
     n = cached_row.shape[0]
-    new_pose = np.zeros((rows, 2))
-    new_rotation = np.zeros((rows, 4))
+    first, last = store.span[cached_row, 0], store.span[cached_row, 1]
+    counts = last - first
+    p = int(counts.sum())
     new_span = np.zeros((rows, 2), np.int64)
-    new_anchor = np.zeros((2 * rows, 4))
-    new_normal = np.zeros((2 * rows, 2))
-    new_separation = np.zeros(2 * rows)
-    new_feature = np.zeros(2 * rows, np.int32)
-    p = 0
-    for s in range(n):  # element by element: a row assigned whole compiles a shape check and its message
-        r = cached_row[s]
-        new_pose[s, 0], new_pose[s, 1] = store.found_pose[r, 0], store.found_pose[r, 1]
-        for i in range(4):
-            new_rotation[s, i] = store.found_rotation[r, i]
-        new_span[s, 0] = p
-        for point in range(store.span[r, 0], store.span[r, 1]):
-            for i in range(4):
-                new_anchor[p, i] = store.anchor[point, i]
-            new_normal[p, 0], new_normal[p, 1] = store.normal[point, 0], store.normal[point, 1]
-            new_separation[p] = store.separation[point]
-            new_feature[p] = store.feature[point]
-            p += 1
-        new_span[s, 1] = p
+    new_span[:n, 1] = np.cumsum(counts)
+    new_span[:n, 0] = new_span[:n, 1] - counts
+    # the live points, row after row: row s's run first[s] ... last[s] - 1
+    points = np.repeat(first - new_span[:n, 0], counts) + np.arange(p)
+    new_pose, new_rotation = np.zeros((rows, 2)), np.zeros((rows, 4))
+    new_pose[:n], new_rotation[:n] = store.found_pose[cached_row], store.found_rotation[cached_row]
+    new_anchor, new_normal = np.zeros((2 * rows, 4)), np.zeros((2 * rows, 2))
+    new_separation, new_feature = np.zeros(2 * rows), np.zeros(2 * rows, np.int32)
+    new_anchor[:p], new_normal[:p] = store.anchor[points], store.normal[points]
+    new_separation[:p], new_feature[:p] = store.separation[points], store.feature[points]
     return new_pose, new_rotation, new_span, new_anchor, new_normal, new_separation, new_feature, p
 
 
@@ -357,11 +351,13 @@ class ManifoldStore:
 
     def has_room(self, n_pairs: int) -> bool:
         """Whether n_pairs new manifolds (2 n_pairs points) fit after the rows and points used."""
-        return has_room(self.found_pose.shape[0], self.rows_used, self.anchor.shape[0], self.points_used, n_pairs)
+        # the kernel's own Python (called from here, the kernel would be loaded the first time the store ran low)
+        room = getattr(has_room, "py_func", has_room)
+        return room(self.found_pose.shape[0], self.rows_used, self.anchor.shape[0], self.points_used, n_pairs)
 
-    def rebuild(self, cached_row: np.ndarray, rows: int, record: object) -> None:
-        """A new store of ``rows`` rows (2 rows points) holding the live manifolds only (cached_row's,
-        over the ``ManifoldRecord`` ``record`` of this store), slot s in row s."""
+    def rebuild(self, cached_row: np.ndarray, rows: int) -> None:
+        """A new store of ``rows`` rows (2 rows points) holding the live manifolds only (cached_row's),
+        slot s in row s."""
         if cached_row.shape[0] == 0:  # nothing to keep (the first step): an empty store, no copying
             self.clear()
             arrays = (
@@ -369,7 +365,7 @@ class ManifoldStore:
                 np.zeros((2 * rows, 2)), np.zeros(2 * rows), np.zeros(2 * rows, np.int32),
             )  # fmt: skip
         else:
-            *arrays, self.points_used = compact(cached_row, record, rows)
+            *arrays, self.points_used = compact(cached_row, self, rows)
         (
             self.found_pose, self.found_rotation, self.span, self.anchor, self.normal, self.separation, self.feature
         ) = arrays  # fmt: skip

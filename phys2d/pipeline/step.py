@@ -403,7 +403,7 @@ class Pipeline:
         """A new manifold store of ``rows`` rows (2 rows points) holding the cached manifolds only."""
         _, row = self.manifold_keys()
         self.state(world)
-        self.store.rebuild(row, rows, self.store_record)
+        self.store.rebuild(row, rows)
         self._forget_state()
         row[:] = np.arange(self.manifolds)  # slot s's manifold is now in row s
 
