@@ -228,7 +228,7 @@ def test_a_new_store_of_the_live_manifolds_changes_nothing():
             if t == 1 and i > 0:
                 p = w._pipeline
                 before = p.store.live(*p.manifold_keys())
-                p.rebuild_store(w, p.manifolds + 1)  # a new store, with hardly any room: the next step makes its own
+                p.rebuild_store(p.manifolds + 1)  # a new store, with hardly any room: the next step makes its own
                 assert p.store.rows_used == p.manifolds and np.array_equal(p.manifold_keys()[1], np.arange(p.manifolds))
                 for a, b in zip(before, p.store.live(*p.manifold_keys())):
                     assert np.array_equal(a, b)

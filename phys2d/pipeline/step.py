@@ -393,16 +393,15 @@ class Pipeline:
             n_pairs = sweep(self.shapes_record, False)
         self.n_pairs, self.sweep_again, self.coloured = n_pairs, False, False
 
-    def _make_room(self, world: World) -> None:
+    def _make_room(self) -> None:
         """Room in the manifold store for a new manifold per pair: a new store of the live rows
         only, with room for them twice over and for the new ones, when there is not."""
         if not self.store.has_room(self.n_pairs):
-            self.rebuild_store(world, max(64, 2 * (self.manifolds + self.n_pairs)))
+            self.rebuild_store(max(64, 2 * (self.manifolds + self.n_pairs)))
 
-    def rebuild_store(self, world: World, rows: int) -> None:
+    def rebuild_store(self, rows: int) -> None:
         """A new manifold store of ``rows`` rows (2 rows points) holding the cached manifolds only."""
         _, row = self.manifold_keys()
-        self.state(world)
         self.store.rebuild(row, rows)
         self._forget_state()
         row[:] = np.arange(self.manifolds)  # slot s's manifold is now in row s
@@ -488,7 +487,7 @@ class Pipeline:
             if result[0] == NEED_SWEEP:
                 self._sweep(world)
             elif result[0] == NEED_ROOM:
-                self._make_room(world)
+                self._make_room()
             else:
                 break
             stage = 1  # forces and geometry are done: go on from the contacts
@@ -536,7 +535,7 @@ class Pipeline:
         if self.sweep_again or not fits:  # something left its fat box: sweep again
             self._sweep(world)
             self._room(joint_lam.shape[0], 0)
-        self._make_room(world)
+        self._make_room()
         if colour_order:
             self._colour(world)
         s = self.state(world)
