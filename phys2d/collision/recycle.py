@@ -358,17 +358,12 @@ class ManifoldStore:
     def rebuild(self, cached_row: np.ndarray, rows: int) -> None:
         """A new store of ``rows`` rows (2 rows points) holding the live manifolds only (cached_row's),
         slot s in row s."""
-        if cached_row.shape[0] == 0:  # nothing to keep (the first step): an empty store, no copying
+        if cached_row.shape[0] == 0:  # nothing to keep (the first step): an empty store
             self.clear()
-            arrays = (
-                np.zeros((rows, 2)), np.zeros((rows, 4)), np.zeros((rows, 2), np.int64), np.zeros((2 * rows, 4)),
-                np.zeros((2 * rows, 2)), np.zeros(2 * rows), np.zeros(2 * rows, np.int32),
-            )  # fmt: skip
-        else:
-            *arrays, self.points_used = compact(cached_row, self, rows)
         (
-            self.found_pose, self.found_rotation, self.span, self.anchor, self.normal, self.separation, self.feature
-        ) = arrays  # fmt: skip
+            self.found_pose, self.found_rotation, self.span, self.anchor, self.normal, self.separation, self.feature,
+            self.points_used,
+        ) = compact(cached_row, self, rows)  # fmt: skip
         self.rows_used = cached_row.shape[0]
 
     def live(self, key: np.ndarray, row: np.ndarray) -> tuple:
