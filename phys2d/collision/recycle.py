@@ -40,8 +40,8 @@ Fast pairs (whose motion could carry a point of one further than contact_margin
 towards the other within the step, ``pair_travel``) are always collided anew, so
 speculative contacts still see what is coming. For two bodies of like mass the
 motion that counts is the relative one, as in Box2D v3: a pyramid that sinks into
-its soft contacts as one keeps its manifolds, however fast it sinks. So is a pair
-that had no points, one whose recycled points would lie
+its soft contacts as one keeps its manifolds, however fast it sinks. Also collided
+anew: a pair that had no points, one whose recycled points would lie
 further apart than the narrowphase keeps them, and any pair but two polygons: with
 a circle or a capsule (a rolling circle's point moves over its surface as it
 turns), or a segment or chain segment (a body rocking over a chain's vertex turns
