@@ -460,7 +460,7 @@ def test_new_joints_are_drawn_in_recordings(tmp_path):
 
 
 def _rows_at(w: phys2d.World, x, theta):
-    """The joint rows at the poses (x, theta), built with beta = dt = 1: xi = -C (limits: -gap)."""
+    """The joint rows at the poses (x, theta), built with beta = dt = 1: xi + push = -C (limits: -gap)."""
     from phys2d.constraints.joints import JointArrays, joint_rows
     from phys2d.constraints.rows import Rows
     from phys2d.pipeline import records
@@ -506,7 +506,7 @@ def test_each_row_is_the_rate_of_its_C(seed, kind):
     for k in range(len(rows)):
         a_k, b_k = rows.body_a[k], rows.body_b[k]
         JV = rows.J[k, :3] @ V[a_k] + rows.J[k, 3:] @ V[b_k]
-        dC = (-plus.xi[k] + minus.xi[k]) / (2 * eps)
+        dC = (-(plus.xi[k] + plus.push[k]) + minus.xi[k] + minus.push[k]) / (2 * eps)
         assert JV == pytest.approx(dC, rel=1e-5, abs=1e-7)
 
 

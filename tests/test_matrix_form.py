@@ -159,8 +159,11 @@ def test_system_is_the_lecture_equations():
     # M^-1 is [1/m, 1/m, 1/I] and zero for the static ground
     inertia = np.array([b.inertia for b in w.bodies])
     np.testing.assert_allclose(np.diag(d.M_inv)[2::3], np.where(static, 0.0, 1.0 / inertia))
-    # V2 = V1 + M^-1 (dt F_ext + J^T lambda) is what the world moved with
-    V2 = d.V1 + d.M_inv @ (DT * d.F_ext + d.J.T @ d.lam)
+    # V2 = V1 + M^-1 (dt F_ext + J^T lambda) is what the world moved with, lambda with the joint's
+    # push (solved apart from the warm-started sweeps, it stays in V as a Baumgarte term does)
+    joint = np.arange(R) >= 2 * len(w.contacts)
+    assert np.count_nonzero(s.lam_push[joint]) == 1  # the joint is pulled back to its length
+    V2 = d.V1 + d.M_inv @ (DT * d.F_ext + d.J.T @ (d.lam + np.where(joint, s.lam_push, 0.0)))
     np.testing.assert_allclose(V2, w.V.ravel(), atol=1e-12)
     np.testing.assert_allclose(w.x, x_before + DT * w.V[:, :2], atol=1e-12)
     # the answer respects its bounds, and the step reports it

@@ -5,7 +5,7 @@ A joint couples bodies a (the row's body_a) and b (the row's body_b); either may
 Anchors are given in world coordinates when the joint is made and stored in each
 body's frame, so they ride with the bodies. Each step the world turns every joint
 into rows (docs/formulation.md#constraint-rows), appended after the contact rows,
-with Baumgarte stabilisation xi = -(beta/dt) C:
+with Baumgarte stabilisation push = -(beta/dt) C and xi = 0 (the row holds still):
 
     distance  1 row   C = (|d|^2 - L^2) / (2 L),   J = [-d, -(r_a x d) | d, r_b x d] / L
     pin       2 rows  C = p_b - p_a along x and y,  J = [-e, -(r_a x e) | e, r_b x e]
@@ -39,8 +39,15 @@ short and long joints would differ in scale by orders of magnitude.
 Angle limits are offsets from theta_0, the angle difference at creation. Inside
 the limits each limit row is speculative, like a speculative contact: it lets
 the remaining gap close within the step and no further (xi = -gap / dt); past a
-limit it pushes back with xi = -(beta/dt) C. lambda >= 0 on both rows: a limit
-stops rotation, it never holds it back.
+limit it holds still (xi = 0) and pushes back with push = -(beta/dt) C. lambda >= 0
+on both rows: a limit stops rotation, it never holds it back.
+
+The Baumgarte term goes in ``push``, as a contact's does, not in xi: the lecture's target is
+xi + push (PGS with split=False), and PGS's split pass moves positions by it without
+leaving it in V. That split matters for a net of joints with more rows than its bodies
+have freedoms (Box2D's joint grid): their errors C need not lie in the range of J, so
+A lambda = -(beta/dt) C has no solution, and a warm-started sweep lets lambda grow
+without bound in A's null space; A lambda = -J V always has one.
 """
 
 from __future__ import annotations
@@ -617,11 +624,13 @@ def _fill_angular_row(k, a, b, sign, M_inv, rows):
 
 
 @njit(cache=True)
-def _limit_xi(gap, beta, dt):
-    """Velocity target of a one-sided angle row whose gap to its limit is ``gap`` (rad)."""
+def _limit_target(gap, beta, dt):
+    """(xi, push) of a one-sided row whose gap to its limit is ``gap`` (rad or m): inside, xi
+    lets the gap close within the step and no more; past the limit, xi holds still and the
+    push is the Baumgarte term that pushes back."""
     if gap > 0.0:
-        return -gap / dt  # inside: may close the gap within the step, no more
-    return -(beta / dt) * gap  # past the limit: Baumgarte push back
+        return -gap / dt, 0.0  # inside: may close the gap within the step, no more
+    return 0.0, -(beta / dt) * gap  # past the limit: Baumgarte push back
 
 
 @njit(cache=True, inline="always")
@@ -636,25 +645,25 @@ def _free(k, n, lo, hi):
 def _extra_rows(k, a, b, arms, u, s, params, dt, beta, M_inv, rows):
     """A pin's or slider's motor and limit rows from row k: the motor (xi = motor_speed,
     |lambda| <= max_motor dt), then the one-sided limits on s (rad or m): lower with the row
-    +J, upper with -J, each with the limit's target (``_limit_xi``). ``u`` is the rows'
+    +J, upper with -J, each with the limit's target (``_limit_target``). ``u`` is the rows'
     direction (a slider's axis), or None for the angle rows of a pin. Returns how many rows."""
-    xi, lo, hi = rows.xi, rows.lo, rows.hi
+    xi, push, lo, hi = rows.xi, rows.push, rows.lo, rows.hi
     flags = int(params[P_FLAGS])
     n = 0
     if flags & HAS_MOTOR:
         _fill_direction(k, a, b, arms, u, 1.0, M_inv, rows)
-        xi[k] = params[P_MOTOR_SPEED]
+        xi[k], push[k] = params[P_MOTOR_SPEED], 0.0  # a speed to reach: no position to hold
         lo[k] = -params[P_MOTOR_MAX] * dt
         hi[k] = params[P_MOTOR_MAX] * dt
         n = 1
     if flags & HAS_LOWER:  # s - lower >= 0
         _fill_direction(k + n, a, b, arms, u, 1.0, M_inv, rows)
-        xi[k + n] = _limit_xi(s - params[P_LOWER], beta, dt)
+        xi[k + n], push[k + n] = _limit_target(s - params[P_LOWER], beta, dt)
         lo[k + n], hi[k + n] = 0.0, np.inf
         n += 1
     if flags & HAS_UPPER:  # upper - s >= 0
         _fill_direction(k + n, a, b, arms, u, -1.0, M_inv, rows)
-        xi[k + n] = _limit_xi(params[P_UPPER] - s, beta, dt)
+        xi[k + n], push[k + n] = _limit_target(params[P_UPPER] - s, beta, dt)
         lo[k + n], hi[k + n] = 0.0, np.inf
         n += 1
     return n
@@ -690,7 +699,7 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
     """Rows first_row + row_offset[q] ... of joint q into ``rows`` (see the module docstring),
     at the bodies' pose now."""
     x, theta, M_inv = bodies.x, bodies.theta, bodies.M_inv
-    xi, lo, hi = rows.xi, rows.lo, rows.hi
+    xi, push, lo, hi = rows.xi, rows.push, rows.lo, rows.hi
     for q in range(joints.kind.shape[0]):
         a, b = joints.body_a[q], joints.body_b[q]
         ca, sa = np.cos(theta[a]), np.sin(theta[a])
@@ -709,7 +718,7 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
             L = params[0]
             fill_row(k, a, b, (r_ax, r_ay, r_bx, r_by), dx / L, dy / L, M_inv, rows)
             C = 0.5 * (dx * dx + dy * dy - L * L) / L
-            xi[k] = -(beta / dt) * C
+            xi[k], push[k] = 0.0, -(beta / dt) * C
             lo[k] = -np.inf
             hi[k] = np.inf
         elif kind == JOINT_PIN or kind == JOINT_WELD:  # (motor, limits,) x row, y row (, angle)
@@ -719,13 +728,13 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
                 p = _extra_rows(k, a, b, (r_ax, r_ay, r_bx, r_by), None, C, params, dt, beta, M_inv, rows)
             fill_row(k + p, a, b, (r_ax, r_ay, r_bx, r_by), 1.0, 0.0, M_inv, rows)
             fill_row(k + p + 1, a, b, (r_ax, r_ay, r_bx, r_by), 0.0, 1.0, M_inv, rows)
-            xi[k + p] = -(beta / dt) * dx
-            xi[k + p + 1] = -(beta / dt) * dy
+            xi[k + p], push[k + p] = 0.0, -(beta / dt) * dx
+            xi[k + p + 1], push[k + p + 1] = 0.0, -(beta / dt) * dy
             _free(k + p, 2, lo, hi)
             n_rows = p + 2
             if kind == JOINT_WELD:
                 _fill_angular_row(k + 2, a, b, 1.0, M_inv, rows)
-                xi[k + 2] = -(beta / dt) * (theta[b] - theta[a] - params[P_THETA_0])
+                xi[k + 2], push[k + 2] = 0.0, -(beta / dt) * (theta[b] - theta[a] - params[P_THETA_0])
                 _free(k + 2, 1, lo, hi)
                 n_rows = 3
         elif kind == JOINT_SLIDER:  # (motor, limits,) across the axis, angle
@@ -734,9 +743,9 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
             arms = (r_ax + dx, r_ay + dy, r_bx, r_by)  # a's arm reaches p_b: u turns about x_a
             p = _extra_rows(k, a, b, arms, (ux, uy), ux * dx + uy * dy, params, dt, beta, M_inv, rows)
             fill_row(k + p, a, b, arms, -uy, ux, M_inv, rows)  # n = u turned by +90 deg
-            xi[k + p] = -(beta / dt) * (-uy * dx + ux * dy)
+            xi[k + p], push[k + p] = 0.0, -(beta / dt) * (-uy * dx + ux * dy)
             _fill_angular_row(k + p + 1, a, b, 1.0, M_inv, rows)
-            xi[k + p + 1] = -(beta / dt) * (theta[b] - theta[a] - params[P_THETA_0])
+            xi[k + p + 1], push[k + p + 1] = 0.0, -(beta / dt) * (theta[b] - theta[a] - params[P_THETA_0])
             _free(k + p, 2, lo, hi)
             n_rows = p + 2
         elif kind == JOINT_MOUSE:  # x row, y row on b alone; xi = -C/dt, the rigid target
@@ -744,6 +753,7 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
             _fill_world_row(k + 1, b, r_bx, r_by, 0.0, 1.0, M_inv, rows)
             xi[k] = -(x[b, 0] + r_bx - params[P_X]) / dt
             xi[k + 1] = -(x[b, 1] + r_by - params[P_Y]) / dt
+            push[k], push[k + 1] = 0.0, 0.0  # its own soft solve: not in the push pass
             for m in range(2):
                 lo[k + m] = -params[P_MOTOR_MAX] * dt
                 hi[k + m] = params[P_MOTOR_MAX] * dt
@@ -753,19 +763,19 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
             flags = int(params[4])
             if flags == 0:
                 _fill_angular_row(k, a, b, 1.0, M_inv, rows)
-                xi[k] = -(beta / dt) * C
+                xi[k], push[k] = 0.0, -(beta / dt) * C
                 lo[k] = -np.inf
                 hi[k] = np.inf
             else:
                 n_rows = 0
                 if flags & 1:  # lower: C - lower >= 0, row +[0, 0, -1 | 0, 0, 1]
                     _fill_angular_row(k, a, b, 1.0, M_inv, rows)
-                    xi[k] = _limit_xi(C - params[2], beta, dt)
+                    xi[k], push[k] = _limit_target(C - params[2], beta, dt)
                     n_rows = 1
                 if flags & 2:  # upper: upper - C >= 0, row -[0, 0, -1 | 0, 0, 1]
                     u = k + n_rows
                     _fill_angular_row(u, a, b, -1.0, M_inv, rows)
-                    xi[u] = _limit_xi(params[3] - C, beta, dt)
+                    xi[u], push[u] = _limit_target(params[3] - C, beta, dt)
                     n_rows += 1
                 for m in range(n_rows):
                     lo[k + m] = 0.0
@@ -779,13 +789,11 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
 
 @njit(cache=True)
 def start_joint_rows(joints, first_row, bodies, dt, beta, warm_start, rows):
-    """The joints' rows (``joint_rows``, from first_row on) as a step starts them: no push (a joint
-    keeps its Baumgarte term in xi), no bounce, no impact, and lambda from the joints' last
-    reactions (``joints.lam``, in joint order) when warm starting, since joints keep their
-    identity; else from 0."""
+    """The joints' rows (``joint_rows``, from first_row on) as a step starts them: no bounce, no
+    impact, and lambda from the joints' last reactions (``joints.lam``, in joint order) when
+    warm starting, since joints keep their identity; else from 0."""
     joint_rows(joints, first_row, bodies, dt, beta, rows)
     for r in range(first_row, first_row + joints.lam.shape[0]):
-        rows.push[r] = 0.0
         rows.bounce[r] = 0.0
         rows.impact[r] = False
         rows.lam[r] = joints.lam[r - first_row] if warm_start else 0.0

@@ -7,10 +7,11 @@ A row k couples bodies a and b. Everything the responders need is stored per row
     JM         (R, 6)  M^-1 J^T for the same entries: the velocity change per unit lambda
     A_kk       (R,)    J_k M^-1 J_k^T, the diagonal of A = J M^-1 J^T
     xi         (R,)    the velocity J_k V2 must reach: -C/dt for a speculative contact point
-                       (close the gap, no more), 0 for a touching one, a joint's Baumgarte term
-    push       (R,)    a touching contact point's Baumgarte push-out speed, capped (0 elsewhere);
-                       PGS moves positions with it without making it velocity (split impulses),
-                       or, as the lecture does, adds it to xi
+                       (close the gap, no more), 0 for a touching one, a joint's 0 or motor speed
+    push       (R,)    the row's Baumgarte push: a touching contact point's push-out speed, capped,
+                       or a joint's -(beta/dt) C (0 elsewhere); PGS solves it in a pass of its
+                       own (split impulses: a contact's never becomes velocity), or, as the
+                       lecture does, adds it to xi
     impact     (R,)    True on the normal row of a contact point still apart that meets its
                        partner within the step faster than the restitution threshold: its
                        impulse is an event, not a load, and is not carried to the next step
@@ -312,6 +313,35 @@ def speculative_target(C, dt):
     """xi of a normal row: a point still C > 0 apart may approach at C/dt (close the gap
     within the step, no more); a touching one may not approach at all (m/s)."""
     return -C / dt if C > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def holds_position(k, lo, hi, bound_row):
+    """Whether row k has a position to hold, so takes part in a split push pass: a contact's
+    normal row or a joint's equality or limit row; not a motor row (both bounds finite: a
+    speed to reach, no position), a friction row or a mouse row (its own soft solve)."""
+    return bound_row[k] == -1 and not (lo[k] > -np.inf and hi[k] < np.inf)
+
+
+@njit(cache=True)
+def push_rows(normal_row, lo, hi, bound_row):
+    """The rows a split push pass sweeps, in solve order (uint32, as a sweep's visit): the
+    contact normal rows ``normal_row``, then the joint rows (after the contacts' 2K rows)
+    that hold a position (``holds_position``)."""
+    first_joint_row = 2 * normal_row.shape[0]
+    n = normal_row.shape[0]
+    for k in range(first_joint_row, lo.shape[0]):
+        if holds_position(k, lo, hi, bound_row):
+            n += 1
+    visit = np.empty(n, np.uint32)
+    for q in range(normal_row.shape[0]):
+        visit[q] = normal_row[q]
+    n = normal_row.shape[0]
+    for k in range(first_joint_row, lo.shape[0]):
+        if holds_position(k, lo, hi, bound_row):
+            visit[n] = k
+            n += 1
+    return visit
 
 
 @njit(cache=True, inline="always")

@@ -261,9 +261,9 @@ class Responder:
             ctx.rows.JM     (R, 6) M^-1 J_k^T: the velocity change of a, b per unit lambda_k
             ctx.rows.A_kk   (R,) J_k M^-1 J_k^T (0: both bodies static)
             ctx.rows.xi     (R,) the J_k V the row must reach (m/s): 0 touching, -C/dt still
-                            apart, a touching contact's bounce, a joint's Baumgarte term
-            ctx.rows.push   (R,) a touching contact's Baumgarte push-out speed (m/s): the
-                            lecture's target is xi + push
+                            apart, a touching contact's bounce, a joint motor's speed
+            ctx.rows.push   (R,) the Baumgarte push (m/s): a touching contact's push-out
+                            speed, a joint's -(beta/dt) C; the lecture's target is xi + push
             ctx.rows.lo, hi (R,) fixed bounds on lambda_k (N s), for rows with bound_row = -1
             ctx.rows.bound_row, mu  a friction row's normal row (>= 0) and coefficient: its
                             bounds are +-mu[k] * lam[bound_row[k]]; -2 marks a mouse joint's

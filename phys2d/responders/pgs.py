@@ -9,10 +9,15 @@ One step (``PGS.respond``):
     V += M^-1 J^T lambda              warm start (contact caching)
     sweeps on A lambda = b            xi: a point still apart may close its gap, no more
     sweeps on A lambda_p >= push      split impulses (``push_out``): pseudo-velocities V_p
-    x += dt (V + V_p)                 V_p is dropped: the push never becomes velocity
+    x += dt (V + V_p)                 the contacts' share of V_p is dropped: their push never
+                                      becomes velocity; the joints' stays in V
     restitution pass                  points that met their partner fast bounce (restitution.py)
 
-With split=False the push is part of xi, as the lecture has it, and stays in V.
+With split=False the push is part of xi, as the lecture has it, and stays in V. Split, the
+warm-started sweeps see only xi: A lambda = b then always has a solution, even for a net of
+joints with more rows than its bodies have freedoms (Box2D's joint grid), whose Baumgarte
+targets may have none; there a warm-started lambda would grow without bound along A's null
+space, carried from tick to tick. The push pass starts from zero every tick.
 
 ``sweep`` is the lecture's loop, one row at a time in pair order (rows are stored
 in it: each contact's normal row, then its friction row; joint rows last);
@@ -37,6 +42,7 @@ from ..constraints.rows import (
     pair_row_impulse,
     pair_row_velocity,
     pair_velocity,
+    push_rows,
     row_velocity,
     store_pair_velocity,
     unsigned_indices,
@@ -275,37 +281,48 @@ def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt):
 
 
 @njit(cache=True)
-def pushes(rows):
-    """Whether any contact point overlaps past slop (push_k > 0): else there is nothing to push out."""
-    for k in rows.normal_row:
-        if rows.push[k] > 0.0:
+def pushes(rows, visit):
+    """Whether any row in ``visit`` has a push: a contact point overlapping past slop (push_k > 0)
+    or a joint off its constraint (push_k != 0); else there is nothing to push out."""
+    for k in visit:
+        if rows.push[k] != 0.0:
             return True
     return False
 
 
 @njit(cache=True)
-def push_out(rows, V_push, iterations, tolerance, block):
-    """Split impulses: sweep the contact normal rows for pseudo-velocities V_push that reach
-    J_k V_push >= push_k (the capped Baumgarte push), lambda_p >= 0, from V_push = 0.
-
-    Positions then move with V + V_push, and V_push is dropped: the push removes overlap
-    without ever becoming velocity, so a stack pushed out of a deep overlap is not thrown.
-    Nothing is warm started. Returns the sweeps made (0 when no point overlaps past slop).
+def push_out(rows, V_push, lam_push, iterations, tolerance, block):
+    """Split impulses: sweep the rows that hold a position (``push_rows``) for pseudo-velocities
+    V_push that reach J_k V_push = push_k (the Baumgarte push; >= for a contact or a joint
+    limit, with lambda_p >= 0), from lam_push = 0 and V_push = 0: nothing is warm started.
+    Leaves the impulses in ``lam_push``; returns the sweeps made (0 when nothing is to be pushed).
     ``block``: see ``PGSSettings``.
     """
-    if not pushes(rows):
+    visit = push_rows(rows.normal_row, rows.lo, rows.hi, rows.bound_row)
+    if not pushes(rows, visit):
         return 0
-    none = rows.normal_row[:0]  # no friction rows, no joint rows: the normal rows only
-    push_rows = with_target(rows, rows.push, np.zeros(rows.lam.shape[0]), none)
-    push_hat = per_unit_A(push_rows)
+    none = rows.normal_row[:0]  # no friction rows
+    push_rows_ = with_target(rows, rows.push, lam_push, none)
+    push_hat = per_unit_A(push_rows_)
+    joint_visit = visit[rows.normal_row.shape[0] :]
     for s in range(iterations):
         if block is not None:
-            worst = block_sweep(push_rows, push_hat, V_push, none)
+            worst = block_sweep(push_rows_, push_hat, V_push, joint_visit)
         else:
-            worst = sweep(push_hat, V_push, push_hat.normal_row)
+            worst = sweep(push_hat, V_push, visit)
         if worst <= tolerance:
             return s + 1
     return iterations
+
+
+@njit(cache=True)
+def keep_joint_push(rows, lam_push, V):
+    """V += M^-1 J_k^T lambda_p,k for the joint rows k: a joint's push stays in V, as the
+    lecture's Baumgarte term does (a contact's is dropped). Its impulses act along the joint's
+    rows, so momentum is kept."""
+    for k in range(2 * rows.normal_row.shape[0], lam_push.shape[0]):
+        if lam_push[k] != 0.0:
+            apply_row_impulse(k, rows.body_a[k], rows.body_b[k], rows.JM, lam_push[k], V)
 
 
 class PGSSettings(NamedTuple):
@@ -336,10 +353,11 @@ def pgs_step(bodies, rows, separation, dt, settings, residuals, joints):
         system = with_target(rows, rows.xi + rows.push, rows.lam, rows.friction_row)
     n = pgs_solve(system, V, iterations, tolerance, residuals, block, joints, dt)
     V_move = V
-    if split and pushes(system):
-        V_push = np.zeros_like(V)
-        push_out(system, V_push, iterations, tolerance, block)
-        V_move = V + V_push  # what the positions move with; V_push is then dropped
+    if split:
+        V_push, lam_push = np.zeros_like(V), np.zeros(rows.lam.shape[0])
+        if push_out(system, V_push, lam_push, iterations, tolerance, block) > 0:
+            V_move = V + V_push  # what the positions move with
+            keep_joint_push(system, lam_push, V)  # the contacts' push is dropped, the joints' kept
     bouncing = bouncing_contacts(system, separation, V, dt)
     integrate_positions(bodies.x, bodies.theta, V_move, dt)
     restitution_pass(system, bouncing, V, iterations, tolerance)

@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from ..constraints.joints import JOINT_MOUSE, OWN_SOLVE, JointArrays
-from ..constraints.rows import Rows, coupling
+from ..constraints.rows import Rows, coupling, push_rows
 from ..pipeline.records import record_of_joints
 from .base import SolveResult, StepContext
 from .mouse import clamp_to_disk, has_mouse, mouse_springs
@@ -161,11 +161,12 @@ class MatrixSystem:
     mu: np.ndarray  # (R,)
     lam: np.ndarray  # (R,) N s, the sweeps' answer to A lam = b
     push: np.ndarray  # (R,) m/s, the split push targets (zeros when the push is part of xi)
-    lam_push: np.ndarray  # (R,) N s, the push impulses (they move positions, never V)
+    lam_push: np.ndarray  # (R,) N s, the push impulses: a contact's move positions only, a joint's stay in V
     bounce: np.ndarray  # (R,) m/s, bounce targets of the points that approached fast
     lam_bounce: np.ndarray  # (R,) N s, what the restitution pass added once the bodies moved:
     # the step's impulses (w.contacts) are lam + lam_bounce
     mass_scale: np.ndarray  # (R,) a2 a3 of a mouse row's spring (A's block there is K / a2 a3), 1 on a rigid row
+    first_joint_row: int = 0  # the joints' rows follow the contacts' 2K
 
     def read_only(self) -> MatrixSystem:
         """Make every array of the system read-only, and return self."""
@@ -201,8 +202,11 @@ class MatrixSystem:
         return disk_block_rows(self.bound_row)
 
     def velocities(self) -> np.ndarray:
-        """V2 = V1 + M^-1 (dt F_ext + J^T (lam + lam_bounce)), (3N,): the step's new V."""
-        return self.V1 + self.M_inv * (self.dt * self.F_ext + self.J.dot_transposed(self.lam + self.lam_bounce))
+        """V2 = V1 + M^-1 (dt F_ext + J^T (lam + lam_bounce + the joints' lam_push)), (3N,): the
+        step's new V (a joint's push stays in V, a contact's only moves positions)."""
+        lam = self.lam + self.lam_bounce
+        lam[self.first_joint_row :] += self.lam_push[self.first_joint_row :]
+        return self.V1 + self.M_inv * (self.dt * self.F_ext + self.J.dot_transposed(lam))
 
     def dense(self) -> SimpleNamespace:
         """J, M_inv (3N x 3N), A as dense numpy matrices, with b, lo, hi, lam: for lessons
@@ -388,6 +392,7 @@ def assemble(ctx: StepContext, xi: np.ndarray) -> MatrixSystem:
         bounce=r.bounce.copy(),
         lam_bounce=np.zeros(R),
         mass_scale=mass_scale,
+        first_joint_row=r.first_joint_row,
     )
 
 
@@ -523,21 +528,22 @@ def final_bounds(bound_row, mu, x, lo, hi):
 
 
 @njit(cache=True)
-def push_matrix_solve(normal_row, A, A_kk, push, x_push, iterations, tolerance):
-    """Split impulses in matrix form: A x_push >= push on the contact normal rows, x_push >= 0,
-    complementary, swept from x_push = 0 (every other row's x_push stays 0). Returns the sweeps."""
+def push_matrix_solve(visit, A, A_kk, push, lo, hi, x_push, iterations, tolerance):
+    """Split impulses in matrix form: A x_push = push on the rows that hold a position (``visit``,
+    ``pgs.push_rows``: contact normal rows, then joint equality and limit rows), each x_push
+    clamped to [lo_k, hi_k] (>= 0 for a contact or a limit), swept from x_push = 0 (every other
+    row's x_push stays 0). Returns the sweeps."""
     pushing = False
-    for q in range(normal_row.shape[0]):
-        pushing = pushing or push[normal_row[q]] > 0.0
+    for k in visit:
+        pushing = pushing or push[k] != 0.0
     if not pushing:
         return 0
     for s in range(iterations):
         worst = 0.0
-        for q in range(normal_row.shape[0]):
-            k = normal_row[q]
+        for k in visit:
             if A_kk[k] <= 0.0:
                 continue
-            new = max(x_push[k] + (push[k] - csr_row_dot(A, k, x_push)) / A_kk[k], 0.0)
+            new = min(max(x_push[k] + (push[k] - csr_row_dot(A, k, x_push)) / A_kk[k], lo[k]), hi[k])
             worst = max(worst, abs(new - x_push[k]) * A_kk[k])
             x_push[k] = new
         if worst <= tolerance:
@@ -557,8 +563,9 @@ def csr_row_dot(A, k, x):
 
 def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, tolerance: float, split: bool) -> SolveResult:
     """The impulse form's step, with matrices: assemble and sweep A lam = b; with ``split``, the
-    push system A lam_push = push; positions move with V2 (+ M^-1 J^T lam_push); then the
-    restitution pass (``restitution.bounce_after_moving``, the same code as the impulse form's)."""
+    push system A lam_push = push; positions move with V2 (+ M^-1 J^T lam_push), and the joints'
+    share of the push stays in V2 (``velocities``); then the restitution pass
+    (``restitution.bounce_after_moving``, the same code as the impulse form's)."""
     r = ctx.rows
     system = assemble(ctx, xi)
     A = system.A
@@ -573,8 +580,10 @@ def solve_matrix_form(ctx: StepContext, xi: np.ndarray, iterations: int, toleran
     V_move = V2
     if split:
         system.push[:] = r.push
-        push_matrix_solve(r.normal_row, A.csr, A_kk, system.push, system.lam_push, iterations, tolerance)
+        visit = push_rows(r.normal_row, r.lo, r.hi, r.bound_row)
+        push_matrix_solve(visit, A.csr, A_kk, system.push, r.lo, r.hi, system.lam_push, iterations, tolerance)
         V_move = V2 + system.M_inv * system.J.dot_transposed(system.lam_push)
+        V2 = system.velocities()  # the joints' push stays in V
     ctx.rows.lam[:] = system.lam
     ctx.V[:] = V2.reshape(ctx.V.shape)
     bounce_after_moving(ctx, V_move.reshape(ctx.V.shape), iterations, tolerance)

@@ -31,10 +31,10 @@ def first_joint_row_of(rows):
 
 
 @njit(cache=True)
-def _joint_C(first_joint_row, n_rows, xi, C):
-    """C of each joint row (m or rad) from rows built with beta = dt = 1 (xi = -C)."""
+def _joint_C(first_joint_row, n_rows, xi, push, C):
+    """C of each joint row (m or rad) from rows built with beta = dt = 1 (xi + push = -C)."""
     for k in range(first_joint_row, n_rows):
-        C[k] = -xi[k]
+        C[k] = -(xi[k] + push[k])
 
 
 @njit(cache=True)
@@ -179,7 +179,7 @@ def prepare_joints(joints, bodies, rows, system):
     and their error C; with ``direct`` the factor of the equality rows' A."""
     first_joint_row, n_rows = first_joint_row_of(rows), rows.lam.shape[0]
     eq, L, first, C, direct = system
-    joint_rows(joints, first_joint_row, bodies, 1.0, 1.0, rows)  # beta = dt = 1: xi = -C
-    _joint_C(first_joint_row, n_rows, rows.xi, C)
+    joint_rows(joints, first_joint_row, bodies, 1.0, 1.0, rows)  # beta = dt = 1: xi + push = -C
+    _joint_C(first_joint_row, n_rows, rows.xi, rows.push, C)
     if direct:
         factor_joint_rows(eq, rows.body_a, rows.body_b, rows.J, rows.JM, L, first)
