@@ -256,7 +256,7 @@ def test_joint_grid_holds_under_pgs_with_bounded_impulses(block):
     A is singular and the pins' Baumgarte targets need not have a solution. PGS keeps them
     out of its warm-started solve (split push), so no impulse drifts along A's null space:
     none exceeds three times the impulse of the whole net's weight in a tick (a pendulum
-    released level pulls 3 m g at the bottom of its swing), where the drift reached 8,760 N s."""
+    released level pulls 3 m g at the bottom of its swing)."""
     n = 20
     w = stock_scenes.joint_grid(n, responder=phys2d.PGS(block=block))
     weight_impulse = sum(b.mass for b in w.bodies if not b.static) * 10.0 * DT  # N s

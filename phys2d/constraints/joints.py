@@ -42,12 +42,13 @@ the remaining gap close within the step and no further (xi = -gap / dt); past a
 limit it holds still (xi = 0) and pushes back with push = -(beta/dt) C. lambda >= 0
 on both rows: a limit stops rotation, it never holds it back.
 
-The Baumgarte term goes in ``push``, as a contact's does, not in xi: the lecture's target is
-xi + push (PGS with split=False), and PGS's split pass moves positions by it without
-leaving it in V. That split matters for a net of joints with more rows than its bodies
-have freedoms (Box2D's joint grid): their errors C need not lie in the range of J, so
-A lambda = -(beta/dt) C has no solution, and a warm-started sweep lets lambda grow
-without bound in A's null space; A lambda = -J V always has one.
+The Baumgarte term goes in ``push``, as a contact's does, not in xi: the lecture's
+target is xi + push (PGS with split=False); split, PGS solves it after the warm-started
+sweeps, in a pass from zero whose joint impulses stay in V. That split matters for a net
+of joints with more rows than its bodies have freedoms (Box2D's joint grid): their errors
+C need not lie in the range of J, so A lambda = -(beta/dt) C has no solution, and a
+warm-started sweep lets lambda grow without bound in A's null space; A lambda = -J V
+always has one.
 """
 
 from __future__ import annotations

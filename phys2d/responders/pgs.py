@@ -302,12 +302,12 @@ def push_out(rows, V_push, lam_push, iterations, tolerance, block):
     if not pushes(rows, visit):
         return 0
     none = rows.normal_row[:0]  # no friction rows
-    push_rows_ = with_target(rows, rows.push, lam_push, none)
-    push_hat = per_unit_A(push_rows_)
+    target = with_target(rows, rows.push, lam_push, none)
+    push_hat = per_unit_A(target)
     joint_visit = visit[rows.normal_row.shape[0] :]
     for s in range(iterations):
         if block is not None:
-            worst = block_sweep(push_rows_, push_hat, V_push, joint_visit)
+            worst = block_sweep(target, push_hat, V_push, joint_visit)
         else:
             worst = sweep(push_hat, V_push, visit)
         if worst <= tolerance:
