@@ -15,7 +15,7 @@ Then, for SoftStep, the share of its one-thread step that threads split (Amdahl'
 ``pipeline.parallel.*_on`` split too: called from Python, each would add a call's overhead the tick does
 not pay, so p and s are of the larger parts only), replayed on the settled world (as many
 as ``soft_step_solve`` makes: 2 sweeps and 1 warm start per sub-step), timed against the whole step;
-the same replay on 2 threads (``contact_rows_in_slices``, ``soft_sweep_in_runs``) gives those parts' own
+the same replay on 2 threads (``contact_rows_in_slices``, ``soft_sweep_in_groups``) gives those parts' own
 speed-up s, and 1 / ((1 - p) + p / s) the step's best case. The machine should be quiet: threads wait for a busy core.
 """
 
@@ -40,7 +40,7 @@ import phys2d
 from phys2d.constraints.rows import unsigned_rows
 from phys2d.pipeline import records
 from phys2d.pipeline import step as stages
-from phys2d.pipeline.parallel import manifold_runs, soft_sweep_in_runs, using_threads, warm_start_in_runs
+from phys2d.pipeline.parallel import manifold_groups, soft_sweep_in_groups, using_threads, warm_start_in_groups
 from phys2d.responders.block import inverse_diagonal
 from phys2d.responders.soft_contacts import prepare_manifolds, soft_constants, soft_sweep, warm_start
 from phys2d.responders.soft_points import prepare_points, separations
@@ -131,7 +131,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     moved = np.zeros((ctx.x.shape[0], 4))  # (the bodies as the tick began: the points' separations as found)
     moved[:, 2] = 1.0
     separations(0, ctx.n_contacts, rows, points, moved)
-    runs = (manifold_runs(manifolds[0], rows, ctx.M_inv), 2)  # (``runs_for``: a slice per thread)
+    groups = manifold_groups(manifolds[0], rows, ctx.M_inv, ctx.part)  # (``groups_for``)
     V = ctx.V.copy()
 
     def serial() -> None:
@@ -145,9 +145,9 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
         with using_threads(2):
             rows_of(*row_args[:-1], 2)
             for _ in range(soft.substeps):
-                warm_start_in_runs(runs, manifolds, rows, ctx.M_inv, V)
-                soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs)
-                soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs)
+                warm_start_in_groups(groups, manifolds, rows, ctx.M_inv, V)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs)
 
     serial()
     parallel()  # compiled or loaded
@@ -168,7 +168,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     return {
         "scene": scene,
         "manifolds": int(manifolds[0].shape[0] - 1),
-        "runs": int(runs[0].shape[0] - 1),
+        "groups": int(groups[1].shape[0] - 1),
         "step": statistics.median(t_step),
         "parts": statistics.median(t_serial),
         "parts_2": statistics.median(t_parallel),
@@ -219,12 +219,12 @@ def main(argv: list[str] | None = None) -> int:
         cells = [r["scene"], r["responder"], str(r["contacts"]), f"{r['t1']:.0f}", f"{r['t2']:.0f}"]
         print(bar + " | ".join([*cells, f"{r['ratio']:.2f}x", "yes" if r["same"] else "NO"]) + bar)
     print()
-    head = ["scene", "manifolds", "runs", "step", "split parts", "on 2 threads", "p", "s", "best 1/2", "expected 1/2"]
+    head = ["scene", "manifolds", "groups", "step", "split parts", "on 2 threads", "p", "s", "best 1/2", "expected 1/2"]
     print(bar + " | ".join(head) + bar)
     if args.markdown:
         print("|" + "---|" * len(head))
     for r in shares:
-        cells = [r["scene"], str(r["manifolds"]), str(r["runs"]), f"{r['step']:.0f}", f"{r['parts']:.0f}"]
+        cells = [r["scene"], str(r["manifolds"]), str(r["groups"]), f"{r['step']:.0f}", f"{r['parts']:.0f}"]
         cells += [
             f"{r['parts_2']:.0f}",
             f"{r['p']:.2f}",

@@ -106,8 +106,8 @@ class World:
                 (``Body.awake``); default False, settable between steps (False wakes all)
     threads     how many cores a step may use (default 1, settable between steps): with more
                 than one, the contact rows are built on several threads, the soft
-                step's sweeps run colour by colour, each colour's manifolds on several
-                threads, and its per-point and per-body passes a slice per thread
+                step's sweeps solve the parts of the scene (``constraints.order``) each
+                on its own thread, and its per-point and per-body passes a slice per thread
                 (``pipeline.parallel``); the results are bit-identical for every count.
                 Threads pay on scenes of several thousand contacts and up; on smaller ones
                 waking them costs more than they save (benchmarks/SCALE.md)

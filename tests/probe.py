@@ -23,7 +23,8 @@ def records_now(w: phys2d.World, V: np.ndarray, pairs: np.ndarray, dt: float = 1
     geometry = (rotation, np.empty((nv, 2)), np.empty((nv, 2)), np.empty((n, 4)), np.zeros((n, 4)), np.empty(n))
     shapes = records.new_shapes(
         (b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
-         *geometry, pairs, np.zeros(pairs.shape[0], np.int32), w._excluded, b.category, b.mask, b.group)
+         *geometry, pairs, np.zeros(pairs.shape[0], np.int32), w._excluded, b.category, b.mask, b.group,
+         np.zeros(n, np.int32))
     )  # fmt: skip
     bodies = records.new_bodies((b.x, b.theta, V, b.M_inv, V))
     fits = update_geometry(bodies, shapes, dt, w.contact_margin)
@@ -45,5 +46,5 @@ def contacts_now(w: phys2d.World) -> phys2d.Contacts:
     n = len(w.bodies)
     pairs = np.zeros((max(1, n * (n - 1) // 2), 2), np.int32)
     bodies, shapes, _, _ = records_now(w, w.V, pairs, dt=0.0)
-    n_pairs = sweep(shapes, False)
+    n_pairs = sweep(shapes, w.x, False)
     return manifolds_of(w, bodies, shapes, n_pairs)

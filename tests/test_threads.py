@@ -3,9 +3,9 @@ bit-identical results.
 
 The second method is the world on one thread: a world stepped on 2 or 3 threads (more than
 this machine's cores is allowed) must hold the same bits after every step, in one call and
-stage by stage, under every responder, with joints and sleeping islands. The runs the sweeps are cut into are
-checked against their definition (no moving body twice in a run, each cut needed), and a
-world on one thread must compile no parallel kernel.
+stage by stage, under every responder, with joints and sleeping islands. The groups the sweeps
+are cut into are checked against their definition (no moving body in two segments of a group),
+the parts of a pyramid for balance, and a world on one thread must compile no parallel kernel.
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from hypothesis import strategies as st
 
 import phys2d
 from phys2d import scenes as stock
-from phys2d.pipeline.parallel import manifold_runs
+from phys2d.constraints.order import PART_DEPTH
+from phys2d.pipeline.parallel import manifold_groups
 from phys2d.pipeline.records import new_rows
 from tests.strategies import SceneSpec, build, fingerprint, responders, resting_scenes, scenes, soft_step_keywords
 
@@ -88,7 +89,7 @@ def test_threads_give_the_same_bits_under_every_responder(scene, data, threads, 
 @settings(max_examples=8)
 @given(rows=st.integers(2, 9), threads=st.sampled_from([2, 3]), one_call=st.booleans(), substeps=st.integers(1, 4))
 def test_threads_give_the_same_bits_on_pyramids(rows: int, threads: int, one_call: bool, substeps: int) -> None:
-    """Pyramids (many manifolds per colour: the parallel loops have work to split) hold the bits
+    """Pyramids (two parts and a cut: the parallel loops have work to split) hold the bits
     of one thread after every step."""
     stepped_alike(lambda: stock.pyramid(rows, responder=phys2d.SoftStep(substeps)), threads, one_call, 40)
 
@@ -117,7 +118,7 @@ def test_threads_give_the_same_bits_with_joints(
 
 
 def test_threads_give_the_same_bits_while_islands_sleep_and_wake() -> None:
-    """Sleeping bodies are immovable (M^-1 = 0) in the step: several manifolds of a run may share
+    """Sleeping bodies are immovable (M^-1 = 0) in the step: several segments of a group may share
     one. Two piles fall asleep, a box wakes one: the bits of one thread throughout."""
 
     def make() -> phys2d.World:
@@ -159,11 +160,12 @@ def test_threads_on_pgs_change_nothing(friction: str) -> None:
     stepped_alike(lambda: stock.pyramid(6, responder=phys2d.PGS(friction=friction)), 2, True, 30)
 
 
-# -- the runs -------------------------------------------------------------------------------
+# -- the parts and the groups ---------------------------------------------------------------
 
 
-def runs_of(pairs: list[tuple[int, int]], n_bodies: int, immovable: set[int]) -> np.ndarray:
-    """``manifold_runs`` over one-point manifolds between ``pairs`` of bodies, in this order."""
+def groups_of(pairs: list[tuple[int, int]], part: list[int], immovable: set[int]) -> tuple[np.ndarray, np.ndarray]:
+    """``manifold_groups`` over one-point manifolds between ``pairs`` of bodies, in this order,
+    the bodies in parts ``part``."""
     n = len(pairs)
     body_a = np.array([a for a, _ in pairs], np.int32)
     body_b = np.array([b for _, b in pairs], np.int32)
@@ -173,44 +175,70 @@ def runs_of(pairs: list[tuple[int, int]], n_bodies: int, immovable: set[int]) ->
         np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, np.int32),
         np.zeros(n), np.zeros(n),
     ))  # fmt: skip
-    M_inv = np.ones((n_bodies, 3))
+    M_inv = np.ones((len(part), 3))
     M_inv[sorted(immovable)] = 0.0
-    return manifold_runs(np.arange(n + 1, dtype=np.uint32), rows, M_inv)
+    return manifold_groups(np.arange(n + 1, dtype=np.uint32), rows, M_inv, np.array(part, np.int32))
 
 
-@given(
-    data=st.data(),
-    n_bodies=st.integers(2, 12),
-    n_pairs=st.integers(0, 40),
-)
-def test_runs_hold_no_moving_body_twice_and_cut_only_where_needed(data, n_bodies: int, n_pairs: int) -> None:
-    """Runs cover the manifolds in order; within a run no moving body appears twice (so its
-    manifolds may run at once); and each run after the first starts with a manifold whose moving
-    body the run before holds (greedy: no cut is wasted). Immovable bodies are shared freely."""
+@given(data=st.data(), n_bodies=st.integers(2, 12), n_pairs=st.integers(0, 40))
+def test_groups_hold_no_moving_body_in_two_segments(data, n_bodies: int, n_pairs: int) -> None:
+    """Whatever the order and the parts: segments cover the manifolds in order, and within a
+    group no moving body appears in two segments (so its segments may run at once). Immovable
+    bodies are shared freely."""
     body = st.integers(0, n_bodies - 1)
     pairs = data.draw(
         st.lists(st.tuples(body, body).filter(lambda p: p[0] != p[1]), min_size=n_pairs, max_size=n_pairs)
     )
+    part = data.draw(st.lists(st.integers(0, 2**PART_DEPTH - 1), min_size=n_bodies, max_size=n_bodies))
     immovable = set(data.draw(st.lists(body, max_size=3)))
-    runs = runs_of(pairs, n_bodies, immovable)
-    assert runs[0] == 0 and runs[-1] == len(pairs)
-    assert np.all(np.diff(runs) > 0) or len(pairs) == 0
-    for r in range(len(runs) - 1):
-        moving = [i for a, b in pairs[runs[r] : runs[r + 1]] for i in (a, b) if i not in immovable]
-        assert len(moving) == len(set(moving))
-        if r > 0:
-            before = {i for a, b in pairs[runs[r - 1] : runs[r]] for i in (a, b) if i not in immovable}
-            assert before & {i for i in pairs[runs[r]] if i not in immovable}
+    segments, groups = groups_of(pairs, part, immovable)
+    assert segments[0] == 0 and segments[-1] == len(pairs) and np.all(np.diff(segments) > 0)
+    assert groups[0] == 0 and groups[-1] == len(segments) - 1 and np.all(np.diff(groups) > 0)
+    for g in range(len(groups) - 1):
+        seen: set[int] = set()
+        for s in range(groups[g], groups[g + 1]):
+            moving = {i for a, b in pairs[segments[s] : segments[s + 1]] for i in (a, b) if i not in immovable}
+            assert not moving & seen
+            seen |= moving
 
 
-def test_runs_of_coloured_pairs_are_the_colours() -> None:
-    """Pairs sorted by colour (``constraints.order``): a chain's links 0-1, 1-2, ... take two
-    colours, so the runs are two, however long the chain."""
-    chain = [(i, i + 1) for i in range(10)]
-    coloured = chain[0::2] + chain[1::2]
-    assert len(runs_of(coloured, 11, set())) - 1 == 2
-    assert len(runs_of(chain, 11, set())) - 1 == 10  # in pair order every link waits for the last
-    assert len(runs_of([(0, 5), (1, 5), (2, 5)], 6, {5})) - 1 == 1  # a static ground shared by all
+def pyramid_order(n: int) -> tuple[phys2d.World, np.ndarray, np.ndarray]:
+    """A pyramid of base n stepped once: the world, its pairs (in solve order) and its bodies' parts."""
+    w = stock.pyramid(n, responder=phys2d.SoftStep())
+    w.step(1 / 60)
+    p = w._pipeline
+    return w, p.pairs[: p.n_pairs][p.buffers.pair_order[: p.n_pairs]], p.part
+
+
+def test_a_pyramid_is_cut_in_halves_of_equal_work_few_pairs_straddle_it() -> None:
+    """A pyramid of base 30: the parts hold nearly as many pairs each, and the pairs that
+    straddle the cut are few (the cut crosses the pyramid once: a couple of pairs per row)."""
+    w, pairs, part = pyramid_order(30)
+    static = np.array([b.static for b in w.bodies])
+    in_part = [0] * 2**PART_DEPTH
+    straddle = 0
+    for a, b in pairs:
+        pa, pb = (part[b] if static[a] else part[a]), (part[a] if static[b] else part[b])
+        if pa == pb:
+            in_part[pa] += 1
+        else:
+            straddle += 1
+    assert max(in_part) <= 1.1 * min(in_part)
+    assert straddle <= 4 * 30  # of about 30 * 29 * 3 pairs
+
+
+def test_the_solve_order_is_parts_then_cuts_each_by_colour() -> None:
+    """The pairs in solve order: parts first, the cut between them last, and within each set
+    no two consecutive pairs of one colour share a moving body (a colour holds no body twice)."""
+    w, pairs, part = pyramid_order(12)
+    static = np.array([b.static for b in w.bodies])
+    sets = []
+    for a, b in pairs:
+        pa, pb = (part[b] if static[a] else part[a]), (part[a] if static[b] else part[b])
+        sets.append(0 if pa == pb == 0 else 1 if pa == pb == 1 else 2)
+    assert sets == sorted(sets) and set(sets) == {0, 1, 2}
+    segments, groups = groups_of([tuple(p) for p in pairs], list(part), set(np.flatnonzero(static)))
+    assert len(segments) - 1 == 3 and list(groups) == [0, 2, 3]  # the two parts at once, then the cut
 
 
 # -- settings -------------------------------------------------------------------------------

@@ -14,6 +14,17 @@ pyramid_40, and the lecture's PGS sweep gains nothing (benchmarks/SWEEP_ORDER.md
 most of a row's cost is the loop's own work, not the wait for the row before).
 This is Box2D v3's graph colouring, used here for order only.
 
+Before the colours comes a cut into parts, for threads (``pipeline.parallel``). The moving
+bodies are bisected ``PART_DEPTH`` times (``partition``): each half is cut again at the
+median of its pairs along x or y, whichever side leaves the halves least mixed in memory (a
+pyramid built row by row: into bottom and top). A pair whose moving bodies lie in one part
+belongs to that part; one that straddles a cut belongs to that cut. The solve order is the
+parts first, then the cuts, the deepest first and the first cut (between the two halves)
+last (``set_of``), and colour by colour within each. Two parts share no moving body, nor do
+two cuts of one level, so each may be solved on its own thread, and one thread visiting
+them in turn does the same arithmetic. The order is the same on any number of threads, and
+so are the bits.
+
 The colouring is made when a colour-ordered responder first visits the pairs the
 broadphase swept (pairs are kept from tick to tick while nothing moves far), so it
 is as stable as the pair list.
@@ -29,11 +40,114 @@ from ..collision.sort import stable_argsort
 MAX_COLOURS = 64  # a body in more pairs than this shares the last colour
 
 
+PART_DEPTH = 1  # the bodies are bisected this many times: 2**PART_DEPTH parts (``partition``)
+
+
 @njit(cache=True)
-def colour_pairs(pairs, n_pairs, static, n_bodies):
-    """Pair indices sorted by greedy colour (ties in pair order): the solve order of pairs."""
+def partition(x, weight, depth):
+    """Each body's part, 0 to 2**depth - 1: the bodies of weight > 0 (their pairs; 0 for a body
+    that does not move) bisected ``depth`` times, each time at the weighted median of x along
+    one side (``bisect``; ties in body order). Bodies of weight 0 are in part 0:
+    no manifold reads their part."""
+    part = np.zeros(x.shape[0], np.int32)
+    bodies = np.flatnonzero(weight > 0)
+    bounds = np.array([0, bodies.shape[0]])  # node j of this level holds bodies[bounds[j]:bounds[j + 1]]
+    for _ in range(depth):
+        halves = np.empty(2 * bounds.shape[0] - 1, np.int64)
+        for j in range(bounds.shape[0] - 1):
+            lo, hi = bounds[j], bounds[j + 1]
+            halves[2 * j], halves[2 * j + 1] = lo, bisect(x, weight, bodies[lo:hi]) + lo
+        halves[-1] = bodies.shape[0]
+        bounds = halves
+    for j in range(bounds.shape[0] - 1):
+        for i in range(bounds[j], bounds[j + 1]):
+            part[bodies[i]] = j
+    return part
+
+
+@njit(cache=True)
+def bisect(x, weight, bodies):
+    """Sort ``bodies`` (in place) along x or y and return how many make the first half: up to
+    the one at which their weight reaches half of it. Of the two sides, the one whose halves
+    interleave least in body order (``interleaving``): two threads then write velocities that
+    seldom share a cache line. A tie (a scene built in no order) goes to the longer side."""
+    n = bodies.shape[0]
+    if n < 2:
+        return n
+    best, best_cut, best_mixed, best_extent = bodies.copy(), n - 1, -1, -1.0
+    for axis in range(2):
+        along = np.empty(n)
+        for i in range(n):
+            along[i] = x[bodies[i], axis]
+        sorted_bodies = bodies[stable_argsort(along)]
+        cut = half_by_weight(sorted_bodies, weight)
+        mixed = interleaving(sorted_bodies, cut, x.shape[0])
+        extent = along.max() - along.min()
+        if best_mixed < 0 or mixed < best_mixed or (mixed == best_mixed and extent > best_extent):
+            best, best_cut, best_mixed, best_extent = sorted_bodies, cut, mixed, extent
+    for i in range(n):
+        bodies[i] = best[i]
+    return best_cut
+
+
+@njit(cache=True)
+def half_by_weight(bodies, weight):
+    """How many of ``bodies`` (in order) make the first half: up to the one at which their weight
+    reaches half of the whole (the second half keeps at least one)."""
+    total = 0
+    for b in bodies:
+        total += weight[b]
+    reached = 0
+    for i in range(bodies.shape[0] - 1):
+        reached += weight[bodies[i]]
+        if 2 * reached >= total:
+            return i + 1
+    return bodies.shape[0] - 1
+
+
+@njit(cache=True)
+def interleaving(bodies, cut, n_bodies):
+    """How often, going through ``bodies`` in body order, the half changes (the first ``cut`` of
+    them are the first half)."""
+    first = np.zeros(n_bodies, np.bool_)
+    for i in range(cut):
+        first[bodies[i]] = True
+    by_index = np.sort(bodies)
+    changes = 0
+    for i in range(1, by_index.shape[0]):
+        changes += first[by_index[i]] != first[by_index[i - 1]]
+    return changes
+
+
+@njit(cache=True, inline="always")
+def set_of(part_a, part_b, depth):
+    """The place in the solve order of a manifold whose moving bodies lie in parts part_a and
+    part_b (a body that does not move: give the other's part twice), and its level: a part is
+    set part (level 0); a cut, after every part, is the node of the bisection where the two
+    parted: level s for the cut s bisections above the parts, and the cuts of a level in node
+    order. Returns (set, level, node)."""
+    level = 0
+    while part_a != part_b:
+        part_a >>= 1
+        part_b >>= 1
+        level += 1
+    return (1 << (depth + 1)) - (1 << (depth - level + 1)) + part_a, level, part_a
+
+
+@njit(cache=True)
+def colour_pairs(pairs, n_pairs, static, x, part):
+    """Pair indices sorted by set (``set_of``: the parts, then the cuts between them), then by
+    greedy colour (ties in pair order): the solve order of pairs. Writes each body's part
+    (``partition`` of the centres x, weighted by their pairs) into part."""
+    n_bodies = x.shape[0]
+    weight = np.zeros(n_bodies, np.int64)
+    for p in range(n_pairs):
+        for i in range(2):
+            if not static[pairs[p, i]]:
+                weight[pairs[p, i]] += 1
+    part[:] = partition(x, weight, PART_DEPTH)
     used = np.zeros((n_bodies, MAX_COLOURS), np.bool_)
-    colour = np.empty(n_pairs, np.int64)
+    key = np.empty(n_pairs, np.int64)
     for p in range(n_pairs):
         a, b = pairs[p, 0], pairs[p, 1]
         chosen = MAX_COLOURS - 1
@@ -41,12 +155,14 @@ def colour_pairs(pairs, n_pairs, static, n_bodies):
             if (static[a] or not used[a, q]) and (static[b] or not used[b, q]):
                 chosen = q
                 break
-        colour[p] = chosen
         if not static[a]:
             used[a, chosen] = True
         if not static[b]:
             used[b, chosen] = True
-    return stable_argsort(colour).astype(np.int32)
+        part_a = part[b] if static[a] else part[a]
+        part_b = part[a] if static[b] else part[b]
+        key[p] = set_of(part_a, part_b, PART_DEPTH)[0] * MAX_COLOURS + chosen
+    return stable_argsort(key).astype(np.int32)
 
 
 @njit(cache=True)

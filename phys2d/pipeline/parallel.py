@@ -6,21 +6,24 @@
 Gauss-Seidel visits its rows one after another: a row reads the velocities every row before
 it has written. Two rows whose bodies differ read and write different velocities, so they
 may run at the same time without changing a bit of what either computes. The soft step
-visits its manifolds colour by colour (``constraints.order``): within a colour no two
-manifolds share a body that moves. Cut the solve order into *runs* of consecutive manifolds
-in which no moving body appears twice (``manifold_runs``: a colour is one run, the last,
-overflow colour as many runs as it needs), and a sweep is
+visits its manifolds in the order ``constraints.order`` gives: the bodies are cut into parts,
+and the manifolds come part by part, then cut by cut (the manifolds that straddle a cut),
+each colour by colour. Two parts share no moving body, nor do two cuts of one level of the
+bisection. ``manifold_groups`` cuts the solve order into *segments* (the manifolds of one part
+or one cut) and the segments into *groups* (consecutive segments that share no moving body),
+and a sweep is
 
-    for each run, in order:
-        for its manifolds, in parallel (a slice of them per thread):
+    for each group, in order:
+        for its segments, in parallel (a segment per thread, one after another on each):
             the row updates of the serial sweep (``soft_normal_rows``, ``soft_friction_rows``)
 
 Each manifold sees exactly the velocities it sees in the serial sweep, and each row does
 the same floating-point operations in the same order, so the result is bit-identical for
 every number of threads. The residual is a maximum, which no order changes. A body that
-nothing moves (M^-1 = 0: static, kinematic or asleep) may sit in several manifolds of a run:
-each writes back the velocity it read, plus 0 times its impulse, the same value whichever
-writes last.
+nothing moves (M^-1 = 0: static, kinematic or asleep) may sit in several segments of a
+group: each writes back the velocity it read, plus 0 times its impulse, the same value
+whichever writes last. A sweep waits for its threads once per group, twice with the
+friction rows: with two parts, four times, however many colours there are.
 
 The sub-step's passes over points and bodies (the separations, the noted approaches, the
 positions' integration) have no order to keep: each point or body writes only its own
@@ -28,7 +31,7 @@ entries. ``separations_on``, ``note_approach_on`` and ``integrate_positions_on``
 one call on one thread, else a slice per thread.
 
 Numba runs the inner loops (``prange``) on ``World.threads`` threads. The kernels here are
-compiled with ``parallel=True``, only for a world whose threads > 1 (``runs_for`` returns
+compiled with ``parallel=True``, only for a world whose threads > 1 (``groups_for`` returns
 None for one thread, and numba drops every branch that would call them); with
 NUMBA_DISABLE_JIT ``prange`` is ``range``.
 """
@@ -42,87 +45,107 @@ import numba
 import numpy as np
 from numba import config, njit, prange
 
+from ..constraints.order import PART_DEPTH, set_of
 from ..responders.soft_contacts import soft_friction_rows, soft_normal_rows, warm_start_joints, warm_start_manifolds
 from ..responders.soft_integrate import integrate_positions
 from ..responders.soft_points import note_approach, separations
 
 
 @njit(cache=True)
-def manifold_runs(start, rows, M_inv):
+def manifold_groups(start, rows, M_inv, part):
     """Cut the manifolds (in solve order; manifold m's points are start[m] up to start[m + 1])
-    into runs of consecutive manifolds in which no body that moves (M^-1 != 0) appears twice.
-    Returns run_start (R + 1,): run r is manifolds run_start[r] up to run_start[r + 1]."""
+    into segments, each the manifolds of one set (``constraints.order.set_of`` of the parts of
+    its moving bodies, M^-1 != 0), and the segments into groups of consecutive segments of one
+    level of the bisection, in node order, which share no moving body. Returns (segment_start
+    (S + 1,), group_start (G + 1,)): segment s is manifolds segment_start[s] up to
+    segment_start[s + 1], group g segments group_start[g] up to group_start[g + 1]."""
     normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
     n_manifolds = start.shape[0] - 1
-    run_of = np.full(M_inv.shape[0], -1, np.int64)  # the last run each body appeared in
-    run_start = np.empty(n_manifolds + 1, np.int64)
-    n_runs = 0
+    segment_start = np.empty(n_manifolds + 1, np.int64)
+    group_start = np.empty(n_manifolds + 1, np.int64)
+    n_segments = n_groups = 0
+    last_set = last_level = last_node = -1
     for m in range(n_manifolds):
         k = normal_row[start[m]]
         a, b = body_a[k], body_b[k]
         moves_a = M_inv[a, 0] != 0.0 or M_inv[a, 2] != 0.0
         moves_b = M_inv[b, 0] != 0.0 or M_inv[b, 2] != 0.0
-        if n_runs == 0 or (moves_a and run_of[a] == n_runs - 1) or (moves_b and run_of[b] == n_runs - 1):
-            run_start[n_runs] = m  # a body of m is taken in this run: m starts the next
-            n_runs += 1
-        run_of[a] = run_of[b] = n_runs - 1
-    run_start[n_runs] = n_manifolds
-    return run_start[: n_runs + 1].copy()
+        part_a = part[a] if moves_a or not moves_b else part[b]
+        part_b = part[b] if moves_b else part_a
+        s, level, node = set_of(part_a, part_b, PART_DEPTH)
+        if s == last_set:
+            continue
+        if level != last_level or node <= last_node:  # this segment may share a body with the group's
+            group_start[n_groups] = n_segments
+            n_groups += 1
+        segment_start[n_segments] = m
+        n_segments += 1
+        last_set, last_level, last_node = s, level, node
+    segment_start[n_segments] = n_manifolds
+    group_start[n_groups] = n_segments
+    return segment_start[: n_segments + 1].copy(), group_start[: n_groups + 1].copy()
 
 
 @njit(cache=True)
-def runs_for(threads, start, rows, M_inv):
-    """(run_start of ``manifold_runs``, threads) when ``threads`` is a count: each run is cut in
-    that many slices, one per thread; None when it is None (one thread: numba then drops every
-    parallel branch, and compiles no parallel kernel)."""
+def groups_for(threads, start, rows, M_inv):
+    """``manifold_groups`` when ``threads`` is (count, part: each body's part); None when it is
+    None (one thread: numba then drops every parallel branch, and compiles no parallel kernel)."""
     if threads is None:
         return None
-    return manifold_runs(start, rows, M_inv), threads
-
-
-@njit(cache=True)
-def slice_of(run_start, r, t, n_slices):
-    """Slice t of n_slices of run r (``manifold_runs``): manifolds first up to last."""
-    first, n = run_start[r], run_start[r + 1] - run_start[r]
-    return first + n * t // n_slices, first + n * (t + 1) // n_slices
+    return manifold_groups(start, rows, M_inv, threads[1])
 
 
 @njit(cache=True, parallel=True)
-def soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
-    """``soft_sweep`` run by run, each run's manifolds in parallel, a slice per thread (runs:
-    ``runs_for``); the same arguments, the same results. Returns the largest |delta lambda| A_kk
-    (m/s)."""
-    run_start, n_slices = runs
-    worst = np.zeros(n_slices)  # per slice: no shared accumulator
+def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
+    """``soft_sweep`` group by group, each group's segments in parallel (groups: ``groups_for``);
+    the same arguments, the same results. Returns the largest |delta lambda| A_kk (m/s)."""
+    segment_start, group_start = groups
+    worst = np.zeros(segment_start.shape[0])  # per segment: no shared accumulator
     dynamic, static, joint = springs  # (numba's parallel loops take tuples, not tuples of tuples)
-    for r in range(run_start.shape[0] - 1):  # the normal rows, run by run
-        for t in prange(n_slices):
-            first, last = slice_of(run_start, r, t, n_slices)
+    for g in range(group_start.shape[0] - 1):  # the normal rows, group by group
+        first, last = group_start[g], group_start[g + 1]
+        if last - first == 1:  # one segment: on this thread, no threads to wake
+            m0, m1 = segment_start[first], segment_start[first + 1]
+            w = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs)
+            worst[first] = max(worst[first], w)
+            continue
+        for s in prange(first, last):
             soft = (dynamic, static, joint)
-            w = soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft)
-            worst[t] = max(worst[t], w)
-    for r in range(run_start.shape[0] - 1):  # then the friction rows
-        for t in prange(n_slices):
-            first, last = slice_of(run_start, r, t, n_slices)
-            w = soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h)
-            worst[t] = max(worst[t], w)
+            m0, m1 = segment_start[s], segment_start[s + 1]
+            w = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft)
+            worst[s] = max(worst[s], w)
+    for g in range(group_start.shape[0] - 1):  # then the friction rows
+        first, last = group_start[g], group_start[g + 1]
+        if last - first == 1:
+            m0, m1 = segment_start[first], segment_start[first + 1]
+            worst[first] = max(worst[first], soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h))
+            continue
+        for s in prange(first, last):
+            m0, m1 = segment_start[s], segment_start[s + 1]
+            w = soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h)
+            worst[s] = max(worst[s], w)
     return worst.max()
 
 
 @njit(cache=True, parallel=True)
-def warm_start_in_runs(runs, manifolds, rows, M_inv, V):
-    """``soft_contacts.warm_start`` run by run, each run's manifolds in parallel, a slice per
-    thread (runs: ``runs_for``); the joint rows after."""
-    run_start, n_slices = runs
-    for r in range(run_start.shape[0] - 1):
-        for t in prange(n_slices):
-            first, last = slice_of(run_start, r, t, n_slices)
-            warm_start_manifolds(first, last, manifolds[0], rows, M_inv, V)
+def warm_start_in_groups(groups, manifolds, rows, M_inv, V):
+    """``soft_contacts.warm_start`` group by group, each group's segments in parallel (groups:
+    ``groups_for``); the joint rows after."""
+    segment_start, group_start = groups
+    start = manifolds[0]
+    for g in range(group_start.shape[0] - 1):
+        first, last = group_start[g], group_start[g + 1]
+        if last - first == 1:
+            warm_start_manifolds(segment_start[first], segment_start[first + 1], start, rows, M_inv, V)
+            continue
+        for s in prange(first, last):
+            warm_start_manifolds(segment_start[s], segment_start[s + 1], start, rows, M_inv, V)
     warm_start_joints(rows, V)
 
 
 # The sub-step's passes in which each point or body writes only its own entries: one call on
-# one thread (threads None: numba drops the parallel branch), else a slice per thread, with the
+# one thread (threads None: numba drops the parallel branch), else a slice per thread (threads:
+# (count, part)), with the
 # same results.
 
 
@@ -133,7 +156,7 @@ def separations_on(threads, rows, points, moved):
     if threads is None:
         separations(0, n, rows, points, moved)
     else:
-        separations_in_slices(threads, rows, points, moved)
+        separations_in_slices(threads[0], rows, points, moved)
 
 
 @njit(cache=True, parallel=True)
@@ -149,7 +172,7 @@ def note_approach_on(threads, rows, points, n_pending, V):
     if threads is None:
         note_approach(0, n_pending, rows, points, V)
     else:
-        note_approach_in_slices(threads, rows, points, n_pending, V)
+        note_approach_in_slices(threads[0], rows, points, n_pending, V)
 
 
 @njit(cache=True, parallel=True)
@@ -164,7 +187,7 @@ def integrate_positions_on(threads, bodies, h, x0, theta0, moved):
     if threads is None:
         integrate_positions(0, x0.shape[0], bodies, h, x0, theta0, moved)
     else:
-        integrate_positions_in_slices(threads, bodies, h, x0, theta0, moved)
+        integrate_positions_in_slices(threads[0], bodies, h, x0, theta0, moved)
 
 
 @njit(cache=True, parallel=True)
@@ -192,12 +215,11 @@ def using_threads(threads: int) -> Iterator[None]:
 
 __all__ = [
     "integrate_positions_on",
-    "manifold_runs",
+    "manifold_groups",
     "note_approach_on",
-    "runs_for",
+    "groups_for",
     "separations_on",
-    "slice_of",
-    "soft_sweep_in_runs",
+    "soft_sweep_in_groups",
     "using_threads",
-    "warm_start_in_runs",
+    "warm_start_in_groups",
 ]

@@ -58,7 +58,7 @@ BodyRecord = _record(
 SHAPE_FIELDS = (
     "static", "uid", "friction", "restitution", "kind", "radius", "vstart", "vcount", "local_v", "local_n",
     "rotation", "world_v", "world_n", "aabb", "fat", "travel", "pairs", "pair_order", "excluded", "category", "mask",
-    "group",
+    "group", "part",
 )  # fmt: skip
 ShapeRecord = _record(
     "ShapeRecord",
@@ -67,8 +67,9 @@ ShapeRecord = _record(
     (mixed per contact); its shape: kind, radius (m), vertices vstart:vstart + vcount of local_v and local_n in the
     body's frame; now: rotation (cos, sin), world_v, world_n, the tight aabb and the fat one
     (m), travel (m a body may move within the step); the broadphase's pairs (and their
-    colour order, pair_order), the pair keys joints exclude, and each body's collision filter
-    (category, mask, group: ``bodies.should_collide``).""",
+    colour order, pair_order), the pair keys joints exclude, each body's collision filter
+    (category, mask, group: ``bodies.should_collide``) and its part of the solve order
+    (``constraints.order.partition``, written with pair_order).""",
 )
 
 MANIFOLD_FIELDS = ("found_pose", "found_rotation", "span", "anchor", "normal", "separation", "feature")

@@ -84,13 +84,14 @@ def begin(s, gravity, dt, margin):
 
 
 @njit(cache=True)
-def sweep(shapes, colour_order):
-    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), coloured (``pair_order``)
-    when the responder visits them by colour. Returns their count, or minus the room needed when
-    they would not fit the pair buffer: then Python grows it."""
+def sweep(shapes, x, colour_order):
+    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), coloured (``pair_order``,
+    and the bodies' ``part``, from their centres x) when the responder visits them by colour.
+    Returns their count, or minus the room needed when they would not fit the pair buffer: then
+    Python grows it."""
     n_pairs = find_pairs(shapes)
     if colour_order and 0 <= n_pairs <= shapes.pair_order.shape[0]:
-        coloured = colour_pairs(shapes.pairs, n_pairs, shapes.static, shapes.kind.shape[0])
+        coloured = colour_pairs(shapes.pairs, n_pairs, shapes.static, x, shapes.part)
         for p in range(n_pairs):
             shapes.pair_order[p] = coloured[p]
     return n_pairs

@@ -190,6 +190,7 @@ class Pipeline:
         self.pairs = np.zeros((64, 2), np.int32)
         self.n_pairs = 0
         self.coloured = False  # pair_order holds the colour order of these pairs
+        self.part = np.zeros(0, np.int32)  # each body's part of that order (``constraints.order.partition``)
         self.sweep_again = True  # the bodies or joints changed: the pairs must be found anew
         self.geometry: tuple = ()  # world_v, world_n, aabb, travel, rotation, fat
         self.undo = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 3)))  # x, theta, V1 to undo a failed step
@@ -300,12 +301,15 @@ class Pipeline:
         if self._state is None or self._state_over is not b.x:  # something was replaced (``_forget_state``)
             if self.undo[1].shape[0] != b.n:
                 self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
+            if self.part.shape[0] != b.n:
+                self.part = np.zeros(b.n, np.int32)
+                self.coloured = False
             world_v, world_n, aabb, travel, rotation, fat = self._geometry(world)
             static, M_inv = (b.static, b.M_inv) if self.sleep_masks is None else self.sleep_masks
             shapes = (
                 static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
                 rotation, world_v, world_n, aabb, fat, travel, self.pairs, t.pair_order, world._excluded, b.category,
-                b.mask, b.group,
+                b.mask, b.group, self.part,
             )  # fmt: skip
             self._state, *self._records = records.new_state(
                 (b.x, b.theta, b.V, M_inv, self.undo[2]),
@@ -377,7 +381,10 @@ class Pipeline:
     def _colour(self, world: World) -> None:
         """The pairs in colour order, in the buffers (for a responder that visits them by colour)."""
         if not self.coloured:
-            order = colour_pairs(self.pairs, self.n_pairs, world._bodies.static, world._bodies.n)
+            b = world._bodies
+            self.state(world)  # (the part buffer sized for the bodies)
+            static = b.static if self.sleep_masks is None else self.sleep_masks[0]
+            order = colour_pairs(self.pairs, self.n_pairs, static, b.x, self.part)
             self.buffers.pair_order[: self.n_pairs] = order
             self.coloured = True
 
@@ -385,12 +392,12 @@ class Pipeline:
         """The broadphase's pairs anew (``stages.sweep``), the pair buffer grown when short. The
         one-call tick sweeps itself while its buffers have room."""
         self.state(world)
-        n_pairs = sweep(self.shapes_record, False)
+        n_pairs = sweep(self.shapes_record, world._bodies.x, False)
         if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
             self.pairs = np.zeros((2 * -n_pairs, 2), np.int32)
             self._forget_state()
             self.state(world)
-            n_pairs = sweep(self.shapes_record, False)
+            n_pairs = sweep(self.shapes_record, world._bodies.x, False)
         self.n_pairs, self.sweep_again, self.coloured = n_pairs, False, False
 
     def _make_room(self) -> None:
@@ -592,7 +599,7 @@ class Pipeline:
         return StepContext(
             step.dt, b.x, b.theta, b.V, self.undo[2], M_inv, rows, k, body_a, body_b, point, normal, separation,
             restitution, gravity=world._gravity, joints=world._joint_arrays, anchor=anchor,
-            forces=self._forces(b, M_inv, step.dt), threads=world._threads,
+            forces=self._forces(b, M_inv, step.dt), threads=world._threads, part=self.part,
         )  # fmt: skip
 
     def _forces(self, b: Any, M_inv: np.ndarray, dt: float) -> np.ndarray | None:

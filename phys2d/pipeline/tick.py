@@ -43,7 +43,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     if stage == 0:
         fits = begin(s, step.gravity, step.dt, step.contact_margin)
         if not fits and not counts.sweep_again:
-            swept = n_pairs = sweep(s.shapes, counts.colour_order)
+            swept = n_pairs = sweep(s.shapes, s.bodies.x, counts.colour_order)
         if counts.sweep_again or n_pairs < 0 or n_pairs > s.shapes.pair_order.shape[0]:
             return NEED_SWEEP, 0, 0, 0, 0, 0, 0, 0.0, 0, -1
     store = s.store
@@ -70,7 +70,10 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
         count = pgs_step(s.bodies, rows, new.separation[:k], step.dt, pgs, s.residuals, joints)
     if soft is not None:
         found = (new.order[:k], new.separation[:k], new.restitution[:k], new.anchor[:k])
-        count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, threads)
+        if threads is None:  # (numba compiles one branch: the other's threads has another type)
+            count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, None)
+        else:  # the count and each body's part of the solve order (``pipeline.parallel``)
+            count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, (threads, s.shapes.part))
     # the limits, then the impulses per contact and the cache the next step starts from
     b = s.bodies
     if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:

@@ -41,6 +41,7 @@ class StepContext:
     anchor: np.ndarray | None = None  # (K, 4) lever arms r_a, r_b (m) as each manifold was found
     forces: np.ndarray | None = None  # (N, 3) F_ext when bodies have more than m g on them (below)
     threads: int = 1  # the cores the step may use (``World.threads``), for responders that split their work
+    part: np.ndarray | None = None  # (N,) each body's part of the solve order (``constraints.order.partition``)
 
     @property
     def F_ext(self) -> np.ndarray:

@@ -61,7 +61,7 @@ def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs
     M^-1, from which each manifold forms M^-1 J^T as it applies an impulse
     (``pair_row_impulse_of``: the products the rows' JM holds, not read); springs: the soft
     push against a dynamic and a static partner (``soft_constants``). The same updates run
-    colour by colour on several threads in ``pipeline.parallel.soft_sweep_in_runs``.
+    part by part on several threads in ``pipeline.parallel.soft_sweep_in_groups``.
 
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """

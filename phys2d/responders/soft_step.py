@@ -45,12 +45,12 @@ from ..constraints.joints import JointArrays
 from ..constraints.rows import unsigned_rows
 from ..pipeline import records
 from ..pipeline.parallel import (
+    groups_for,
     integrate_positions_on,
     note_approach_on,
-    runs_for,
     separations_on,
-    soft_sweep_in_runs,
-    warm_start_in_runs,
+    soft_sweep_in_groups,
+    warm_start_in_groups,
 )
 from ..validation import Setting, check_bool, check_int, non_negative_float
 from .base import Responder, SolveResult, StepContext
@@ -85,12 +85,12 @@ class SoftSettings(NamedTuple):
 
 
 @njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, contacts, V, h, use_bias, springs, joints, system, threads, runs):
+def solve(rows, contacts, V, h, use_bias, springs, joints, system, threads, groups):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). contacts: (manifolds, inv_A_kk, points, M_inv),
     what ``soft_sweep`` reads besides the rows; springs: (contacts with a dynamic partner, with
     a static one, joints) (``soft_constants``); on one thread (threads None) the contacts'
-    ``soft_sweep``, else its runs on several (``pipeline.parallel``, runs: ``runs_for``).
+    ``soft_sweep``, else its groups on several (``pipeline.parallel``, groups: ``groups_for``).
     Returns the largest velocity correction (m/s)."""
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
@@ -101,7 +101,7 @@ def solve(rows, contacts, V, h, use_bias, springs, joints, system, threads, runs
         n = manifolds[0].shape[0] - 1
         worst = max(worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
         return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
-    return max(worst, soft_sweep_in_runs(runs, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
+    return max(worst, soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
 
 
 @njit(cache=True)
@@ -121,8 +121,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     sub-step out). Joint rows are rebuilt at each sub-step's positions. Returns the number of
     sub-steps; residuals[s] (length ``substeps``, the caller's buffer) is the largest correction
     of sub-step s's relax sweep (m/s), 0 without one. threads: None on one thread (no parallel
-    code is compiled), else the contacts' sweeps run on several (``pipeline.parallel``), with the
-    same results.
+    code is compiled), else (count, each body's part of the solve order, ``constraints.order``):
+    the contacts' sweeps run on several (``pipeline.parallel``), with the same results.
     """
     x, theta, V = bodies.x, bodies.theta, bodies.V
     substeps, relax, threshold = settings.substeps, settings.relax, settings.restitution_threshold
@@ -143,7 +143,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
     manifolds = prepare_manifolds(rows, bodies.M_inv, settings.block)
-    runs = runs_for(threads, manifolds[0], rows, bodies.M_inv)  # None on one thread
+    groups = groups_for(threads, manifolds[0], rows, bodies.M_inv)  # None on one thread
     inv_A_kk = inverse_diagonal(rows.A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
@@ -170,8 +170,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                     warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, bodies.M_inv, V)
                     warm_start_joints(rows, V)
                 else:
-                    warm_start_in_runs(runs, manifolds, rows, bodies.M_inv, V)
-            worst = solve(rows, contacts, V, h, with_bias, springs, joints, system, threads, runs)
+                    warm_start_in_groups(groups, manifolds, rows, bodies.M_inv, V)
+            worst = solve(rows, contacts, V, h, with_bias, springs, joints, system, threads, groups)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
             if with_bias:
@@ -264,7 +264,9 @@ class SoftStep(Responder):
         if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
             joints = records.record_of_joints(ctx.joints, rows.lam[rows.first_joint_row :])  # (lam: not read)
         residuals = np.zeros(self.substeps)
-        threads = ctx.threads if ctx.threads > 1 else None  # one thread: no parallel code compiled
+        threads = None  # one thread: no parallel code compiled
+        if ctx.threads > 1:  # (without the parts every manifold is in part 0: solved on one thread)
+            threads = (ctx.threads, ctx.part if ctx.part is not None else np.zeros(ctx.x.shape[0], np.int32))
         settings = self.settings
         n = soft_step_solve(bodies, records.record_of_rows(rows), found, joints, ctx.dt, settings, residuals, threads)
         return SolveResult(n, residuals[:n], integrated=True)
