@@ -11,7 +11,7 @@ three worlds start equal and take the same steps (the script checks they end bit
   one compiled call (``pipeline.tick.tick``);
 - **staged**: ``one_call_tick = False``: ``Pipeline._in_stages`` calls the stages one by one from Python;
 - **timed staged**: staged, with the names ``Pipeline._in_stages`` looks up in ``phys2d.pipeline.step``
-  (``begin``, ``collide_recycling``, ``contact_rows``, ...), the ``Pipeline`` methods it calls (``_sweep``,
+  (``begin``, ``collide_recycling_on``, ``contact_rows``, ...), the ``Pipeline`` methods it calls (``_sweep``,
   ``_make_room``, ``_context``, ``_commit``, ...) and the responder class's ``respond`` replaced by timing
   wrappers while it steps. A call inside a timed call (``state`` inside ``_sweep``) counts in the outer
   one. Each stage: its calls' time less the timer's own (a timed empty call); the step: its time less
@@ -64,7 +64,7 @@ RESPONDERS: dict[str, Callable[[], phys2d.Responder]] = {"PGS": phys2d.PGS, "Sof
 # the stages in the order Pipeline._in_stages calls them: (owner, name); "respond" is the responder's
 STAGES: list[tuple[Any, str]] = [
     (Pipeline, "_room"), (Pipeline, "state"), (step_module, "begin"), (Pipeline, "_sweep"),
-    (Pipeline, "_make_room"), (Pipeline, "_colour"), (step_module, "collide_recycling"),
+    (Pipeline, "_make_room"), (Pipeline, "_colour"), (step_module, "collide_recycling_on"),
     (step_module, "order_contacts"), (step_module, "head_of_rows"), (step_module, "contact_rows"),
     (step_module, "start_joint_rows"), (Pipeline, "_context"), (None, "respond"),
     (step_module, "bounce_after_moving"), (step_module, "first_too_fast"),

@@ -51,7 +51,7 @@ a corner onto the next segment, which the points it had do not hold).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..shapes import CIRCLE, POLYGON
 from .narrowphase import FLIP_BIT, manifold, manifold_point, pair_friction, pair_key, write_point
@@ -292,6 +292,112 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
         n_new += 1
     pair_start[n_pairs] = k
     return k, n_new, n_recycled, rows_used, points_used, ascends
+
+
+@njit(cache=True)
+def collide_recycling_on(threads, bodies, shapes, store, cached, out, counts, margins, rounded):
+    """``collide_recycling`` on one thread (threads None: numba drops the parallel branch, and
+    compiles no parallel kernel), else on ``threads`` (``collide_recycling_in_slices``), with
+    the same results."""
+    if threads is None:
+        return collide_recycling(bodies, shapes, store, cached, out, counts, margins, rounded)
+    return collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, counts, margins, rounded)
+
+
+@njit(cache=True, parallel=True)
+def collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, counts, margins, rounded):
+    """``collide_recycling`` on ``threads`` threads, with the same results: the same outcomes
+    written in the same places. Three passes:
+
+    1. per pair, a slice per thread: recycle (``may_recycle``, every point within the margin)
+       or collide anew (``manifold``, kept in a scratch row), and its point count;
+    2. on one thread, in pair order: where each pair's points go (pair_start), the store's rows
+       and points for the new manifolds, the manifolds' keys;
+    3. per pair, a slice per thread: the points written there (``recycle_manifold``,
+       ``store_manifold``).
+    """
+    n_pairs, n_cached, rows_used, points_used = counts
+    contact_margin, recycle_distance, dt = margins
+    x, rotation, travel, pairs, uid = bodies.x, shapes.rotation, shapes.travel, shapes.pairs, shapes.uid
+    cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
+    extent = body_extents(shapes) if recycle_distance > 0.0 else np.zeros(0)
+    row_of = np.full(n_pairs, -1, np.int64)  # 1: the store row of a recycled manifold, -1: collided anew
+    count = np.zeros(n_pairs, np.int64)  # its points
+    found = np.empty((n_pairs, 11))  # 1: a new manifold (``manifold``: count, normal, 2 points)
+    for t in prange(threads):
+        for q in range(n_pairs * t // threads, n_pairs * (t + 1) // threads):
+            a, b = pairs[q, 0], pairs[q, 1]
+            margin = contact_margin + travel[a] + travel[b]
+            polygons = shapes.kind[a] == POLYGON and shapes.kind[b] == POLYGON
+            if recycle_distance > 0.0 and polygons and n_cached > 0:
+                if pair_travel(a, b, bodies, extent, travel, dt) <= contact_margin:
+                    key = pair_key(uid, a, b)
+                    slot = lower_bound(cached_key, key)  # (where ``next_slot`` walks to)
+                    if slot < n_cached and cached_key[slot] == key:
+                        row = cached_row[slot]
+                        turned = turn_since_cached(row, a, b, rotation, store.found_rotation)
+                        if may_recycle(row, a, b, x, rotation, extent, store.found_pose, turned, recycle_distance):
+                            if points_within(store, row, a, b, x, turned, margin):
+                                row_of[q] = row
+                                count[q] = store.span[row, 1] - store.span[row, 0]
+                                continue
+            n, nx, ny, p1x, p1y, s1, f1, p2x, p2y, s2, f2 = manifold(a, b, x, shapes, margin, rounded)
+            found[q, 0], found[q, 1], found[q, 2], found[q, 3], found[q, 4] = n, nx, ny, p1x, p1y
+            found[q, 5], found[q, 6], found[q, 7], found[q, 8], found[q, 9], found[q, 10] = s1, f1, p2x, p2y, s2, f2
+            count[q] = n
+    # 2: in pair order, where everything goes
+    pair_start, new_key, new_row = out.pair_start, out.manifold_key, out.manifold_row
+    point_of = np.empty(n_pairs, np.int64)  # a new manifold's first point in the store
+    k = n_new = n_recycled = 0
+    ascends = True
+    for q in range(n_pairs):
+        pair_start[q] = k
+        if count[q] == 0:
+            continue
+        key = pair_key(uid, pairs[q, 0], pairs[q, 1])
+        if row_of[q] >= 0:
+            n_recycled += 1
+            row = row_of[q]
+        else:
+            row = rows_used
+            row_of[q] = -2 - rows_used  # (a new row: -2 - row, told from a recycled one)
+            point_of[q] = points_used
+            rows_used += 1
+            points_used += count[q]
+        k += count[q]
+        if n_new > 0 and key <= new_key[n_new - 1]:
+            ascends = False
+        new_key[n_new] = key
+        new_row[n_new] = row
+        n_new += 1
+    pair_start[n_pairs] = k
+    # 3: the points, where they go
+    friction, restitution = shapes.friction, shapes.restitution
+    for t in prange(threads):
+        for q in range(n_pairs * t // threads, n_pairs * (t + 1) // threads):
+            if count[q] == 0:
+                continue
+            a, b = pairs[q, 0], pairs[q, 1]
+            pair = (a, b, pair_key(uid, a, b), *pair_friction(friction, restitution, a, b))
+            if row_of[q] >= 0:
+                turned = turn_since_cached(row_of[q], a, b, rotation, store.found_rotation)
+                margin = contact_margin + travel[a] + travel[b]
+                recycle_manifold(store, row_of[q], out, pair_start[q], pair, x, turned, margin)
+            else:
+                f = found[q]
+                m = (np.int64(f[0]), f[1], f[2], f[3], f[4], f[5], np.int64(f[6]), f[7], f[8], f[9], np.int64(f[10]))
+                store_manifold(store, -2 - row_of[q], point_of[q], out, pair_start[q], m, pair, x, rotation)
+    return k, n_new, n_recycled, rows_used, points_used, ascends
+
+
+@njit(cache=True)
+def points_within(store, row, a, b, x, turn, margin):
+    """Whether every point of cached manifold ``row``, moved with its bodies (``recycled_point``),
+    lies within ``margin`` (m) of its partner: else ``recycle_manifold`` gives up on it."""
+    for point in range(store.span[row, 0], store.span[row, 1]):
+        if recycled_point(point, a, b, x, turn, store)[2] > margin:
+            return False
+    return True
 
 
 @njit(cache=True, inline="always")

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from ..collision.recycle import ManifoldStore, collide_recycling
+from ..collision.recycle import ManifoldStore, collide_recycling_on
 from ..constraints.joints import start_joint_rows
 from ..constraints.order import colour_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
@@ -553,14 +553,16 @@ class Pipeline:
         margins = (step.contact_margin, step.recycle_distance, step.dt)
         old_record, new_record = self.side_records[self.side], self.side_records[1 - self.side]
         records_in = (self.bodies_record, self.shapes_record, self.store_record, old_record, new_record)
-        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(*records_in, now, margins, self.rounded)
+        threads = world._threads if world._threads > 1 else None
+        k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
+            threads, *records_in, now, margins, self.rounded
+        )
         order_contacts(self.shapes_record, new_record, self.n_pairs, (k, n_new, ascends), colour_order)
         # contacts and cache -> constraint rows
         n = 2 * k + world._joint_lam.shape[0]
         rows = head_of_rows(self.rows_record, k, n)
         kc = self.cached
         cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
-        threads = world._threads if world._threads > 1 else None
         deepest, hits = contact_rows(self.bodies_record, self.shapes_record, cache, new_record, rows, settings, threads)
         if joints is not None:
             start_joint_rows(joints, 2 * k, self.bodies_record, step.dt, settings.beta, settings.warm_start, rows)

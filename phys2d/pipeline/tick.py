@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..collision.recycle import collide_recycling, has_room
+from ..collision.recycle import collide_recycling_on, has_room
 from ..constraints.joints import start_joint_rows
 from ..constraints.rows import contact_rows
 from ..contacts import impulses_to_contacts_and_cache
@@ -28,8 +28,8 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     (the other is None: numba compiles only the one given). ``rounded`` is True in a world with
     capsules, segments or chains, else None: the collision of those shapes is then not compiled
     either (``narrowphase.manifold``). threads: None on one thread (no parallel code is
-    compiled), else the count of threads the contact rows and the soft step's sweeps are built
-    and solved on (``contact_rows``, ``pipeline.parallel``).
+    compiled), else the count of threads the pairs are collided, the contact rows built and the
+    soft step's sweeps solved on (``collide_recycling_on``, ``contact_rows``, ``pipeline.parallel``).
 
     Stage 0 starts the tick (``begin``); when a body left its fat box it sweeps (``sweep``), or
     returns NEED_SWEEP when the bodies or joints changed or the pairs outgrow the buffers (Python
@@ -52,8 +52,9 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     # collision -> contacts: manifolds recycled or found, into the side the last step did not write
     old, new = s.sides[counts.side], s.sides[1 - counts.side]
     now = (n_pairs, counts.manifolds, counts.rows_used, counts.points_used)
-    k, n_new, recycled, rows_used, points_used, ascends = collide_recycling(
-        s.bodies, s.shapes, store, old, new, now, (step.contact_margin, step.recycle_distance, step.dt), rounded
+    k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
+        threads, s.bodies, s.shapes, store, old, new, now, (step.contact_margin, step.recycle_distance, step.dt),
+        rounded,
     )
     order_contacts(s.shapes, new, n_pairs, (k, n_new, ascends), counts.colour_order)
     # contacts and cache -> constraint rows
