@@ -256,6 +256,7 @@ class World:
     @threads.setter
     def threads(self, value: int) -> None:
         self._threads = check_int(value, "threads", 1)
+        self._settings_changed()  # the step reads its count with its settings
 
     def _settings_changed(self) -> None:
         """The next step reads the world's settings and joints anew."""

@@ -136,12 +136,14 @@ def test_threads_give_the_same_bits_while_islands_sleep_and_wake() -> None:
 
 
 def test_threads_can_change_between_steps() -> None:
-    """Switching threads between steps (and back) changes no bit."""
+    """Switching threads between steps (and back) changes no bit, and each step runs on the count
+    set before it (the count the step read: None for one thread)."""
     one, many = stock.pyramid(6, responder=phys2d.SoftStep()), stock.pyramid(6, responder=phys2d.SoftStep())
     for i in range(30):
         many.threads = 1 + i % 3
         one.step(1 / 60)
         many.step(1 / 60)
+        assert many._pipeline._ready.threads == (None if i % 3 == 0 else 1 + i % 3)
     assert fingerprint(many) == fingerprint(one)
 
 

@@ -17,7 +17,7 @@ tick to tick for as long as every body's tight box stays inside its fat box
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..shapes import CIRCLE
 from .sort import lower_bound, stable_argsort
@@ -36,6 +36,13 @@ def update_geometry(bodies, shapes, dt, margin):
     it could reach this step (speculative contacts). rotation[b] = (cos theta_b, sin theta_b):
     computed once here, and the contact recycling uses them too.
     """
+    geometry_of(0, bodies.x.shape[0], bodies, shapes, dt, margin)
+    return fits_inside(shapes.aabb, shapes.fat)
+
+
+@njit(cache=True)
+def geometry_of(first, last, bodies, shapes, dt, margin):
+    """``update_geometry`` of bodies first up to last: each writes only its own entries."""
     x, theta, V = bodies.x, bodies.theta, bodies.V
     vstart, vcount, local_v, local_n = shapes.vstart, shapes.vcount, shapes.local_v, shapes.local_n
     world_v, world_n, aabb, travel, rotation = (
@@ -45,7 +52,7 @@ def update_geometry(bodies, shapes, dt, margin):
         shapes.travel,
         shapes.rotation,
     )
-    for b in range(x.shape[0]):
+    for b in range(first, last):
         px, py = x[b, 0], x[b, 1]
         c, s = np.cos(theta[b]), np.sin(theta[b])
         rotation[b, 0] = c
@@ -81,7 +88,24 @@ def update_geometry(bodies, shapes, dt, margin):
         aabb[b, 1] = lo_y - grow
         aabb[b, 2] = hi_x + grow
         aabb[b, 3] = hi_y + grow
-    return fits_inside(aabb, shapes.fat)
+
+
+@njit(cache=True, parallel=True)
+def update_geometry_in_slices(threads, bodies, shapes, dt, margin):
+    """``update_geometry`` a slice of the bodies per thread, with the same results."""
+    n = bodies.x.shape[0]
+    for t in prange(threads):
+        geometry_of(n * t // threads, n * (t + 1) // threads, bodies, shapes, dt, margin)
+    return fits_inside(shapes.aabb, shapes.fat)
+
+
+@njit(cache=True)
+def update_geometry_on(threads, bodies, shapes, dt, margin):
+    """``update_geometry`` on one thread (threads None: no parallel code is compiled), else on
+    ``threads``."""
+    if threads is None:
+        return update_geometry(bodies, shapes, dt, margin)
+    return update_geometry_in_slices(threads, bodies, shapes, dt, margin)
 
 
 FAT_MARGIN = 0.1  # m: broadphase boxes are grown by this, so pairs outlive small motions

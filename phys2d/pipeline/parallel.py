@@ -25,10 +25,11 @@ group: each writes back the velocity it read, plus 0 times its impulse, the same
 whichever writes last. A sweep waits for its threads once per group, twice with the
 friction rows: with two parts, four times, however many colours there are.
 
-The sub-step's passes over points and bodies (the separations, the noted approaches, the
-positions' integration) have no order to keep: each point or body writes only its own
-entries. ``separations_on``, ``note_approach_on`` and ``integrate_positions_on`` run them in
-one call on one thread, else a slice per thread.
+The tick's and the sub-step's passes over manifolds, points and bodies (the manifolds'
+constants, the points' gather, the separations, the noted approaches, the positions'
+integration, the store of the impulses) have no order to keep: each manifold, point or body
+writes only its own entries. The ``*_on`` functions run them in one call on one thread, else
+a slice per thread.
 
 Numba runs the inner loops (``prange``) on ``World.threads`` threads. The kernels here are
 compiled with ``parallel=True``, only for a world whose threads > 1 (``groups_for`` returns
@@ -46,9 +47,25 @@ import numpy as np
 from numba import config, njit, prange
 
 from ..constraints.order import PART_DEPTH, set_of
-from ..responders.soft_contacts import soft_friction_rows, soft_normal_rows, warm_start_joints, warm_start_manifolds
+from ..responders.soft_contacts import (
+    manifold_constants,
+    new_manifolds,
+    prepare_manifolds,
+    soft_friction_rows,
+    soft_normal_rows,
+    warm_start_joints,
+    warm_start_manifolds,
+)
 from ..responders.soft_integrate import integrate_positions
-from ..responders.soft_points import note_approach, separations
+from ..responders.soft_points import (
+    gather_contacts_of,
+    note_approach,
+    points_of,
+    prepare_points,
+    separations,
+    store,
+    store_of,
+)
 
 
 @njit(cache=True)
@@ -150,6 +167,59 @@ def warm_start_in_groups(groups, manifolds, rows, M_inv, V):
 
 
 @njit(cache=True)
+def prepare_manifolds_on(threads, rows, M_inv, block):
+    """``soft_contacts.prepare_manifolds``: the manifolds' starts on one thread, their constants
+    (``manifold_constants``) a slice per thread."""
+    if threads is None:
+        return prepare_manifolds(rows, M_inv, block)
+    manifolds = new_manifolds(rows)
+    manifold_constants_in_slices(threads[0], manifolds, rows, M_inv, block)
+    return manifolds
+
+
+@njit(cache=True, parallel=True)
+def manifold_constants_in_slices(n_slices, manifolds, rows, M_inv, block):
+    n = manifolds[0].shape[0] - 1
+    for t in prange(n_slices):
+        manifold_constants(n * t // n_slices, n * (t + 1) // n_slices, manifolds, rows, M_inv, block)
+
+
+@njit(cache=True)
+def prepare_points_on(threads, found, n_contacts):
+    """``soft_points.prepare_points``, the contacts gathered a slice per thread."""
+    if threads is None:
+        return prepare_points(found, n_contacts)
+    gathered = (np.empty(n_contacts), np.empty(n_contacts), np.empty((n_contacts, 4)))
+    gather_contacts_in_slices(threads[0], found, gathered)
+    return points_of(*gathered)
+
+
+@njit(cache=True, parallel=True)
+def gather_contacts_in_slices(n_slices, found, gathered):
+    n = gathered[0].shape[0]
+    for t in prange(n_slices):
+        gather_contacts_of(n * t // n_slices, n * (t + 1) // n_slices, found, gathered)
+
+
+@njit(cache=True)
+def store_on(threads, rows, total, points):
+    """``soft_points.store``, the contacts' rows a slice per thread, then the joints'."""
+    if threads is None:
+        store(rows, total, points)
+    else:
+        store_in_slices(threads[0], rows, total, points)
+        for k in range(2 * rows.normal_row.shape[0], rows.lam.shape[0]):  # the joint rows
+            total[k] += rows.lam[k]
+
+
+@njit(cache=True, parallel=True)
+def store_in_slices(n_slices, rows, total, points):
+    n = rows.normal_row.shape[0]
+    for t in prange(n_slices):
+        store_of(n * t // n_slices, n * (t + 1) // n_slices, rows, total, points)
+
+
+@njit(cache=True)
 def separations_on(threads, rows, points, moved):
     """``soft_points.separations`` of every point."""
     n = rows.normal_row.shape[0]
@@ -217,9 +287,12 @@ __all__ = [
     "integrate_positions_on",
     "manifold_groups",
     "note_approach_on",
+    "prepare_manifolds_on",
+    "prepare_points_on",
     "groups_for",
     "separations_on",
     "soft_sweep_in_groups",
+    "store_on",
     "using_threads",
     "warm_start_in_groups",
 ]

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..collision.broadphase import find_pairs, update_geometry
+from ..collision.broadphase import find_pairs, update_geometry_on
 from ..collision.sort import stable_argsort
 from ..constraints.order import colour_pairs, solve_order
 from ..integrate import apply_external_forces
@@ -71,16 +71,16 @@ def head_of_rows(rows, k, n):
 
 
 @njit(cache=True)
-def begin(s, gravity, dt, margin):
+def begin(s, gravity, dt, margin, threads):
     """Keep x and theta to undo (and V as V1, the velocity the tick began with), add the
-    external forces to V, and update the geometry; returns whether last step's pairs still
-    hold (every tight box inside its fat box)."""
+    external forces to V, and update the geometry (on ``threads``, or one thread when None);
+    returns whether last step's pairs still hold (every tight box inside its fat box)."""
     b = s.bodies
     for i in range(b.x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
         s.undo_x[i, 0], s.undo_x[i, 1], s.undo_theta[i] = b.x[i, 0], b.x[i, 1], b.theta[i]
         b.V1[i, 0], b.V1[i, 1], b.V1[i, 2] = b.V[i, 0], b.V[i, 1], b.V[i, 2]
     apply_external_forces(b.V, b.M_inv, s.forces, gravity, dt)
-    return update_geometry(b, s.shapes, dt, margin)
+    return update_geometry_on(threads, b, s.shapes, dt, margin)
 
 
 @njit(cache=True)

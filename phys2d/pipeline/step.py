@@ -533,12 +533,12 @@ class Pipeline:
     def _in_stages(self, world: World, responder: Responder, ready: StepInputs) -> tuple:
         """The stages one call each, as ``stages.tick`` calls them, with the responder's ``respond``
         in the place of its solve."""
-        _, _, step, settings, joints, _, joint_lam = ready
+        _, _, step, settings, joints, threads, joint_lam = ready
         colour_order = bool(responder.colour_order)
         self._room(joint_lam.shape[0], 0)
         s = self.state(world)
         self.began = True
-        fits = begin(s, step.gravity, step.dt, step.contact_margin)
+        fits = begin(s, step.gravity, step.dt, step.contact_margin, threads)
         if self.sweep_again or not fits:  # something left its fat box: sweep again
             self._sweep(world)
             self._room(joint_lam.shape[0], 0)
@@ -553,7 +553,6 @@ class Pipeline:
         margins = (step.contact_margin, step.recycle_distance, step.dt)
         old_record, new_record = self.side_records[self.side], self.side_records[1 - self.side]
         records_in = (self.bodies_record, self.shapes_record, self.store_record, old_record, new_record)
-        threads = world._threads if world._threads > 1 else None
         k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
             threads, *records_in, now, margins, self.rounded
         )

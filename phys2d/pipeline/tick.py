@@ -41,7 +41,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     """
     n_pairs, swept = counts.n_pairs, -1
     if stage == 0:
-        fits = begin(s, step.gravity, step.dt, step.contact_margin)
+        fits = begin(s, step.gravity, step.dt, step.contact_margin, threads)
         if not fits and not counts.sweep_again:
             swept = n_pairs = sweep(s.shapes, s.bodies.x, counts.colour_order)
         if counts.sweep_again or n_pairs < 0 or n_pairs > s.shapes.pair_order.shape[0]:

@@ -169,7 +169,16 @@ def prepare_manifolds(rows, M_inv, block):
         as_block     (M,)      ``block`` and its 2x2 K is well conditioned: solve them together
         inv_det      (M,)      1 / det K of a block (``lcp2``), 0 elsewhere
     """
-    normal_row, body_a, body_b, J, JM, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk
+    manifolds = new_manifolds(rows)
+    manifold_constants(0, manifolds[0].shape[0] - 1, manifolds, rows, M_inv, block)
+    return manifolds
+
+
+@njit(cache=True)
+def new_manifolds(rows):
+    """``prepare_manifolds``' arrays: start (the contacts grouped by pair, in solve order), the
+    rest to fill in (``manifold_constants``)."""
+    normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
     n_contacts = normal_row.shape[0]
     start = np.empty(n_contacts + 1, np.uint32)
     n = 0
@@ -182,11 +191,15 @@ def prepare_manifolds(rows, M_inv, block):
         c += 2 if pair else 1
     start[n] = n_contacts
     start = start[: n + 1].copy()
-    static_pair = np.empty(n, np.bool_)
-    K12 = np.zeros(n)
-    as_block = np.zeros(n, np.bool_)
-    inv_det = np.zeros(n)
-    for m in range(n):
+    return start, np.empty(n, np.bool_), np.zeros(n), np.zeros(n, np.bool_), np.zeros(n)
+
+
+@njit(cache=True)
+def manifold_constants(first, last, manifolds, rows, M_inv, block):
+    """``prepare_manifolds`` of manifolds first up to last: each writes only its own entries."""
+    normal_row, body_a, body_b, J, JM, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk
+    start, static_pair, K12, as_block, inv_det = manifolds
+    for m in range(first, last):
         k = normal_row[start[m]]
         a, b = body_a[k], body_b[k]
         static_pair[m] = M_inv[a, 0] == 0.0 or M_inv[b, 0] == 0.0
@@ -199,7 +212,6 @@ def prepare_manifolds(rows, M_inv, block):
             as_block[m] = block_is_well_conditioned(A_kk[k], K, A_kk[k2])
             if as_block[m]:
                 inv_det[m] = 1.0 / (A_kk[k] * A_kk[k2] - K * K)
-    return start, static_pair, K12, as_block, inv_det
 
 
 @njit(cache=True)

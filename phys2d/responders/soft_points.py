@@ -120,13 +120,22 @@ def gather_contacts(order, separation, restitution, anchor):
     the normal is read from the contact's normal row (J_k = [-n, . | n, .])."""
     n = order.shape[0]
     C0, e, r = np.empty(n), np.empty(n), np.empty((n, 4))
-    for q in range(n):
+    gather_contacts_of(0, n, (order, separation, restitution, anchor), (C0, e, r))
+    return C0, e, r
+
+
+@njit(cache=True)
+def gather_contacts_of(first, last, found, gathered):
+    """``gather_contacts`` of row pairs first up to last: found = (order, separation, e, anchor)
+    into gathered = (C0, e, r)."""
+    order, separation, restitution, anchor = found
+    C0, e, r = gathered
+    for q in range(first, last):
         c = order[q]
         C0[q] = separation[c]
         e[q] = restitution[c]
         for i in range(4):
             r[q, i] = anchor[c, i]
-    return C0, e, r
 
 
 @njit(cache=True)
@@ -134,6 +143,13 @@ def prepare_points(found, n_contacts):
     """The tick's ``Points`` of the step's contacts: C0, e and r gathered into row order
     (``gather_contacts`` of found = (order, separation, e, anchor)), the rest to fill in."""
     C0, e, r = gather_contacts(found[0], found[1], found[2], found[3])
+    return points_of(C0, e, r)
+
+
+@njit(cache=True)
+def points_of(C0, e, r):
+    """``Points`` over the gathered C0, e and r, the rest to fill in."""
+    n_contacts = C0.shape[0]
     return Points(
         C0, e, r, np.zeros(n_contacts), np.zeros(n_contacts), np.zeros(n_contacts),
         np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.zeros(n_contacts),
@@ -144,14 +160,25 @@ def prepare_points(found, n_contacts):
 @njit(cache=True)
 def store(rows, total, points):
     """Add the sub-step's impulses to the tick's; an impact is an event, not a load: it is
-    not warm started into the next sub-step."""
-    normal_row, friction_row, lam, landed = rows.normal_row, rows.friction_row, rows.lam, points.landed
-    for k in range(lam.shape[0]):
+    not warm started into the next sub-step. The contacts' rows (``store_of``), then the joints'."""
+    lam = rows.lam
+    store_of(0, rows.normal_row.shape[0], rows, total, points)
+    for k in range(2 * rows.normal_row.shape[0], lam.shape[0]):  # the joint rows follow the contacts' 2K
         total[k] += lam[k]
-    for c in range(normal_row.shape[0]):
+
+
+@njit(cache=True)
+def store_of(first, last, rows, total, points):
+    """``store`` of contacts first up to last: each adds its two rows' impulses to the tick's, and
+    one that landed in this sub-step starts the next from 0."""
+    normal_row, friction_row, lam, landed = rows.normal_row, rows.friction_row, rows.lam, points.landed
+    for c in range(first, last):
+        kn, kt = normal_row[c], friction_row[c]
+        total[kn] += lam[kn]
+        total[kt] += lam[kt]
         if landed[c]:
-            lam[normal_row[c]] = 0.0
-            lam[friction_row[c]] = 0.0
+            lam[kn] = 0.0
+            lam[kt] = 0.0
             landed[c] = False
 
 

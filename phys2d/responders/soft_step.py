@@ -48,8 +48,11 @@ from ..pipeline.parallel import (
     groups_for,
     integrate_positions_on,
     note_approach_on,
+    prepare_manifolds_on,
+    prepare_points_on,
     separations_on,
     soft_sweep_in_groups,
+    store_on,
     warm_start_in_groups,
 )
 from ..validation import Setting, check_bool, check_int, non_negative_float
@@ -57,7 +60,6 @@ from .base import Responder, SolveResult, StepContext
 from .block import inverse_diagonal
 from .mouse import solve_mice
 from .soft_contacts import (
-    prepare_manifolds,
     soft_constants,
     soft_friction_rows,
     soft_normal_rows,
@@ -66,7 +68,7 @@ from .soft_contacts import (
 )
 from .soft_integrate import integrate_velocities, split_forces
 from .soft_joints import first_joint_row_of, joint_system, prepare_joints, solve_joints
-from .soft_points import note_impacts, prepare_points, restitution, store
+from .soft_points import note_impacts, restitution
 
 
 class SoftSettings(NamedTuple):
@@ -142,14 +144,14 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     for k in range(n_rows):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
-    manifolds = prepare_manifolds(rows, bodies.M_inv, settings.block)
+    manifolds = prepare_manifolds_on(threads, rows, bodies.M_inv, settings.block)
     groups = groups_for(threads, manifolds[0], rows, bodies.M_inv)  # None on one thread
     inv_A_kk = inverse_diagonal(rows.A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
     moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     moved[:, 2] = 1.0
-    points = prepare_points(found, n_contacts)
+    points = prepare_points_on(threads, found, n_contacts)
     system = joint_system(joints, rows, settings.direct_joints)
     dv = split_forces(bodies, substeps)
     contacts = (manifolds, inv_A_kk, points, bodies.M_inv)  # what the contacts' sweeps read besides the rows
@@ -178,7 +180,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                 integrate_positions_on(threads, bodies, h, x0, theta0, moved)
             residuals[n_sweeps] = 0.0 if with_bias else worst  # the relax sweep's, when there is one
         n_sweeps += 1
-        store(rows, total, points)
+        store_on(threads, rows, total, points)
     restitution(rows, points, threshold, total, V)
     for k in range(n_rows):
         lam[k] = total[k]
