@@ -52,9 +52,9 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     # collision -> contacts: manifolds recycled or found, into the side the last step did not write
     old, new = s.sides[counts.side], s.sides[1 - counts.side]
     now = (n_pairs, counts.manifolds, counts.rows_used, counts.points_used)
+    margins = (step.contact_margin, step.recycle_distance, step.dt)
     k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
-        threads, s.bodies, s.shapes, store, old, new, now, (step.contact_margin, step.recycle_distance, step.dt),
-        rounded,
+        threads, s.bodies, s.shapes, store, old, new, now, margins, rounded
     )
     order_contacts(s.shapes, new, n_pairs, (k, n_new, ascends), counts.colour_order)
     # contacts and cache -> constraint rows
