@@ -9,6 +9,7 @@
 Engines:
 
 - ``phys2d-pgs``: ``phys2d.PGS()`` (10 sweeps, warm started), ``phys2d-soft4``: ``phys2d.SoftStep(4)``;
+  ``phys2d-soft4-2t`` (asked for by ``--engines``): ``SoftStep(4)`` on 2 threads (``World.threads``);
 - ``pymunk``: the same world, translated body by body (``pymunk_space``): iterations 10, sleeping
   off, each shape's friction sqrt(mu) (Chipmunk multiplies, phys2d mixes sqrt(mu_a mu_b));
   scenes pymunk cannot express (rush's pull, per-body damping or gravity) are skipped;
@@ -53,7 +54,9 @@ sys.path.insert(0, str(BENCH_DIR))
 DT = 1.0 / 60.0
 PYRAMIDS = tuple(range(10, 101, 10))
 QUICK_PYRAMIDS = (10, 50, 100)
-PHYS2D_ENGINES = ("phys2d-pgs", "phys2d-soft4")
+PHYS2D_ENGINES = ("phys2d-pgs", "phys2d-soft4", "phys2d-soft4-2t")
+THREADS = {"phys2d-soft4-2t": 2}  # World.threads of an engine (1 when not named)
+PEER = {"phys2d-soft4-2t": "box2d-v3-2w"}  # what an engine's ratio is taken against (else box2d-v3-1w)
 V3_SCENES = {"large_pyramid": 0, "many_pyramids": 1}  # scale_create's scene argument
 V3_ENGINES = {"box2d-v3-1w": 1, "box2d-v3-2w": 2}
 V3_SUBSTEPS = 4
@@ -246,6 +249,7 @@ def measure(scene: str, engine: str, steps: int, warmup: int, v3_library: str | 
         base = resident_mb()
         t0 = time.perf_counter()
         w = build_phys2d(scene, make_responder(engine))
+        w.threads = THREADS.get(engine, 1)
         row["build_s"] = time.perf_counter() - t0
         step = lambda: w.step(DT)  # noqa: E731
         bodies = len(w)
@@ -372,11 +376,12 @@ def ratios(rounds: list[list[dict]], names: list[str]) -> str:
     by_round = [times(rows) for rows in rounds]
     for scene in (s for s in names if s in V3_SCENES):
         for engine in PHYS2D_ENGINES:
+            peer = PEER.get(engine, "box2d-v3-1w")
             add(
-                f"{scene}: {engine} / box2d-v3-1w",
+                f"{scene}: {engine} / {peer}",
                 [
-                    t[(scene, engine)]["us_per_step"] / t[(scene, "box2d-v3-1w")]["us_per_step"]
-                    if (scene, engine) in t and (scene, "box2d-v3-1w") in t
+                    t[(scene, engine)]["us_per_step"] / t[(scene, peer)]["us_per_step"]
+                    if (scene, engine) in t and (scene, peer) in t
                     else None
                     for t in by_round
                 ],
@@ -478,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
         library, v3_label = build_v3(args.box2d_v3, log=lambda m: print(m, file=sys.stderr))
         v3_library = str(library)
     names = scene_names(args.quick) if args.scenes is None else args.scenes.split(",")
-    engines = [*PHYS2D_ENGINES, "pymunk", *(V3_ENGINES if v3_library else ())]
+    engines = ["phys2d-pgs", "phys2d-soft4", "pymunk", *(V3_ENGINES if v3_library else ())]
     if args.engines is not None:
         engines = args.engines.split(",")
     rounds: list[list[dict]] = []
