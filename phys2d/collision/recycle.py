@@ -246,7 +246,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
     contact_margin, recycle_distance, dt = margins
     x, rotation, travel, pairs = bodies.x, shapes.rotation, shapes.travel, shapes.pairs
     cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
-    new_key, new_row, pair_start = out.manifold_key, out.manifold_row, out.pair_start
+    pair_start = out.pair_start
     kind, uid, friction, restitution = shapes.kind, shapes.uid, shapes.friction, shapes.restitution
     found_pose, found_rotation = store.found_pose, store.found_rotation
     k = np.int64(0)  # int64 from the start: a literal 0 would compile write_point twice
@@ -284,14 +284,20 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
                 continue
             k, points_used = store_manifold(store, row, points_used, out, k, m, pair, x, rotation)
             rows_used += 1
-        # a pair with points: cache its manifold
-        if n_new > 0 and key <= new_key[n_new - 1]:
-            ascends = False
-        new_key[n_new] = key
-        new_row[n_new] = row
-        n_new += 1
+        n_new, ascends = cache_manifold(out, n_new, key, row, ascends)  # a pair with points
     pair_start[n_pairs] = k
     return k, n_new, n_recycled, rows_used, points_used, ascends
+
+
+@njit(cache=True, inline="always")
+def cache_manifold(out, n_new, key, row, ascends):
+    """Cache the step's manifold n_new: its pair's key and its row of the store. Returns the next
+    n_new, and whether the keys still ascend."""
+    if n_new > 0 and key <= out.manifold_key[n_new - 1]:
+        ascends = False
+    out.manifold_key[n_new] = key
+    out.manifold_row[n_new] = row
+    return n_new + 1, ascends
 
 
 @njit(cache=True)
@@ -346,7 +352,7 @@ def collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, cou
             found[q, 5], found[q, 6], found[q, 7], found[q, 8], found[q, 9], found[q, 10] = s1, f1, p2x, p2y, s2, f2
             count[q] = n
     # 2: in pair order, where everything goes
-    pair_start, new_key, new_row = out.pair_start, out.manifold_key, out.manifold_row
+    pair_start = out.pair_start
     point_of = np.empty(n_pairs, np.int64)  # a new manifold's first point in the store
     k = n_new = n_recycled = 0
     ascends = True
@@ -365,11 +371,7 @@ def collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, cou
             rows_used += 1
             points_used += count[q]
         k += count[q]
-        if n_new > 0 and key <= new_key[n_new - 1]:
-            ascends = False
-        new_key[n_new] = key
-        new_row[n_new] = row
-        n_new += 1
+        n_new, ascends = cache_manifold(out, n_new, key, row, ascends)
     pair_start[n_pairs] = k
     # 3: the points, where they go
     friction, restitution = shapes.friction, shapes.restitution
