@@ -1,6 +1,7 @@
 """Threads: the soft step's sweeps on several cores, with the same results as on one.
 
-(The contact rows, each contact's its own, are built a slice per thread by
+(The geometry, the collide and the contact rows run a slice per thread in their own modules:
+``collision.broadphase.update_geometry_in_slices``, ``collision.recycle.collide_recycling_in_slices``,
 ``constraints.rows.contact_rows_in_slices``; this module holds what the soft step needs.)
 
 Gauss-Seidel visits its rows one after another: a row reads the velocities every row before
@@ -22,8 +23,9 @@ the same floating-point operations in the same order, so the result is bit-ident
 every number of threads. The residual is a maximum, which no order changes. A body that
 nothing moves (M^-1 = 0: static, kinematic or asleep) may sit in several segments of a
 group: each writes back the velocity it read, plus 0 times its impulse, the same value
-whichever writes last. A sweep waits for its threads once per group, twice with the
-friction rows: with two parts, four times, however many colours there are.
+whichever writes last. A sweep waits for its threads once per group of several segments,
+for the normal rows and again for the friction rows: with two parts, twice, however many
+colours there are (a group of one segment, the cut, runs on the calling thread).
 
 The tick's and the sub-step's passes over manifolds, points and bodies (the manifolds'
 constants, the points' gather, the separations, the noted approaches, the positions'
