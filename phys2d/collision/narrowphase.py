@@ -355,20 +355,39 @@ def pair_key(uid, a, b):
 @njit(cache=True, inline="always")
 def write_point(out, k, a, b, found, pair):
     """Contact point k of ``out`` (a ``ContactRecord``): found = (px, py, nx, ny, separation,
-    feature), pair = (key, mu, e) of bodies a and b."""
+    feature), pair = (key, mu, e) of bodies a and b (``write_point_to``)."""
+    write_point_to(point_arrays(out), k, a, b, found, pair)
+
+
+@njit(cache=True, inline="always")
+def point_arrays(out):
+    """The arrays of a ``ContactRecord`` a point is written into, as one tuple: (key, friction,
+    restitution, body_a, body_b, point, normal, separation, feature, anchor). A parallel loop
+    takes them once, before it starts: a record's field read within the loop counts a reference
+    on each read, which the threads would share."""
+    return (
+        out.key, out.friction, out.restitution, out.body_a, out.body_b, out.point, out.normal, out.separation,
+        out.feature, out.anchor,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def write_point_to(arrays, k, a, b, found, pair):
+    """``write_point`` into the arrays of ``point_arrays``."""
     px, py, nx, ny, separation, feature = found
     key, mu, e = pair
-    out.key[k] = key | feature
-    out.friction[k] = mu
-    out.restitution[k] = e
-    out.body_a[k] = a
-    out.body_b[k] = b
-    out.point[k, 0] = px
-    out.point[k, 1] = py
-    out.normal[k, 0] = nx
-    out.normal[k, 1] = ny
-    out.separation[k] = separation
-    out.feature[k] = feature
+    out_key, friction, restitution, body_a, body_b, point, normal, out_separation, out_feature, _ = arrays
+    out_key[k] = key | feature
+    friction[k] = mu
+    restitution[k] = e
+    body_a[k] = a
+    body_b[k] = b
+    point[k, 0] = px
+    point[k, 1] = py
+    normal[k, 0] = nx
+    normal[k, 1] = ny
+    out_separation[k] = separation
+    out_feature[k] = feature
 
 
 @njit(cache=True, inline="always")

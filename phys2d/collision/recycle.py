@@ -54,7 +54,16 @@ import numpy as np
 from numba import njit, prange
 
 from ..shapes import CIRCLE, POLYGON
-from .narrowphase import FLIP_BIT, manifold, manifold_point, pair_friction, pair_key, write_point
+from .narrowphase import (
+    FLIP_BIT,
+    manifold,
+    manifold_point,
+    pair_friction,
+    pair_key,
+    point_arrays,
+    write_point,
+    write_point_to,
+)
 from .sort import lower_bound
 
 RECYCLE_MAX_TURN = 0.98  # cos of the largest turn (about 11.5 degrees) of either body since caching
@@ -85,15 +94,16 @@ def body_extents(shapes):
 
 
 @njit(cache=True, inline="always")
-def pair_travel(a, b, bodies, extent, travel, dt):
+def pair_travel(a, b, motion, extent, travel, dt):
     """How far (m) the step may carry a point of body b towards body a, as recycling judges it.
 
     Two moving bodies whose masses lie within RECYCLE_MASS_RATIO of each other: by their
     relative motion, dt (|v_b - v_a| + |omega_a| extent_a + |omega_b| extent_b)
     (``body_extents``). Any other pair: each body's own travel, summed (``update_geometry``'s
     travel): a light body under a heavy one is collided anew while either moves fast (kept by
-    their relative motion, the light bodies of ``high_mass_ratio`` did not come to rest)."""
-    V, M_inv = bodies.V, bodies.M_inv
+    their relative motion, the light bodies of ``high_mass_ratio`` did not come to rest).
+    motion: the bodies' (V, M_inv)."""
+    V, M_inv = motion
     m_a, m_b = M_inv[a, 0], M_inv[b, 0]  # 1/m: 0 for a static or kinematic body
     if m_a > 0.0 and m_b > 0.0 and m_a < RECYCLE_MASS_RATIO * m_b and m_b < RECYCLE_MASS_RATIO * m_a:
         dvx, dvy = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1]
@@ -141,10 +151,11 @@ def may_recycle(row, a, b, x, rotation, extent, found_pose, turn, recycle_distan
 
 
 @njit(cache=True, inline="always")
-def recycled_point(point, a, b, x, turn, store):
+def recycled_point(point, a, b, x, turn, cached_points):
     """(px, py, separation) of the store's point now: its anchors turned with their bodies
-    (``turn``: ``turn_since_cached``)."""
-    anchor, normal, base_separation, feature = store.anchor, store.normal, store.separation, store.feature
+    (``turn``: ``turn_since_cached``). cached_points: the store's (anchor, normal, separation,
+    feature)."""
+    anchor, normal, base_separation, feature = cached_points
     ca, sa, cb, sb = turn
     r_ax = ca * anchor[point, 0] - sa * anchor[point, 1]
     r_ay = sa * anchor[point, 0] + ca * anchor[point, 1]
@@ -179,18 +190,32 @@ def recycle_manifold(store, row, out, k, pair, x, turn, margin):
     bodies (``recycled_point``), from point k on; returns the next k, or -1 if one of them lies
     beyond ``margin`` (m) of its partner: the narrowphase would drop it, so the pair is collided
     anew (over what was written). pair = (a, b, key, mu, e)."""
-    a, b, key, mu, e = pair
-    anchor, normal, out_anchor = store.anchor, store.normal, out.anchor
+    a, b = pair[0], pair[1]
+    found_as, into = (store.normal, store.feature, store.anchor), point_arrays(out)
+    cached_points = (store.anchor, store.normal, store.separation, store.feature)
     for point in range(store.span[row, 0], store.span[row, 1]):
-        px, py, sep = recycled_point(point, a, b, x, turn, store)
-        if sep > margin:
+        now = recycled_point(point, a, b, x, turn, cached_points)
+        if now[2] > margin:
             return -1
-        feature = np.int64(store.feature[point])  # as the narrowphase's: one write_point
-        write_point(out, k, a, b, (px, py, normal[point, 0], normal[point, 1], sep, feature), (key, mu, e))
-        for i in range(4):
-            out_anchor[k, i] = anchor[point, i]  # the lever arms it was found with, unturned
+        write_recycled_point(found_as, point, into, k, now, pair)
         k += 1
     return k
+
+
+@njit(cache=True, inline="always")
+def write_recycled_point(found_as, point, into, k, now, pair):
+    """The store's point into ``into`` (``point_arrays``) as point k, where it is now (now = (px,
+    py, separation), ``recycled_point``), with what it was found with, found_as = the store's
+    (normal, feature, anchor): its normal, feature id and lever arms, unturned. pair = (a, b,
+    key, mu, e)."""
+    a, b, key, mu, e = pair
+    px, py, sep = now
+    normal, feature_of, anchor = found_as
+    feature = np.int64(feature_of[point])  # as the narrowphase's: one write_point
+    write_point_to(into, k, a, b, (px, py, normal[point, 0], normal[point, 1], sep, feature), (key, mu, e))
+    out_anchor = into[9]
+    for i in range(4):
+        out_anchor[k, i] = anchor[point, i]
 
 
 @njit(cache=True)
@@ -255,6 +280,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
     ascends = True
     look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
     extent = body_extents(shapes) if recycle_distance > 0.0 else np.zeros(0)
+    motion = (bodies.V, bodies.M_inv)  # (read once: a record's field read in a loop counts a reference)
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
@@ -263,7 +289,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
         slot = -1
         polygons = kind[a] == POLYGON and kind[b] == POLYGON  # a circle or capsule rolls: its point moves
         if recycle_distance > 0.0 and polygons and n_cached > 0:
-            if pair_travel(a, b, bodies, extent, travel, dt) <= contact_margin:  # not a fast pair
+            if pair_travel(a, b, motion, extent, travel, dt) <= contact_margin:  # not a fast pair
                 look = next_slot(cached_key, key, look)
                 if look < n_cached and cached_key[look] == key:
                     slot = look
@@ -315,44 +341,23 @@ def collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, cou
     """``collide_recycling`` on ``threads`` threads, with the same results: the same outcomes
     written in the same places. Three passes:
 
-    1. per pair, a slice per thread: recycle (``may_recycle``, every point within the margin)
-       or collide anew (``manifold``, kept in a scratch row), and its point count;
+    1. per pair, a slice per thread (``plan_pairs``): recycle (``may_recycle``, every point
+       within the margin) or collide anew (``manifold``), the points kept in a scratch row,
+       and their count;
     2. on one thread, in pair order: where each pair's points go (pair_start), the store's rows
        and points for the new manifolds, the manifolds' keys;
-    3. per pair, a slice per thread: the points written there (``recycle_manifold``,
-       ``store_manifold``).
+    3. per pair, a slice per thread (``write_pairs``): the points written there.
     """
     n_pairs, n_cached, rows_used, points_used = counts
-    contact_margin, recycle_distance, dt = margins
-    x, rotation, travel, pairs, uid = bodies.x, shapes.rotation, shapes.travel, shapes.pairs, shapes.uid
-    cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
-    extent = body_extents(shapes) if recycle_distance > 0.0 else np.zeros(0)
-    row_of = np.full(n_pairs, -1, np.int64)  # 1: the store row of a recycled manifold, -1: collided anew
+    row_of = np.full(n_pairs, -1, np.int64)  # the store row of a recycled manifold; -1 collided anew
     count = np.zeros(n_pairs, np.int64)  # its points
-    found = np.empty((n_pairs, 11))  # 1: a new manifold (``manifold``: count, normal, 2 points)
+    found = np.empty((n_pairs, 11))  # per pair: its points now, laid out as ``manifold``'s
+    plan = (row_of, count, found, body_extents(shapes) if margins[1] > 0.0 else np.zeros(0))
     for t in prange(threads):
-        for q in range(n_pairs * t // threads, n_pairs * (t + 1) // threads):
-            a, b = pairs[q, 0], pairs[q, 1]
-            margin = contact_margin + travel[a] + travel[b]
-            polygons = shapes.kind[a] == POLYGON and shapes.kind[b] == POLYGON
-            if recycle_distance > 0.0 and polygons and n_cached > 0:
-                if pair_travel(a, b, bodies, extent, travel, dt) <= contact_margin:
-                    key = pair_key(uid, a, b)
-                    slot = lower_bound(cached_key, key)  # (where ``next_slot`` walks to)
-                    if slot < n_cached and cached_key[slot] == key:
-                        row = cached_row[slot]
-                        turned = turn_since_cached(row, a, b, rotation, store.found_rotation)
-                        if may_recycle(row, a, b, x, rotation, extent, store.found_pose, turned, recycle_distance):
-                            if points_within(store, row, a, b, x, turned, margin):
-                                row_of[q] = row
-                                count[q] = store.span[row, 1] - store.span[row, 0]
-                                continue
-            n, nx, ny, p1x, p1y, s1, f1, p2x, p2y, s2, f2 = manifold(a, b, x, shapes, margin, rounded)
-            found[q, 0], found[q, 1], found[q, 2], found[q, 3], found[q, 4] = n, nx, ny, p1x, p1y
-            found[q, 5], found[q, 6], found[q, 7], found[q, 8], found[q, 9], found[q, 10] = s1, f1, p2x, p2y, s2, f2
-            count[q] = n
+        plan_pairs(n_pairs * t // threads, n_pairs * (t + 1) // threads, bodies, shapes, store, cached, counts,
+                   margins, rounded, plan)  # fmt: skip
     # 2: in pair order, where everything goes
-    pair_start = out.pair_start
+    pairs, uid, pair_start = shapes.pairs, shapes.uid, out.pair_start
     point_of = np.empty(n_pairs, np.int64)  # a new manifold's first point in the store
     k = n_new = n_recycled = 0
     ascends = True
@@ -373,32 +378,94 @@ def collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, cou
         k += count[q]
         n_new, ascends = cache_manifold(out, n_new, key, row, ascends)
     pair_start[n_pairs] = k
-    # 3: the points, where they go
-    friction, restitution = shapes.friction, shapes.restitution
-    for t in prange(threads):
-        for q in range(n_pairs * t // threads, n_pairs * (t + 1) // threads):
-            if count[q] == 0:
-                continue
-            a, b = pairs[q, 0], pairs[q, 1]
-            pair = (a, b, pair_key(uid, a, b), *pair_friction(friction, restitution, a, b))
-            if row_of[q] >= 0:
-                turned = turn_since_cached(row_of[q], a, b, rotation, store.found_rotation)
-                margin = contact_margin + travel[a] + travel[b]
-                recycle_manifold(store, row_of[q], out, pair_start[q], pair, x, turned, margin)
-            else:
-                f = found[q]
-                m = (np.int64(f[0]), f[1], f[2], f[3], f[4], f[5], np.int64(f[6]), f[7], f[8], f[9], np.int64(f[10]))
-                store_manifold(store, -2 - row_of[q], point_of[q], out, pair_start[q], m, pair, x, rotation)
+    for t in prange(threads):  # 3: the points, where they go
+        write_pairs(n_pairs * t // threads, n_pairs * (t + 1) // threads, bodies, shapes, store, out, plan, point_of)
     return k, n_new, n_recycled, rows_used, points_used, ascends
 
 
 @njit(cache=True)
-def points_within(store, row, a, b, x, turn, margin):
-    """Whether every point of cached manifold ``row``, moved with its bodies (``recycled_point``),
-    lies within ``margin`` (m) of its partner: else ``recycle_manifold`` gives up on it."""
-    for point in range(store.span[row, 0], store.span[row, 1]):
-        if recycled_point(point, a, b, x, turn, store)[2] > margin:
+def plan_pairs(first, last, bodies, shapes, store, cached, counts, margins, rounded, plan):
+    """Pass 1 of ``collide_recycling_in_slices`` for pairs first up to last: plan = (row_of,
+    count, found, extent) filled in for each (the store row it recycles or -1, its points, the
+    points themselves, laid out as ``manifold``'s)."""
+    n_pairs, n_cached, _, _ = counts
+    contact_margin, recycle_distance, dt = margins
+    row_of, count, found, extent = plan
+    x, rotation, travel, pairs, uid, kind = (
+        bodies.x,
+        shapes.rotation,
+        shapes.travel,
+        shapes.pairs,
+        shapes.uid,
+        shapes.kind,
+    )
+    cached_key, cached_row = cached.manifold_key[:n_cached], cached.manifold_row[:n_cached]
+    span, found_pose, found_rotation, motion = (
+        store.span,
+        store.found_pose,
+        store.found_rotation,
+        (bodies.V, bodies.M_inv),
+    )
+    cached_points = (store.anchor, store.normal, store.separation, store.feature)
+    look = np.int64(0)  # the cached slot looked at last, as collide_recycling's (``next_slot``)
+    for q in range(first, last):
+        a, b = pairs[q, 0], pairs[q, 1]
+        margin = contact_margin + travel[a] + travel[b]
+        polygons = kind[a] == POLYGON and kind[b] == POLYGON
+        if recycle_distance > 0.0 and polygons and n_cached > 0:
+            if pair_travel(a, b, motion, extent, travel, dt) <= contact_margin:
+                key = pair_key(uid, a, b)
+                look = next_slot(cached_key, key, look) if look > 0 else lower_bound(cached_key, key)
+                if look < n_cached and cached_key[look] == key:
+                    row = cached_row[look]
+                    turned = turn_since_cached(row, a, b, rotation, found_rotation)
+                    if may_recycle(row, a, b, x, rotation, extent, found_pose, turned, recycle_distance):
+                        points = (span[row, 0], span[row, 1])
+                        if recycled_within(cached_points, points, a, b, x, turned, margin, found[q]):
+                            row_of[q] = row
+                            count[q] = span[row, 1] - span[row, 0]
+                            continue
+        n, nx, ny, p1x, p1y, s1, f1, p2x, p2y, s2, f2 = manifold(a, b, x, shapes, margin, rounded)
+        found[q, 0], found[q, 1], found[q, 2], found[q, 3], found[q, 4] = n, nx, ny, p1x, p1y
+        found[q, 5], found[q, 6], found[q, 7], found[q, 8], found[q, 9], found[q, 10] = s1, f1, p2x, p2y, s2, f2
+        count[q] = n
+
+
+@njit(cache=True)
+def write_pairs(first, last, bodies, shapes, store, out, plan, point_of):
+    """Pass 3 of ``collide_recycling_in_slices`` for pairs first up to last: each pair's points
+    (plan: ``plan_pairs``'s, the rows of new manifolds -2 - row) written from out.pair_start[q]
+    on, a new manifold's into the store too."""
+    row_of, count, found, _ = plan
+    x, rotation, pairs, uid = bodies.x, shapes.rotation, shapes.pairs, shapes.uid
+    friction, restitution, span, pair_start = shapes.friction, shapes.restitution, store.span, out.pair_start
+    found_as, into = (store.normal, store.feature, store.anchor), point_arrays(out)
+    for q in range(first, last):
+        if count[q] == 0:
+            continue
+        a, b = pairs[q, 0], pairs[q, 1]
+        pair = (a, b, pair_key(uid, a, b), *pair_friction(friction, restitution, a, b))
+        if row_of[q] >= 0:  # the points pass 1 moved
+            for i in range(count[q]):
+                now = (found[q, 3 + 4 * i], found[q, 4 + 4 * i], found[q, 5 + 4 * i])
+                write_recycled_point(found_as, span[row_of[q], 0] + i, into, pair_start[q] + i, now, pair)
+        else:
+            f = found[q]
+            m = (np.int64(f[0]), f[1], f[2], f[3], f[4], f[5], np.int64(f[6]), f[7], f[8], f[9], np.int64(f[10]))
+            store_manifold(store, -2 - row_of[q], point_of[q], out, pair_start[q], m, pair, x, rotation)
+
+
+@njit(cache=True)
+def recycled_within(cached_points, points, a, b, x, turn, margin, found):
+    """Whether every point of a cached manifold (``points``: its first and its end in the store's
+    cached_points, as ``recycled_point`` reads them), moved with its bodies, lies within
+    ``margin`` (m) of its partner, else ``recycle_manifold`` gives up on it; each point's (px,
+    py, separation) into found, where ``manifold`` puts them (3-5, then 7-9)."""
+    for i in range(points[1] - points[0]):
+        px, py, sep = recycled_point(points[0] + i, a, b, x, turn, cached_points)
+        if sep > margin:
             return False
+        found[3 + 4 * i], found[4 + 4 * i], found[5 + 4 * i] = px, py, sep
     return True
 
 
