@@ -112,7 +112,7 @@ def interleaving(bodies, cut, n_bodies):
     first = np.zeros(n_bodies, np.bool_)
     for i in range(cut):
         first[bodies[i]] = True
-    by_index = np.sort(bodies)
+    by_index = bodies[stable_argsort(bodies)]  # (the sort the colours use: no other to compile)
     changes = 0
     for i in range(1, by_index.shape[0]):
         changes += first[by_index[i]] != first[by_index[i - 1]]
