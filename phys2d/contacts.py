@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .collision.sort import lower_bound
 
@@ -29,11 +29,23 @@ if TYPE_CHECKING:  # constraints.rows imports this module: its contact rows star
 def warm_start_from_cache(cache_keys, keys, cached):
     """Contact caching: walk both sorted key lists together (a merge), and for every contact c
     set cached[c] to the index of its key in last tick's cache, or -1 when it is not there."""
-    m = 0
-    for c in range(keys.shape[0]):
+    look_up(0, keys.shape[0], cache_keys, keys, cached)
+
+
+@njit(cache=True)
+def look_up(first, last, cache_keys, keys, cached):
+    """``warm_start_from_cache`` of contacts first up to last: the merge starts where keys[first]
+    sits in cache_keys (a binary search, where the walk from 0 would have got to), so a slice
+    finds what the whole walk finds. Returns how many were found."""
+    m = lower_bound(cache_keys, keys[first]) if first < last else 0
+    found = 0
+    for c in range(first, last):
         while m < cache_keys.shape[0] and cache_keys[m] < keys[c]:
             m += 1
         cached[c] = m if m < cache_keys.shape[0] and cache_keys[m] == keys[c] else -1
+        if cached[c] >= 0:
+            found += 1
+    return found
 
 
 UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pair of uids
@@ -52,8 +64,15 @@ def _root(parent, b):
 @njit(cache=True)
 def lost_a_load(cache_keys, cache_pushed, keys):
     """True if a pair that pushed last tick has no contact now (a merge of the sorted keys by pair)."""
-    m = 0
-    for e in range(cache_keys.shape[0]):
+    return lost_a_load_of(0, cache_keys.shape[0], cache_keys, cache_pushed, keys)
+
+
+@njit(cache=True)
+def lost_a_load_of(first, last, cache_keys, cache_pushed, keys):
+    """``lost_a_load`` of cache entries first up to last: the merge starts at the first contact
+    of entry first's pair or after (a binary search), where the walk from 0 would have got to."""
+    m = lower_bound(keys, (cache_keys[first] >> FEATURE_BITS) << FEATURE_BITS) if first < last else 0
+    for e in range(first, last):
         pair = cache_keys[e] >> FEATURE_BITS
         while m < keys.shape[0] and (keys[m] >> FEATURE_BITS) < pair:
             m += 1
@@ -103,23 +122,43 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
 
 
 @njit(cache=True)
-def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cached, hit):
+def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cached, hit, threads):
     """Contact caching: cached[c] = the cache entry contact c starts its rows from
     (``warm_start_from_cache``; ``constraints.rows.contact_rows`` reads it), or -1 when it
     is new or its island lost a load (``unloaded_islands``); hit[c] = cached[c] >= 0.
-    Returns the hits."""
+    threads: None on one thread, else a count: the look-up runs a slice of the contacts, and of
+    the cache, per thread (``look_up_in_slices``), with the same results. Returns the hits."""
     k = keys.shape[0]
-    warm_start_from_cache(cache_keys, keys, cached)
-    cold = np.empty(k, np.bool_)
-    unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold)
-    hits = 0
+    if threads is None:
+        hits = look_up(0, k, cache_keys, keys, cached)
+        lost = lost_a_load(cache_keys, cache_pushed, keys)
+    else:
+        hits, lost = look_up_in_slices(threads, cache_keys, cache_pushed, keys, cached)
+    if lost:  # rare: a pair that pushed is gone, so its islands start cold
+        cold = np.empty(k, np.bool_)
+        unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cold)
+        hits = 0
+        for c in range(k):
+            if cold[c]:
+                cached[c] = -1
+            if cached[c] >= 0:
+                hits += 1
     for c in range(k):
-        if cold[c]:
-            cached[c] = -1
         hit[c] = cached[c] >= 0
-        if hit[c]:
-            hits += 1
     return hits
+
+
+@njit(cache=True, parallel=True)
+def look_up_in_slices(threads, cache_keys, cache_pushed, keys, cached):
+    """``look_up`` of all the contacts and ``lost_a_load_of`` of all the cache entries, a slice of
+    each per thread. Returns (the contacts found, whether a pair that pushed is gone)."""
+    k, n = keys.shape[0], cache_keys.shape[0]
+    found = np.zeros(threads, np.int64)  # per slice: no shared accumulator
+    lost = np.zeros(threads, np.bool_)
+    for t in prange(threads):
+        found[t] = look_up(k * t // threads, k * (t + 1) // threads, cache_keys, keys, cached)
+        lost[t] = lost_a_load_of(n * t // threads, n * (t + 1) // threads, cache_keys, cache_pushed, keys)
+    return found.sum(), lost.any()
 
 
 @njit(cache=True)
@@ -133,26 +172,36 @@ def rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n,
 
 
 @njit(cache=True)
-def impulses_to_contacts_and_cache(rows, found, k):
-    """The K contacts' lambda_n, lambda_t (N s) read off their rows (``rows_to_contacts``: contact
-    c = order[q] owns row pair q), and what the cache keeps of them (``impulses_to_cache``), into
-    ``found`` (a ContactRecord)."""
-    impact = np.empty(k, np.bool_)
-    lambda_n, lambda_t = found.lambda_n[:k], found.lambda_t[:k]
-    rows_to_contacts(found.order[:k], rows.normal_row, rows.friction_row, rows.lam, rows.impact, lambda_n, lambda_t,
-                     impact)  # fmt: skip
-    impulses_to_cache(lambda_n, lambda_t, impact, found.cache_lambda_n[:k], found.cache_lambda_t[:k],
-                      found.cache_pushed[:k])  # fmt: skip
+def impulses_to_contacts_and_cache(rows, found, k, threads):
+    """The K contacts' lambda_n, lambda_t (N s) read off their rows, and what the cache keeps of
+    them, into ``found`` (a ContactRecord): ``impulses_of`` every row pair, on one thread
+    (threads None) or a slice per thread (threads a count), with the same results."""
+    if threads is None:
+        impulses_of(0, k, rows, found)
+    else:
+        impulses_in_slices(threads, rows, found, k)
 
 
 @njit(cache=True)
-def impulses_to_cache(lambda_n, lambda_t, impact, cache_lambda_n, cache_lambda_t, cache_pushed):
-    """What the cache keeps of this step's impulses (N s): 0 for a contact that met its partner
-    fast within the step (``impact``: an event, not a load), and which contacts pushed."""
-    for c in range(lambda_n.shape[0]):
-        cache_lambda_n[c] = 0.0 if impact[c] else lambda_n[c]
-        cache_lambda_t[c] = 0.0 if impact[c] else lambda_t[c]
-        cache_pushed[c] = lambda_n[c] > 0.0
+def impulses_of(first, last, rows, found):
+    """Row pairs q = first up to last: contact c = order[q]'s lambda_n, lambda_t (N s), and what
+    the cache keeps: 0 for a contact that met its partner fast within the step (its normal
+    row's ``impact``: an event, not a load), and whether it pushed."""
+    order, lam, impact, pushed = found.order, rows.lam, rows.impact, found.cache_pushed
+    lambda_n, lambda_t, cache_n, cache_t = found.lambda_n, found.lambda_t, found.cache_lambda_n, found.cache_lambda_t
+    for q in range(first, last):
+        c, kn, kt = order[q], rows.normal_row[q], rows.friction_row[q]
+        lambda_n[c] = lam[kn]
+        lambda_t[c] = lam[kt]
+        cache_n[c] = 0.0 if impact[kn] else lam[kn]
+        cache_t[c] = 0.0 if impact[kn] else lam[kt]
+        pushed[c] = lam[kn] > 0.0
+
+
+@njit(cache=True, parallel=True)
+def impulses_in_slices(threads, rows, found, k):
+    for t in prange(threads):
+        impulses_of(k * t // threads, k * (t + 1) // threads, rows, found)
 
 
 @dataclass(eq=False)

@@ -73,6 +73,33 @@ def test_lost_a_load_is_a_pushed_pair_gone():
         assert lost_a_load(cache_keys, pushed, keys) == bool(gone)
 
 
+def test_the_cache_look_up_in_slices_is_the_whole_merge():
+    """Against sets: look_up of any cut of the contacts into slices finds exactly the keys that
+    were cached (cached[c] the index of key c among the cache's); lost_a_load_of over any cut
+    of the cache says a pushed pair is gone when the whole walk does."""
+    from phys2d.contacts import FEATURE_BITS, look_up, lost_a_load, lost_a_load_of
+
+    rng = np.random.default_rng(12)
+    for _ in range(200):
+        pairs = np.unique(rng.integers(1, 40, 12))
+        cache_keys = np.sort((pairs[:, None] << FEATURE_BITS) + np.arange(2)).ravel().astype(np.int64)
+        pushed = rng.random(cache_keys.shape[0]) < 0.3
+        now = np.unique(rng.integers(1, 40, 12))
+        keys = np.sort((now[:, None] << FEATURE_BITS) + rng.integers(0, 3, 2)).ravel().astype(np.int64)
+        keys = np.unique(keys)
+        where = {int(k): i for i, k in enumerate(cache_keys)}
+        expected = np.array([where.get(int(k), -1) for k in keys])
+        for cuts in (1, 2, 3, 7):
+            cached = np.full(keys.shape[0], -9, np.int64)
+            edges = np.linspace(0, keys.shape[0], cuts + 1).astype(int)
+            found = sum(look_up(edges[i], edges[i + 1], cache_keys, keys, cached) for i in range(cuts))
+            assert np.array_equal(cached, expected)
+            assert found == np.sum(expected >= 0)
+            edges = np.linspace(0, cache_keys.shape[0], cuts + 1).astype(int)
+            lost = any(lost_a_load_of(edges[i], edges[i + 1], cache_keys, pushed, keys) for i in range(cuts))
+            assert lost == lost_a_load(cache_keys, pushed, keys)
+
+
 def test_solve_order_is_the_pairs_points_concatenated():
     """Against numpy: pair p's points pair_start[p]..pair_start[p + 1] in pair_order, for
     pairs of 0, 1, 2 (and, beyond what 2D makes, 3) points; the last pair empty or full."""

@@ -440,8 +440,8 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
 
     Each contact's rows are its own (``contact_rows_of``): with ``threads`` a count, not None,
     they are built on that many threads, a slice of the contacts each (``contact_rows_in_slices``),
-    with the same results. Returns the deepest overlap, max(0, -min C) (m), and the number of
-    contacts warm started.
+    as is the look-up in the cache, with the same results. Returns the deepest overlap,
+    max(0, -min C) (m), and the number of contacts warm started.
     """
     K = rows.normal_row.shape[0]
     body_a, body_b = as_uint32(found.body_a[:K]), as_uint32(found.body_b[:K])
@@ -450,7 +450,7 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
     if settings.warm_start:
         cache_keys, _, _, cache_pushed = cache
         hits = find_in_cache(cache_keys, cache_pushed, found.key[:K], body_a, body_b, shapes.uid, shapes.static,
-                             cached, hit)  # fmt: skip
+                             cached, hit, threads)  # fmt: skip
     else:
         cached[:] = -1
         hit[:] = False

@@ -121,7 +121,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     i64, f64, i32 = typeof(0), typeof(0.0), typeof(np.zeros(0, np.int32))
     floats, residuals = typeof(np.zeros(0)), typeof(pipeline.residuals)
     jobs: list[tuple[Any, tuple]] = [
-        (impulses_to_contacts_and_cache, (rows, found, i64)),
+        (impulses_to_contacts_and_cache, (rows, found, i64, typeof(threads))),
         (first_too_fast, (bodies.field_dict["V"], bodies.field_dict["x"], floats, f64)),
     ]
     if pgs is not None:

@@ -62,6 +62,8 @@ from ..responders.soft_integrate import integrate_positions
 from ..responders.soft_points import (
     gather_contacts_of,
     note_approach,
+    note_impacts,
+    note_impacts_of,
     points_of,
     prepare_points,
     separations,
@@ -251,6 +253,34 @@ def note_approach_on(threads, rows, points, n_pending, V):
 def note_approach_in_slices(n_slices, rows, points, n_pending, V):
     for t in prange(n_slices):
         note_approach(n_pending * t // n_slices, n_pending * (t + 1) // n_slices, rows, points, V)
+
+
+@njit(cache=True)
+def note_impacts_on(threads, rows, points, n_pending, dv, h, threshold):
+    """``soft_points.note_impacts`` of the n_pending points not yet met: a slice per thread, each
+    keeping its points still pending at its slice's start, then the slices' joined in order (the
+    same pending list as one thread's). Returns how many are still pending."""
+    if threads is None:
+        return note_impacts(rows, points, n_pending, dv, h, threshold)
+    n_slices = threads[0]
+    kept = note_impacts_in_slices(n_slices, rows, points, n_pending, dv, h, threshold)
+    pending = points.pending
+    n = kept[0]
+    for t in range(1, n_slices):  # slice t's kept move down to follow the slices before it
+        first = n_pending * t // n_slices
+        for i in range(kept[t]):
+            pending[n + i] = pending[first + i]
+        n += kept[t]
+    return n
+
+
+@njit(cache=True, parallel=True)
+def note_impacts_in_slices(n_slices, rows, points, n_pending, dv, h, threshold):
+    kept = np.zeros(n_slices, np.int64)
+    for t in prange(n_slices):
+        first = n_pending * t // n_slices  # its points still pending are kept from pending[first] on
+        kept[t] = note_impacts_of(first, n_pending * (t + 1) // n_slices, rows, points, dv, h, threshold)
+    return kept
 
 
 @njit(cache=True)

@@ -579,7 +579,7 @@ class Pipeline:
         # the limits, then the impulses per contact and the cache the next step starts from
         if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:
             raise_too_fast(world)
-        impulses_to_contacts_and_cache(rows, new_record, k)
+        impulses_to_contacts_and_cache(rows, new_record, k, threads)
         residuals = np.asarray(result.residuals, float)
         return k, n_new, recycled, rows_used, points_used, hits, deepest, result.iterations, residuals, result
 

@@ -79,5 +79,5 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     b = s.bodies
     if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:
         return TOO_FAST, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept
-    impulses_to_contacts_and_cache(rows, new, k)
+    impulses_to_contacts_and_cache(rows, new, k, threads)
     return OK, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept

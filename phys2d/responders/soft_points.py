@@ -94,11 +94,19 @@ def note_impacts(rows, points, n_pending, dv, h, threshold):
     at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
     landed[c]: it was still apart and met its partner faster than the threshold.
     Returns how many points are still to meet theirs (kept in order in pending)."""
+    return note_impacts_of(0, n_pending, rows, points, dv, h, threshold)
+
+
+@njit(cache=True)
+def note_impacts_of(first, last, rows, points, dv, h, threshold):
+    """``note_impacts`` of pending[first:last]: those still to meet their partner are kept, in
+    order, from pending[first] on (``pipeline.parallel.note_impacts_on`` joins the slices).
+    Returns how many were kept."""
     normal_row, body_a, body_b, J, lam = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.lam
     pending, C, vn, impacted, landed = points.pending, points.C, points.vn, points.impacted, points.landed
     vn_impact, dvn_impact = points.vn_impact, points.dvn_impact
-    n = 0
-    for q in range(n_pending):
+    n = first
+    for q in range(first, last):
         c = pending[q]
         k = normal_row[c]
         if lam[k] > 0.0:
@@ -110,7 +118,7 @@ def note_impacts(rows, points, n_pending, dv, h, threshold):
         else:
             pending[n] = c
             n += 1
-    return n
+    return n - first
 
 
 @njit(cache=True)

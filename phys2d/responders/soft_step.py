@@ -48,6 +48,7 @@ from ..pipeline.parallel import (
     groups_for,
     integrate_positions_on,
     note_approach_on,
+    note_impacts_on,
     prepare_manifolds_on,
     prepare_points_on,
     separations_on,
@@ -68,7 +69,7 @@ from .soft_contacts import (
 )
 from .soft_integrate import integrate_velocities, split_forces
 from .soft_joints import first_joint_row_of, joint_system, prepare_joints, solve_joints
-from .soft_points import note_impacts, restitution
+from .soft_points import restitution
 
 
 class SoftSettings(NamedTuple):
@@ -175,7 +176,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                     warm_start_in_groups(groups, manifolds, rows, bodies.M_inv, V)
             worst = solve(rows, contacts, V, h, with_bias, springs, joints, system, threads, groups)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
-                n_pending = note_impacts(rows, points, n_pending, dv, h, threshold)
+                n_pending = note_impacts_on(threads, rows, points, n_pending, dv, h, threshold)
             if with_bias:
                 integrate_positions_on(threads, bodies, h, x0, theta0, moved)
             residuals[n_sweeps] = 0.0 if with_bias else worst  # the relax sweep's, when there is one
