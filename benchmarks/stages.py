@@ -64,7 +64,7 @@ RESPONDERS: dict[str, Callable[[], phys2d.Responder]] = {"PGS": phys2d.PGS, "Sof
 # the stages in the order Pipeline._in_stages calls them: (owner, name); "respond" is the responder's
 STAGES: list[tuple[Any, str]] = [
     (Pipeline, "_room"), (Pipeline, "state"), (step_module, "begin"), (Pipeline, "_sweep"),
-    (Pipeline, "_make_room"), (Pipeline, "_colour"), (step_module, "collide_recycling_on"),
+    (Pipeline, "_make_room"), (Pipeline, "_order"), (step_module, "collide_recycling_on"),
     (step_module, "order_contacts"), (step_module, "head_of_rows"), (step_module, "contact_rows"),
     (step_module, "start_joint_rows"), (Pipeline, "_context"), (None, "respond"),
     (step_module, "bounce_after_moving"), (step_module, "first_too_fast"),

@@ -106,10 +106,10 @@ class World:
                 (``Body.awake``); default False, settable between steps (False wakes all)
     threads     how many cores a step may use (default 1, settable between steps): with more
                 than one, the pairs are collided and the contact rows built on several
-                threads, the soft step's sweeps solve the parts of the scene
-                (``constraints.order``) each on its own thread, and its per-point and
-                per-body passes run a slice per thread (``pipeline.parallel``); the results
-                are bit-identical for every count.
+                threads, the sweeps of the soft step and of PGS solve the parts of the scene
+                (``constraints.order``; PGS's: from PARTS_FROM moving bodies) each on its own
+                thread, and the per-point and per-body passes run a slice per thread
+                (``pipeline.parallel``); the results are bit-identical for every count.
                 Threads pay on scenes of several thousand contacts and up; on smaller ones
                 waking them costs more than they save (benchmarks/SCALE.md)
     """
@@ -249,9 +249,10 @@ class World:
     @property
     def threads(self) -> int:
         """How many cores a step may use: 1 (the default) runs every kernel on one; more split the
-        collide, the contact rows and the soft step's sweeps over numba threads (at most the NUMBA_NUM_THREADS
-        numba started with), with bit-identical results (``pipeline.parallel``). They pay on scenes
-        of several thousand contacts and up: below, one thread is faster."""
+        collide, the contact rows and the sweeps of the soft step and PGS over numba threads (at
+        most the NUMBA_NUM_THREADS numba started with), with bit-identical results
+        (``pipeline.parallel``). They pay on scenes of several thousand contacts and up: below,
+        one thread is faster."""
         return self._threads
 
     @threads.setter

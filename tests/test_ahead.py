@@ -40,7 +40,7 @@ def _tick_args(w: phys2d.World) -> tuple:
         p.state(w),
         joints,
         0,
-        p._counts(spec.colour_order),
+        p._counts(spec.visit),
         step,
         row_settings,
         spec.pgs,
@@ -68,7 +68,7 @@ for w in (scenes.pyramid(3, responder=PGS()), scenes.heavy_chain(responder=SoftS
     w.step(1 / 60)  # a cold cache: the tick and every stage it calls compile here, for the tick's types
     p, spec = w._pipeline, spec_of(w.responder)
     step, row_settings, joints = p._ready.step, p._ready.rows, p._ready.joints
-    counts = p._counts(spec.colour_order)
+    counts = p._counts(spec.visit)
     args = (p.state(w), joints, 0, counts, step, row_settings, spec.pgs, spec.soft, p.rounded, None)
     compiled.clear()
     ahead.compile_from_the_end(p, args)

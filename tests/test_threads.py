@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 import phys2d
 from phys2d import scenes as stock
-from phys2d.constraints.order import PART_DEPTH
+from phys2d.constraints.order import COLOUR_ORDER, PART_DEPTH, PART_ORDER, PARTS_FROM, order_pairs
 from phys2d.pipeline.parallel import manifold_groups
 from phys2d.pipeline.records import new_rows
 from tests.strategies import SceneSpec, build, fingerprint, responders, resting_scenes, scenes, soft_step_keywords
@@ -158,8 +158,39 @@ def test_a_step_leaves_numbas_thread_count_as_it_was() -> None:
 
 @pytest.mark.parametrize("friction", ["coulomb", "lecture"])
 def test_threads_on_pgs_change_nothing(friction: str) -> None:
-    """PGS sweeps its rows in pair order on one thread, its contact rows built on two: the same bits."""
+    """A small scene under PGS is one part: it sweeps in pair order on one thread, its contact rows
+    built on two: the same bits."""
     stepped_alike(lambda: stock.pyramid(6, responder=phys2d.PGS(friction=friction)), 2, True, 30)
+
+
+BIG = 33  # a pyramid of base 33: 561 boxes, at least PARTS_FROM, so PGS cuts it into parts
+
+
+@pytest.mark.parametrize(
+    "keywords", [{}, {"block": True}, {"split": False}, {"friction": "lecture", "iterations": 4, "tolerance": 1e-3}]
+)
+def test_pgs_sweeps_on_threads_give_the_same_bits(keywords: dict) -> None:
+    """A scene of PARTS_FROM moving bodies or more under PGS, row by row or in blocks, split or
+    not, stopping early or not: its warm start and sweeps run a group's segments on 2 or 3
+    threads, in one call or in stages, and hold the bits of one thread after every step."""
+    assert (BIG * (BIG + 1)) // 2 >= PARTS_FROM
+    for threads, one_call in ((2, True), (3, False)):
+        stepped_alike(lambda: stock.pyramid(BIG, responder=phys2d.PGS(**keywords)), threads, one_call, 25)
+
+
+def test_pgs_sweeps_on_threads_with_joints_give_the_same_bits() -> None:
+    """Joint rows (a chain, a dragged box) follow the contacts' segments on the calling thread."""
+
+    def make() -> phys2d.World:
+        w = stock.pyramid(BIG, responder=phys2d.PGS())
+        links = [w.add_box(position=(40.0 + i, 5.0), half_extents=(0.4, 0.1)) for i in range(5)]
+        anchor = w.add_box(position=(39.0, 5.0), half_extents=(0.1, 0.1), static=True)
+        for a, b in zip([anchor, *links], links):
+            w.add_distance_joint(a, b)
+        w.add_mouse_joint(w.bodies[3], target=(w.bodies[3].position[0], 40.0), max_force=500.0)
+        return w
+
+    stepped_alike(make, 2, True, 40)
 
 
 # -- the parts and the groups ---------------------------------------------------------------
@@ -241,6 +272,33 @@ def test_the_solve_order_is_parts_then_cuts_each_by_colour() -> None:
     assert sets == sorted(sets) and set(sets) == {0, 1, 2}
     segments, groups = groups_of([tuple(p) for p in pairs], list(part), set(np.flatnonzero(static)))
     assert len(segments) - 1 == 3 and list(groups) == [0, 2, 3]  # the two parts at once, then the cut
+
+
+def test_part_order_is_pair_order_within_each_set_and_pair_order_in_a_small_scene() -> None:
+    """PGS's order, as the world visits it: a pyramid of fewer than PARTS_FROM boxes stays one
+    part, in pair order exactly (the lecture's loop); a larger one's pairs come by set, each set
+    in pair order (no colours), in the parts the colour order would cut (``order_pairs``)."""
+    for n, parted in ((31, False), (BIG, True)):
+        w = stock.pyramid(n)
+        w.step(1 / 60)
+        p = w._pipeline
+        pairs, static, part = p.pairs[: p.n_pairs], w._bodies.static, p.part
+        order = p.buffers.pair_order[: p.n_pairs]
+        if not parted:
+            assert not part.any() and np.array_equal(order, np.arange(p.n_pairs))
+            continue
+        assert set(part[~static]) == {0, 1}
+        sets = []
+        for a, b in pairs[order]:
+            pa, pb = (part[b] if static[a] else part[a]), (part[a] if static[b] else part[b])
+            sets.append(0 if pa == pb == 0 else 1 if pa == pb == 1 else 2)
+        assert sets == sorted(sets) and set(sets) == {0, 1, 2}
+        for s in range(3):
+            assert np.all(np.diff(order[np.array(sets) == s]) > 0)  # pair order within the set
+        parts, coloured_parts = np.zeros_like(part), np.zeros_like(part)  # at the positions now
+        order_pairs(pairs, p.n_pairs, static, w._bodies.x, parts, PART_ORDER)
+        order_pairs(pairs, p.n_pairs, static, w._bodies.x, coloured_parts, COLOUR_ORDER)
+        assert np.array_equal(parts, coloured_parts)
 
 
 # -- settings -------------------------------------------------------------------------------

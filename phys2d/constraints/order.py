@@ -1,31 +1,40 @@
-"""The order in which the responders visit contacts: pair order, or graph colouring.
+"""The order in which the responders visit contacts: pair order, part order or graph colouring.
 
 Gauss-Seidel may visit rows in any order; the order changes which fixed point
-it creeps towards first, not the problem it solves. The lecture's PGS visits
-contacts in pair order, row by row (coloured, pyramid_40 toppled). A responder
-that sets ``colour_order`` (the soft step) visits contact manifolds colour by
-colour instead: a greedy colouring gives each candidate pair the
-smallest colour that neither of its dynamic bodies has used yet, so within one
-colour no two manifolds share a dynamic body (static bodies are shared freely:
-nothing moves them). Consecutive rows then touch different bodies and the
+it creeps towards first, not the problem it solves. A responder says which order it
+visits in (``Responder.visit_order``):
+
+    PAIR_ORDER    the pairs as the broadphase found them, sorted by (a, b): the lecture's
+                  loop (the naive takes, the matrix form)
+    PART_ORDER    the pairs part by part (below), pair order within each: PGS. A scene of
+                  fewer than PARTS_FROM moving bodies is one part, so its order is pair
+                  order exactly (every lesson's scene); a larger one's sweeps can share
+                  the work among threads
+    COLOUR_ORDER  part by part, colour by colour within each: the soft step
+
+The lecture's PGS visits contacts in pair order, row by row (coloured, pyramid_40 toppled).
+A colour-ordered responder visits contact manifolds colour by colour: a greedy colouring
+gives each candidate pair the smallest colour that neither of its dynamic bodies has used
+yet, so within one colour no two manifolds share a dynamic body (static bodies are shared
+freely: nothing moves them). Consecutive rows then touch different bodies and the
 processor can overlap their work, though less than one might hope: SoftStep(4)'s
 solve measured 1.1-1.3x faster than in pair order on pyramid_20 and within 2% on
 pyramid_40, and the lecture's PGS sweep gains nothing (benchmarks/SWEEP_ORDER.md:
 most of a row's cost is the loop's own work, not the wait for the row before).
 This is Box2D v3's graph colouring, used here for order only.
 
-Before the colours comes a cut into parts, for threads (``pipeline.parallel``). The moving
-bodies are bisected ``PART_DEPTH`` times (``partition``): each half is cut again at the
-median of its pairs along x or y, whichever side leaves the halves least mixed in memory (a
-pyramid built row by row: into bottom and top). A pair whose moving bodies lie in one part
-belongs to that part; one that straddles a cut belongs to that cut. The solve order is the
-parts first, then the cuts, the deepest first and the first cut (between the two halves)
-last (``set_of``), and colour by colour within each. Two parts share no moving body, nor do
-two cuts of one level, so each may be solved on its own thread, and one thread visiting
-them in turn does the same arithmetic. The order is the same on any number of threads, and
-so are the bits.
+The parts are for threads (``pipeline.parallel``). The moving bodies are bisected
+``PART_DEPTH`` times (``partition``): each half is cut again at the median of its pairs
+along x or y, whichever side leaves the halves least mixed in memory (a pyramid built row
+by row: into bottom and top). A pair whose moving bodies lie in one part belongs to that
+part; one that straddles a cut belongs to that cut. The solve order is the parts first,
+then the cuts, the deepest first and the first cut (between the two halves) last
+(``set_of``), and pair by pair or colour by colour within each. Two parts share no moving
+body, nor do two cuts of one level, so each may be solved on its own thread, and one thread
+visiting them in turn does the same arithmetic. The order is the same on any number of
+threads, and so are the bits.
 
-The colouring is made when a colour-ordered responder first visits the pairs the
+The order is made when a responder in part or colour order first visits the pairs the
 broadphase swept (pairs are kept from tick to tick while nothing moves far), so it
 is as stable as the pair list.
 """
@@ -41,6 +50,8 @@ MAX_COLOURS = 64  # a body in more pairs than this shares the last colour
 
 
 PART_DEPTH = 1  # the bodies are bisected this many times: 2**PART_DEPTH parts (``partition``)
+PAIR_ORDER, PART_ORDER, COLOUR_ORDER = 0, 1, 2  # how a responder visits the contacts (``Responder.visit_order``)
+PARTS_FROM = 512  # moving bodies: in part order, a scene with fewer is one part (pair order exactly)
 
 
 @njit(cache=True)
@@ -135,34 +146,49 @@ def set_of(part_a, part_b, depth):
 
 
 @njit(cache=True)
-def colour_pairs(pairs, n_pairs, static, x, part):
-    """Pair indices sorted by set (``set_of``: the parts, then the cuts between them), then by
-    greedy colour (ties in pair order): the solve order of pairs. Writes each body's part
-    (``partition`` of the centres x, weighted by their pairs) into part."""
+def order_pairs(pairs, n_pairs, static, x, part, visit):
+    """Pair indices in solve order: sorted by set (``set_of``: the parts, then the cuts between
+    them), then, in COLOUR_ORDER, by greedy colour (ties in pair order; in PART_ORDER pair order
+    within each set). Writes each body's part (``partition`` of the centres x, weighted by their
+    pairs; all 0 in PART_ORDER with fewer than PARTS_FROM moving bodies) into part."""
     n_bodies = x.shape[0]
     weight = np.zeros(n_bodies, np.int64)
     for p in range(n_pairs):
         for i in range(2):
             if not static[pairs[p, i]]:
                 weight[pairs[p, i]] += 1
-    part[:] = partition(x, weight, PART_DEPTH)
-    used = np.zeros((n_bodies, MAX_COLOURS), np.bool_)
+    colours = visit == COLOUR_ORDER
+    if colours or np.count_nonzero(weight) >= PARTS_FROM:
+        part[:] = partition(x, weight, PART_DEPTH)
+    else:
+        part[:] = 0
+    used = np.zeros((n_bodies, MAX_COLOURS if colours else 1), np.bool_)
     key = np.empty(n_pairs, np.int64)
     for p in range(n_pairs):
         a, b = pairs[p, 0], pairs[p, 1]
-        chosen = MAX_COLOURS - 1
-        for q in range(MAX_COLOURS):
-            if (static[a] or not used[a, q]) and (static[b] or not used[b, q]):
-                chosen = q
-                break
-        if not static[a]:
-            used[a, chosen] = True
-        if not static[b]:
-            used[b, chosen] = True
+        chosen = 0
+        if colours:
+            chosen = greedy_colour(a, b, static, used)
         part_a = part[b] if static[a] else part[a]
         part_b = part[a] if static[b] else part[b]
         key[p] = set_of(part_a, part_b, PART_DEPTH)[0] * MAX_COLOURS + chosen
     return stable_argsort(key).astype(np.int32)
+
+
+@njit(cache=True, inline="always")
+def greedy_colour(a, b, static, used):
+    """The smallest colour that neither of the pair's dynamic bodies has used yet (the last,
+    MAX_COLOURS - 1, when all are), marked used for both."""
+    chosen = MAX_COLOURS - 1
+    for q in range(MAX_COLOURS):
+        if (static[a] or not used[a, q]) and (static[b] or not used[b, q]):
+            chosen = q
+            break
+    if not static[a]:
+        used[a, chosen] = True
+    if not static[b]:
+        used[b, chosen] = True
+    return chosen
 
 
 @njit(cache=True)

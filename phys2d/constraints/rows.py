@@ -32,10 +32,10 @@ and the row map, the one place that says which rows belong to which contact:
     friction_row  (K,)  its friction row
     first_joint_row     joint rows run from here to the end
 
-Rows are stored in the order the responders visit them: contact by contact in
-pair order (the lecture's PGS), or pair by pair in colour order for the responders
-that ask for it (``Responder.colour_order``, see ``constraints.order``); the joint
-rows come last. ``contact_impulses()`` gives lambda_n and lambda_t back in contact
+Rows are stored in the order the responders visit them (``Responder.visit_order``, see
+``constraints.order``): contact by contact in pair order (the lecture's loop), part by part
+(PGS: pair order within each part), or pair by pair in colour order (the soft step); the
+joint rows come last. ``contact_impulses()`` gives lambda_n and lambda_t back in contact
 order.
 """
 

@@ -120,16 +120,17 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     found = typeof(pipeline._records[3][0])
     i64, f64, i32 = typeof(0), typeof(0.0), typeof(np.zeros(0, np.int32))
     floats, residuals = typeof(np.zeros(0)), typeof(pipeline.residuals)
+    solve_threads = typeof(None if threads is None else (threads, np.zeros(0, np.int32)))  # (count, each body's part)
     jobs: list[tuple[Any, tuple]] = [
         (impulses_to_contacts_and_cache, (rows, found, i64, typeof(threads))),
         (first_too_fast, (bodies.field_dict["V"], bodies.field_dict["x"], floats, f64)),
     ]
     if pgs is not None:
-        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals, typeof(joints))))
+        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals, typeof(joints), solve_threads)))
     if soft is not None:
         quad = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros((0, 4))))
         jobs.append(
-            (soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals, typeof(threads)))
+            (soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals, solve_threads))
         )
     if joints is not None:
         jobs.append((start_joint_rows, (typeof(joints), i64, bodies, f64, f64, typeof(True), rows)))
@@ -137,7 +138,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     jobs += [
         (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings), typeof(threads))),
         (head_of_rows, (rows, i64, i64)),
-        (order_contacts, (shapes, found, i64, typeof((0, 0, True)), typeof(True))),
+        (order_contacts, (shapes, found, i64, typeof((0, 0, True)), i64)),
         (
             collide_recycling,
             (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0, 0.0)), typeof(rounded)),

@@ -2,7 +2,8 @@
 
 (The geometry, the collide and the contact rows run a slice per thread in their own modules:
 ``collision.broadphase.update_geometry_in_slices``, ``collision.recycle.collide_recycling_in_slices``,
-``constraints.rows.contact_rows_in_slices``; this module holds what the soft step needs.)
+``constraints.rows.contact_rows_in_slices``; PGS's sweeps run in groups in ``responders.pgs``,
+``sweep_in_groups``, the groups made here; this module holds what the soft step needs.)
 
 Gauss-Seidel visits its rows one after another: a row reads the velocities every row before
 it has written. Two rows whose bodies differ read and write different velocities, so they

@@ -26,7 +26,7 @@ from numba import njit
 
 from ..collision.broadphase import find_pairs, update_geometry_on
 from ..collision.sort import stable_argsort
-from ..constraints.order import colour_pairs, solve_order
+from ..constraints.order import PAIR_ORDER, order_pairs, solve_order
 from ..integrate import apply_external_forces
 from .records import RowRecord
 
@@ -56,7 +56,7 @@ class Counts(NamedTuple):
     contacts: int  # its contacts (the cache)
     rows_used: int  # the manifold store's rows taken
     points_used: int  # and its points
-    colour_order: bool  # the responder visits the pairs by colour
+    visit: int  # the order the responder visits the pairs in (``constraints.order``)
     sweep_again: bool  # the bodies or joints changed: Python sweeps
 
 
@@ -84,35 +84,45 @@ def begin(s, gravity, dt, margin, threads):
 
 
 @njit(cache=True)
-def sweep(shapes, x, colour_order):
-    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), coloured (``pair_order``,
-    and the bodies' ``part``, from their centres x) when the responder visits them by colour.
-    Returns their count, or minus the room needed when they would not fit the pair buffer: then
-    Python grows it."""
+def sweep(shapes, x, visit):
+    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), put in the order the
+    responder visits them in (``pair_order``, and the bodies' ``part``, from their centres x:
+    ``constraints.order.order_pairs``) unless that is pair order. Returns their count, or minus
+    the room needed when they would not fit the pair buffer: then Python grows it."""
     n_pairs = find_pairs(shapes)
-    if colour_order and 0 <= n_pairs <= shapes.pair_order.shape[0]:
-        coloured = colour_pairs(shapes.pairs, n_pairs, shapes.static, x, shapes.part)
+    if visit != PAIR_ORDER and 0 <= n_pairs <= shapes.pair_order.shape[0]:
+        ordered = order_pairs(shapes.pairs, n_pairs, shapes.static, x, shapes.part, visit)
         for p in range(n_pairs):
-            shapes.pair_order[p] = coloured[p]
+            shapes.pair_order[p] = ordered[p]
     return n_pairs
 
 
 @njit(cache=True)
-def order_contacts(shapes, found, n_pairs, counts, colour_order):
+def in_row_order(values, order, k):
+    """values[order[q]] for q < k: a per-contact array gathered into row order (row pair q is
+    contact order[q])."""
+    out = np.empty(k)
+    for q in range(k):
+        out[q] = values[order[q]]
+    return out
+
+
+@njit(cache=True)
+def order_contacts(shapes, found, n_pairs, counts, visit):
     """After ``collide_recycling``: the step's manifolds sorted by key for the next step's look-up
-    (when they do not ascend already), and the order the responder visits the contacts in: by
-    colour (``pair_order``) or pair order. counts = (K contacts, manifolds, whether their keys
-    ascend)."""
+    (when they do not ascend already), and the order the responder visits the contacts in: its
+    pairs' (``pair_order``: by part, then colour) or pair order (``constraints.order``). counts =
+    (K contacts, manifolds, whether their keys ascend)."""
     k, n_new, ascends = counts
     if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
         by_key = stable_argsort(found.manifold_key[:n_new])
         keys, rows = found.manifold_key[:n_new].copy(), found.manifold_row[:n_new].copy()
         for i in range(n_new):
             found.manifold_key[i], found.manifold_row[i] = keys[by_key[i]], rows[by_key[i]]
-    if colour_order:
-        visit = solve_order(shapes.pair_order[:n_pairs], found.pair_start[: n_pairs + 1])
+    if visit != PAIR_ORDER:
+        in_order = solve_order(shapes.pair_order[:n_pairs], found.pair_start[: n_pairs + 1])
         for q in range(k):
-            found.order[q] = visit[q]
+            found.order[q] = in_order[q]
     else:
         for q in range(k):
             found.order[q] = q

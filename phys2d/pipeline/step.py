@@ -23,7 +23,7 @@ import numpy as np
 
 from ..collision.recycle import ManifoldStore, collide_recycling_on
 from ..constraints.joints import start_joint_rows
-from ..constraints.order import colour_pairs
+from ..constraints.order import PAIR_ORDER, order_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
 from ..contacts import FEATURE_BITS, UID_BITS, Contacts, impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
@@ -69,7 +69,7 @@ class TickSpec(NamedTuple):
     rows: tuple  # beta, slop, push_max, restitution_threshold, friction_model, found_lever_arms, warm_start
     name: str
     counts: str
-    colour_order: bool
+    visit: int  # the order it visits the contacts in (``Responder.visit_order``)
 
 
 class StepInputs(NamedTuple):
@@ -102,7 +102,7 @@ def tick_for(responder: Responder) -> TickSpec | None:
 
 def _tick_spec(r: Responder) -> TickSpec:
     rows = (r.beta, r.slop, r.push_max, r.restitution_threshold, r.friction_model, r.found_lever_arms, r.warm_start)
-    staged = TickSpec(False, None, None, 0, rows, r.name, r.counts, bool(r.colour_order))
+    staged = TickSpec(False, None, None, 0, rows, r.name, r.counts, r.visit_order)
     if "respond" in r.__dict__:  # replaced on the instance (a test's spy, say): call it, stage by stage
         return staged
     if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
@@ -189,7 +189,7 @@ class Pipeline:
         self.cached = 0  # its contacts (side's key and cache_*: the cache)
         self.pairs = np.zeros((64, 2), np.int32)
         self.n_pairs = 0
-        self.coloured = False  # pair_order holds the colour order of these pairs
+        self.ordered = PAIR_ORDER  # the visit order pair_order holds for these pairs (PAIR_ORDER: none)
         self.part = np.zeros(0, np.int32)  # each body's part of that order (``constraints.order.partition``)
         self.sweep_again = True  # the bodies or joints changed: the pairs must be found anew
         self.geometry: tuple = ()  # world_v, world_n, aabb, travel, rotation, fat
@@ -259,7 +259,7 @@ class Pipeline:
             m, new = self.manifolds, self.buffers.sides[self.side]
             new.manifold_key[:m], new.manifold_row[:m] = c.manifold_key[:m], c.manifold_row[:m]
             self._forget_state()
-            self.coloured = False
+            self.ordered = PAIR_ORDER
             c = new
         by_key = np.argsort(merged[0], kind="stable")
         for a, values in zip((c.key, c.cache_lambda_n, c.cache_lambda_t, c.cache_pushed), merged, strict=True):
@@ -303,7 +303,7 @@ class Pipeline:
                 self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
             if self.part.shape[0] != b.n:
                 self.part = np.zeros(b.n, np.int32)
-                self.coloured = False
+                self.ordered = PAIR_ORDER
             world_v, world_n, aabb, travel, rotation, fat = self._geometry(world)
             static, M_inv = (b.static, b.M_inv) if self.sleep_masks is None else self.sleep_masks
             shapes = (
@@ -373,20 +373,20 @@ class Pipeline:
             new.manifold_key[:m], new.manifold_row[:m] = old.manifold_key[:m], old.manifold_row[:m]
             for name in ("key", "cache_lambda_n", "cache_lambda_t", "cache_pushed"):
                 getattr(new, name)[:k] = getattr(old, name)[:k]
-            self.coloured = False
+            self.ordered = PAIR_ORDER
         if self.residuals.shape[0] < n_residuals:
             self.residuals = np.zeros(n_residuals)
             self._forget_state()
 
-    def _colour(self, world: World) -> None:
-        """The pairs in colour order, in the buffers (for a responder that visits them by colour)."""
-        if not self.coloured:
+    def _order(self, world: World, visit: int) -> None:
+        """The pairs in the order ``visit`` (part or colour order), in the buffers."""
+        if self.ordered != visit:
             b = world._bodies
             self.state(world)  # (the part buffer sized for the bodies)
             static = b.static if self.sleep_masks is None else self.sleep_masks[0]
-            order = colour_pairs(self.pairs, self.n_pairs, static, b.x, self.part)
+            order = order_pairs(self.pairs, self.n_pairs, static, b.x, self.part, visit)
             self.buffers.pair_order[: self.n_pairs] = order
-            self.coloured = True
+            self.ordered = visit
 
     def _sweep(self, world: World) -> None:
         """The broadphase's pairs anew (``stages.sweep``), the pair buffer grown when short. The
@@ -398,7 +398,7 @@ class Pipeline:
             self._forget_state()
             self.state(world)
             n_pairs = sweep(self.shapes_record, world._bodies.x, False)
-        self.n_pairs, self.sweep_again, self.coloured = n_pairs, False, False
+        self.n_pairs, self.sweep_again, self.ordered = n_pairs, False, PAIR_ORDER
 
     def _make_room(self) -> None:
         """Room in the manifold store for a new manifold per pair: a new store of the live rows
@@ -413,10 +413,10 @@ class Pipeline:
         self._forget_state()
         row[:] = np.arange(self.manifolds)  # slot s's manifold is now in row s
 
-    def _counts(self, colour_order: bool) -> Counts:
+    def _counts(self, visit: int) -> Counts:
         store = self.store
         return Counts._make((  # the counts a kernel reads, as one tuple
-            self.side, self.n_pairs, self.manifolds, self.cached, store.rows_used, store.points_used, colour_order,
+            self.side, self.n_pairs, self.manifolds, self.cached, store.rows_used, store.points_used, visit,
             self.sweep_again,
         ))  # fmt: skip
 
@@ -464,13 +464,13 @@ class Pipeline:
         """The tick as one kernel call (``stages.tick``; two when Python must sweep or make room first);
         None, having changed nothing, while a child process compiles it (``_behind``)."""
         spec, _, step, row_settings, joints, threads, joint_lam = ready
-        stage, colour_order = 0, spec.colour_order
+        stage, visit = 0, spec.visit
         while True:
             self._room(joint_lam.shape[0], spec.n_residuals)
-            if colour_order and not self.sweep_again:
-                self._colour(world)
+            if visit != PAIR_ORDER and not self.sweep_again:
+                self._order(world, visit)
             s = self.state(world)
-            counts = self._counts(colour_order)
+            counts = self._counts(visit)
             args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded, threads)
             spec_was, state_was, kernel = self._compiled  # the machine code of the last call
             if spec_was is not spec or state_was is not s or kernel is tick:  # are the types still its?
@@ -489,8 +489,8 @@ class Pipeline:
                 child.wait()
             if kernel is tick:  # the next steps call its machine code for these types directly
                 self._compiled, self._compiled_types = (spec, s, compiled_for(tick, args)), types_now
-            if result[-1] >= 0:  # the kernel swept: its pairs (and their colouring) are the world's
-                self.n_pairs, self.coloured = result[-1], colour_order
+            if result[-1] >= 0:  # the kernel swept: its pairs (and their order) are the world's
+                self.n_pairs, self.ordered = result[-1], visit
             if result[0] == NEED_SWEEP:
                 self._sweep(world)
             elif result[0] == NEED_ROOM:
@@ -534,7 +534,7 @@ class Pipeline:
         """The stages one call each, as ``stages.tick`` calls them, with the responder's ``respond``
         in the place of its solve."""
         _, _, step, settings, joints, threads, joint_lam = ready
-        colour_order = bool(responder.colour_order)
+        visit = responder.visit_order
         self._room(joint_lam.shape[0], 0)
         s = self.state(world)
         self.began = True
@@ -543,8 +543,8 @@ class Pipeline:
             self._sweep(world)
             self._room(joint_lam.shape[0], 0)
         self._make_room()
-        if colour_order:
-            self._colour(world)
+        if visit != PAIR_ORDER:
+            self._order(world, visit)
         s = self.state(world)
         # collision -> contacts
         store, t = self.store, self.buffers
@@ -556,7 +556,7 @@ class Pipeline:
         k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
             threads, *records_in, now, margins, self.rounded
         )
-        order_contacts(self.shapes_record, new_record, self.n_pairs, (k, n_new, ascends), colour_order)
+        order_contacts(self.shapes_record, new_record, self.n_pairs, (k, n_new, ascends), visit)
         # contacts and cache -> constraint rows
         n = 2 * k + world._joint_lam.shape[0]
         rows = head_of_rows(self.rows_record, k, n)
@@ -591,7 +591,7 @@ class Pipeline:
         order = c.order[:k]
         rows = Rows.view(t.rows, order, 2 * k + world._joint_lam.shape[0])
         found: tuple[np.ndarray, ...] = (c.body_a, c.body_b, c.point, c.normal, c.separation, c.restitution, c.anchor)
-        if responder.colour_order and responder.contacts_in_row_order:  # the fields it reads, in row order
+        if responder.visit_order != PAIR_ORDER and responder.contacts_in_row_order:  # the fields it reads, in row order
             found = tuple(f[order] for f in found)
         else:
             found = tuple(f[:k] for f in found)

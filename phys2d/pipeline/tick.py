@@ -18,7 +18,7 @@ from ..contacts import impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
 from ..responders.pgs import pgs_step
 from ..responders.soft_step import soft_step_solve
-from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, order_contacts, sweep
+from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, in_row_order, order_contacts, sweep
 
 
 @njit(cache=True)
@@ -29,7 +29,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     capsules, segments or chains, else None: the collision of those shapes is then not compiled
     either (``narrowphase.manifold``). threads: None on one thread (no parallel code is
     compiled), else the count of threads the pairs are collided, the contact rows built and the
-    soft step's sweeps solved on (``collide_recycling_on``, ``contact_rows``, ``pipeline.parallel``).
+    responder's sweeps solved on (``collide_recycling_on``, ``contact_rows``, ``pipeline.parallel``).
 
     Stage 0 starts the tick (``begin``); when a body left its fat box it sweeps (``sweep``), or
     returns NEED_SWEEP when the bodies or joints changed or the pairs outgrow the buffers (Python
@@ -43,7 +43,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     if stage == 0:
         fits = begin(s, step.gravity, step.dt, step.contact_margin, threads)
         if not fits and not counts.sweep_again:
-            swept = n_pairs = sweep(s.shapes, s.bodies.x, counts.colour_order)
+            swept = n_pairs = sweep(s.shapes, s.bodies.x, counts.visit)
         if counts.sweep_again or n_pairs < 0 or n_pairs > s.shapes.pair_order.shape[0]:
             return NEED_SWEEP, 0, 0, 0, 0, 0, 0, 0.0, 0, -1
     store = s.store
@@ -56,7 +56,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
         threads, s.bodies, s.shapes, store, old, new, now, margins, rounded
     )
-    order_contacts(s.shapes, new, n_pairs, (k, n_new, ascends), counts.colour_order)
+    order_contacts(s.shapes, new, n_pairs, (k, n_new, ascends), counts.visit)
     # contacts and cache -> constraint rows
     n = 2 * k + (joints.lam.shape[0] if joints is not None else 0)
     rows = head_of_rows(s.rows, k, n)
@@ -68,12 +68,16 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     # rows -> responder -> integration
     count = 0
     if pgs is not None:
-        count = pgs_step(s.bodies, rows, new.separation[:k], step.dt, pgs, s.residuals, joints)
+        separation = in_row_order(new.separation, new.order, k)
+        if threads is None:  # (numba compiles one branch: the other's threads has another type)
+            count = pgs_step(s.bodies, rows, separation, step.dt, pgs, s.residuals, joints, None)
+        else:  # the count and each body's part of the solve order (``pipeline.parallel``)
+            count = pgs_step(s.bodies, rows, separation, step.dt, pgs, s.residuals, joints, (threads, s.shapes.part))
     if soft is not None:
         found = (new.order[:k], new.separation[:k], new.restitution[:k], new.anchor[:k])
-        if threads is None:  # (numba compiles one branch: the other's threads has another type)
+        if threads is None:
             count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, None)
-        else:  # the count and each body's part of the solve order (``pipeline.parallel``)
+        else:
             count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, (threads, s.shapes.part))
     # the limits, then the impulses per contact and the cache the next step starts from
     b = s.bodies

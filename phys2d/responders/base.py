@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..constraints.order import COLOUR_ORDER, PAIR_ORDER, PART_ORDER
 from ..constraints.rows import FRICTION_COULOMB, Rows
 
 
@@ -201,6 +202,9 @@ class Responder:
     counts  the word for the work ``SolveResult.iterations`` counts: 'sweeps', 'passes', 'substeps'
     colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
                     instead of in pair order: faster sweeps, a different Gauss-Seidel order
+    part_order      visit contacts part by part, pair order within each (``constraints.order``):
+                    a large scene's sweeps can then share the work among threads; a scene
+                    of fewer than ``PARTS_FROM`` moving bodies keeps pair order exactly
     contacts_in_row_order  whether StepContext's contact arrays come gathered into row order;
                     False: the world's own, in contact order (``rows.order`` maps), for a
                     responder that gathers the few fields it reads in a kernel of its own
@@ -221,8 +225,15 @@ class Responder:
     handles_joints = False
     solves_mouse_joints = False
     colour_order = False
+    part_order = False
     contacts_in_row_order = True
     found_lever_arms = False
+
+    @property
+    def visit_order(self) -> int:
+        """The order the world hands this responder the contacts in (``constraints.order``):
+        COLOUR_ORDER with ``colour_order``, else PART_ORDER with ``part_order``, else PAIR_ORDER."""
+        return COLOUR_ORDER if self.colour_order else PART_ORDER if self.part_order else PAIR_ORDER
 
     def __getstate__(self) -> dict:
         """A copy (pickle, deepcopy) leaves out the world's note of its settings (``pipeline.step.spec_of``)."""

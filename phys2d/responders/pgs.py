@@ -20,7 +20,9 @@ targets may have none; there a warm-started lambda would grow without bound alon
 space, carried from tick to tick. The push pass starts from zero every tick.
 
 ``sweep`` is the lecture's loop, one row at a time in pair order (rows are stored
-in it: each contact's normal row, then its friction row; joint rows last);
+in it: each contact's normal row, then its friction row; joint rows last; a scene of
+``PARTS_FROM`` moving bodies or more comes part by part, pair order within each, so that
+``World.threads`` can sweep the parts at once: ``sweep_in_groups``);
 ``block_sweep`` is Box2D's block solver, which takes a two-point manifold's normal
 rows together (``lcp2``, shared with the soft step). ``pgs_step`` runs a whole
 ``respond`` in one numba call: each call from Python costs a dispatch that grows
@@ -32,7 +34,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..constraints.joints import OWN_SOLVE, JointArrays
 from ..constraints.rows import (
@@ -48,6 +50,7 @@ from ..constraints.rows import (
     unsigned_indices,
 )
 from ..integrate import integrate_positions
+from ..pipeline.parallel import manifold_groups
 from ..pipeline.records import RowRecord, new_bodies, record_of_joints, record_of_rows
 from ..validation import (
     Setting,
@@ -68,8 +71,14 @@ from .restitution import bouncing_contacts, restitution_pass
 @njit(cache=True)
 def apply_impulses(rows, V):
     """V += M^-1 J^T lambda: the warm start, one row at a time."""
+    apply_impulses_of(0, rows.lam.shape[0], rows, V)
+
+
+@njit(cache=True)
+def apply_impulses_of(first, last, rows, V):
+    """``apply_impulses`` of rows first up to last."""
     body_a, body_b, JM, lam = rows.body_a, rows.body_b, rows.JM, rows.lam
-    for k in range(lam.shape[0]):
+    for k in range(first, last):
         if lam[k] != 0.0:
             apply_row_impulse(k, body_a[k], body_b[k], JM, lam[k], V)
 
@@ -175,19 +184,26 @@ def block_sweep(rows, rows_hat, V, joint_rows):
     row by row (``solve_row``, on ``rows_hat``, the same rows per unit A_kk), and the joint
     rows ``joint_rows`` in a ``sweep``. Returns the largest |delta lambda_k| A_kk (m/s). With no
     friction rows (``rows.friction_row`` empty) only the normal rows are swept."""
+    worst = block_sweep_of(0, rows_hat.normal_row.shape[0], rows, rows_hat, V)
+    return max(worst, sweep(rows_hat, V, joint_rows))
+
+
+@njit(cache=True)
+def block_sweep_of(first, last, rows, rows_hat, V):
+    """``block_sweep`` of contacts first up to last (in visit order; a manifold's points all
+    within them), without the joint rows. Returns the largest |delta lambda_k| A_kk (m/s)."""
     normal_row, friction_row = rows_hat.normal_row, rows_hat.friction_row  # unsigned: the sweep's visit
     body_a, body_b, J, JM, A_kk, xi, lam = rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk, rows.xi, rows.lam
     J_hat, xi_hat = rows_hat.J, rows_hat.xi  # per unit A_kk, for the rows solved one by one
     lo, hi, bound_row, mu = rows.lo, rows.hi, rows.bound_row, rows.mu
     worst = 0.0
-    n_contacts = normal_row.shape[0]
     frictionless = friction_row.shape[0] == 0
-    q = 0
-    while q < n_contacts:
+    q = first
+    while q < last:
         n1 = normal_row[q]
         a, b = body_a[n1], body_b[n1]
         together = 1  # contacts taken in this turn
-        if q + 1 < n_contacts and body_a[normal_row[q + 1]] == a and body_b[normal_row[q + 1]] == b:
+        if q + 1 < last and body_a[normal_row[q + 1]] == a and body_b[normal_row[q + 1]] == b:
             err = solve_normal_pair(n1, normal_row[q + 1], a, b, J, JM, A_kk, xi, lam, V)
             if err >= 0.0:  # solved as a block: then the two friction rows
                 worst = max(worst, err)
@@ -198,7 +214,7 @@ def block_sweep(rows, rows_hat, V, joint_rows):
             bounds = row_bounds(k, lo, hi, bound_row, mu, lam)
             worst = max(worst, solve_row(k, a, b, bounds, J_hat, JM, A_kk, xi_hat, lam, V))
         q += together
-    return max(worst, sweep(rows_hat, V, joint_rows))
+    return worst
 
 
 @njit(cache=True, inline="always")
@@ -250,14 +266,110 @@ def swept_rows(bound_row):
     return visit
 
 
+# -- on several threads: the contacts' segments of a group at once (``pipeline.parallel``) ----------
 @njit(cache=True)
-def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt):
+def contact_groups(threads, rows, M_inv):
+    """``pipeline.parallel.manifold_groups`` of the contacts (each its own "manifold": a sweep
+    visits rows), segment s being contacts segment_start[s] up to segment_start[s + 1]; None
+    when threads is None (one thread)."""
+    if threads is None:
+        return None
+    return manifold_groups(np.arange(rows.normal_row.shape[0] + 1), rows, M_inv, threads[1])
+
+
+@njit(cache=True)
+def sweep_on(groups, rows_hat, V, visit, per_contact):
+    """``sweep`` of the rows ``visit``: in one call (groups None), or group by group
+    (``sweep_in_groups``; a contact's rows are per_contact consecutive entries of visit)."""
+    if groups is None:
+        return sweep(rows_hat, V, visit)
+    return sweep_in_groups(groups, rows_hat, V, visit, per_contact)
+
+
+@njit(cache=True, parallel=True)
+def sweep_in_groups(groups, rows_hat, V, visit, per_contact):
+    """``sweep`` group by group, a group's segments in parallel (segment s's rows:
+    visit[per_contact * c0 : per_contact * c1] for its contacts c0 up to c1), then the rows
+    after the contacts' (the joints') on this thread: each row sees what it sees in one sweep,
+    so the results are the same (``pipeline.parallel``). Returns the largest correction (m/s)."""
+    segment_start, group_start = groups
+    worst = np.zeros(segment_start.shape[0])  # per segment: no shared accumulator
+    for g in range(group_start.shape[0] - 1):
+        first, last = group_start[g], group_start[g + 1]
+        if last - first == 1:  # one segment: on this thread, no threads to wake
+            c0, c1 = segment_start[first], segment_start[first + 1]
+            worst[first] = sweep_rows(rows_hat, V, visit, per_contact * c0, per_contact * c1)
+            continue
+        for s in prange(first, last):
+            c0, c1 = segment_start[s], segment_start[s + 1]
+            worst[s] = sweep_rows(rows_hat, V, visit, per_contact * c0, per_contact * c1)
+    after = sweep_rows(rows_hat, V, visit, per_contact * segment_start[-1], visit.shape[0])
+    return max(worst.max(), after)
+
+
+@njit(cache=True)
+def sweep_rows(rows_hat, V, visit, first, last):
+    """``sweep`` of visit[first:last]."""
+    return sweep(rows_hat, V, visit[first:last])
+
+
+@njit(cache=True)
+def block_sweep_on(groups, rows, rows_hat, V, joint_rows):
+    """``block_sweep``: in one call (groups None), or its contacts group by group, a group's
+    segments in parallel, then the joint rows (``sweep_in_groups``' order: the same results)."""
+    if groups is None:
+        return block_sweep(rows, rows_hat, V, joint_rows)
+    return max(block_sweep_in_groups(groups, rows, rows_hat, V), sweep(rows_hat, V, joint_rows))
+
+
+@njit(cache=True, parallel=True)
+def block_sweep_in_groups(groups, rows, rows_hat, V):
+    segment_start, group_start = groups
+    worst = np.zeros(segment_start.shape[0])
+    for g in range(group_start.shape[0] - 1):
+        first, last = group_start[g], group_start[g + 1]
+        if last - first == 1:
+            worst[first] = block_sweep_of(segment_start[first], segment_start[first + 1], rows, rows_hat, V)
+            continue
+        for s in prange(first, last):
+            worst[s] = block_sweep_of(segment_start[s], segment_start[s + 1], rows, rows_hat, V)
+    return worst.max()
+
+
+@njit(cache=True)
+def apply_impulses_on(groups, rows, V):
+    """``apply_impulses`` (the warm start): in one call (groups None), or the contacts' rows group
+    by group, a group's segments in parallel, then the joints': each body adds its impulses in
+    the same order, so the results are the same."""
+    if groups is None:
+        apply_impulses(rows, V)
+    else:
+        apply_impulses_in_groups(groups, rows, V)
+
+
+@njit(cache=True, parallel=True)
+def apply_impulses_in_groups(groups, rows, V):
+    segment_start, group_start = groups
+    for g in range(group_start.shape[0] - 1):
+        first, last = group_start[g], group_start[g + 1]
+        if last - first == 1:
+            apply_impulses_of(2 * segment_start[first], 2 * segment_start[first + 1], rows, V)
+            continue
+        for s in prange(first, last):
+            apply_impulses_of(2 * segment_start[s], 2 * segment_start[s + 1], rows, V)
+    apply_impulses_of(2 * segment_start[-1], rows.lam.shape[0], rows, V)  # the joint rows
+
+
+@njit(cache=True)
+def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt, groups):
     """Warm start from rows.lam, then sweep all rows in solve order (rows are stored in it)
     until the residual <= tolerance or out of sweeps. Returns the sweeps made;
     residuals[s] is sweep s's. ``block``: see ``PGSSettings``. ``joints``: the JointRecord, or
     None in a world without joints (then none of this joint code is compiled); its mouse
-    joints' rows are solved after each sweep by their own soft solve (``solve_mice``, over dt)."""
-    apply_impulses(rows, V)
+    joints' rows are solved after each sweep by their own soft solve (``solve_mice``, over dt).
+    ``groups``: None on one thread, else the contacts' groups (``contact_groups``): the warm
+    start and the sweeps run a group's segments on several threads, with the same results."""
+    apply_impulses_on(groups, rows, V)
     rows_hat = per_unit_A(rows)
     all_rows = np.arange(rows.lam.shape[0], dtype=np.uint32)  # unsigned, as rows_hat's row map: sweep compiles once
     first_joint_row = 2 * rows.normal_row.shape[0]
@@ -269,9 +381,9 @@ def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt):
     joint_rows = all_rows[first_joint_row:]
     for s in range(iterations):
         if block is not None:
-            residuals[s] = block_sweep(rows, rows_hat, V, joint_rows)
+            residuals[s] = block_sweep_on(groups, rows, rows_hat, V, joint_rows)
         else:
-            residuals[s] = sweep(rows_hat, V, all_rows)
+            residuals[s] = sweep_on(groups, rows_hat, V, all_rows, 2)  # (a contact's two rows)
         if joints is not None:
             if mice:
                 residuals[s] = max(residuals[s], solve_mice(joints, first_joint_row, rows, V, dt, dt))
@@ -291,12 +403,12 @@ def pushes(rows, visit):
 
 
 @njit(cache=True)
-def push_out(rows, V_push, lam_push, iterations, tolerance, block):
+def push_out(rows, V_push, lam_push, iterations, tolerance, block, groups):
     """Split impulses: sweep the rows that hold a position (``push_rows``) for pseudo-velocities
     V_push that reach J_k V_push = push_k (the Baumgarte push; >= for a contact or a joint
     limit, with lambda_p >= 0), from lam_push = 0 and V_push = 0: nothing is warm started.
     Leaves the impulses in ``lam_push``; returns the sweeps made (0 when nothing is to be pushed).
-    ``block``: see ``PGSSettings``.
+    ``block``: see ``PGSSettings``; ``groups``: as ``pgs_solve``'s.
     """
     visit = push_rows(rows.normal_row, rows.lo, rows.hi, rows.bound_row)
     if not pushes(rows, visit):
@@ -307,9 +419,9 @@ def push_out(rows, V_push, lam_push, iterations, tolerance, block):
     joint_visit = visit[rows.normal_row.shape[0] :]
     for s in range(iterations):
         if block is not None:
-            worst = block_sweep(target, push_hat, V_push, joint_visit)
+            worst = block_sweep_on(groups, target, push_hat, V_push, joint_visit)
         else:
-            worst = sweep(push_hat, V_push, visit)
+            worst = sweep_on(groups, push_hat, V_push, visit, 1)  # (a contact's normal row)
         if worst <= tolerance:
             return s + 1
     return iterations
@@ -340,22 +452,25 @@ class PGSSettings(NamedTuple):
 
 
 @njit(cache=True)
-def pgs_step(bodies, rows, separation, dt, settings, residuals, joints):
+def pgs_step(bodies, rows, separation, dt, settings, residuals, joints, threads):
     """``PGS.respond`` in one call on the bodies' record and the step's rows: warm start and
     sweeps on V, the push pass (split) or the push inside xi (not split), positions moved,
     then the restitution pass. ``separation``: (K,) each contact's C (m) in row order;
     ``residuals``: each sweep's; ``joints``: the JointRecord (for its mouse joints), or None
-    in a world without joints. Returns the sweeps made on A lambda = b."""
+    in a world without joints; threads: None on one thread (no parallel code is compiled), else
+    (count, each body's part of the solve order): the sweeps run on several threads
+    (``sweep_in_groups``), with the same results. Returns the sweeps made on A lambda = b."""
     iterations, tolerance, block, split = settings
     V = bodies.V
+    groups = contact_groups(threads, rows, bodies.M_inv)  # None on one thread
     system = rows  # split: the push goes through pseudo-velocities of its own (push_out)
     if not split:  # the lecture: the push is part of the target
         system = with_target(rows, rows.xi + rows.push, rows.lam, rows.friction_row)
-    n = pgs_solve(system, V, iterations, tolerance, residuals, block, joints, dt)
+    n = pgs_solve(system, V, iterations, tolerance, residuals, block, joints, dt, groups)
     V_move = V
     if split:
         V_push, lam_push = np.zeros_like(V), np.zeros(rows.lam.shape[0])
-        if push_out(system, V_push, lam_push, iterations, tolerance, block) > 0:
+        if push_out(system, V_push, lam_push, iterations, tolerance, block, groups) > 0:
             V_move = V + V_push  # what the positions move with
             keep_joint_push(system, lam_push, V)  # the contacts' push is dropped, the joints' kept
     bouncing = bouncing_contacts(system, separation, V, dt)
@@ -411,6 +526,7 @@ class PGS(Responder):
     """
 
     handles_joints = True
+    part_order = True  # pair order, part by part in a scene large enough for threads (``constraints.order``)
     solves_mouse_joints = True  # both forms: ``mouse.solve_mice``, or the matrix sweep's ``solve_disk_block``
     counts = "sweeps"
 
@@ -498,7 +614,10 @@ class PGS(Responder):
         joints = None  # a world without joints compiles none of their code
         if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
             joints = record_of_joints(ctx.joints, r.lam[r.first_joint_row :])  # (lam: not read)
-        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, self.settings, residuals, joints)
+        threads = None  # one thread: no parallel code compiled
+        if ctx.threads > 1:  # (without the parts every contact is in part 0: solved on one thread)
+            threads = (ctx.threads, ctx.part if ctx.part is not None else np.zeros(ctx.x.shape[0], np.int32))
+        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, self.settings, residuals, joints, threads)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:
