@@ -153,12 +153,15 @@ def look_up_in_slices(threads, cache_keys, cache_pushed, keys, cached):
     """``look_up`` of all the contacts and ``lost_a_load_of`` of all the cache entries, a slice of
     each per thread. Returns (the contacts found, whether a pair that pushed is gone)."""
     k, n = keys.shape[0], cache_keys.shape[0]
-    found = np.zeros(threads, np.int64)  # per slice: no shared accumulator
-    lost = np.zeros(threads, np.bool_)
+    found = np.empty(threads, np.int64)  # per slice: no shared accumulator
+    lost = np.empty(threads, np.bool_)
     for t in prange(threads):
         found[t] = look_up(k * t // threads, k * (t + 1) // threads, cache_keys, keys, cached)
         lost[t] = lost_a_load_of(n * t // threads, n * (t + 1) // threads, cache_keys, cache_pushed, keys)
-    return found.sum(), lost.any()
+    hits, any_lost = 0, False  # (loops: numba would make found.sum() a parallel loop, one more wait)
+    for t in range(threads):
+        hits, any_lost = hits + found[t], any_lost or lost[t]
+    return hits, any_lost
 
 
 @njit(cache=True)

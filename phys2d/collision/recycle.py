@@ -349,10 +349,11 @@ def collide_recycling_in_slices(threads, bodies, shapes, store, cached, out, cou
     3. per pair, a slice per thread (``write_pairs``): the points written there.
     """
     n_pairs, n_cached, rows_used, points_used = counts
-    row_of = np.full(n_pairs, -1, np.int64)  # the store row of a recycled manifold; -1 collided anew
-    count = np.zeros(n_pairs, np.int64)  # its points
+    row_of = np.empty(n_pairs, np.int64)  # the store row of a recycled manifold; -1 collided anew
+    count = np.empty(n_pairs, np.int64)  # its points
     found = np.empty((n_pairs, 11))  # per pair: its points now, laid out as ``manifold``'s
-    plan = (row_of, count, found, body_extents(shapes) if margins[1] > 0.0 else np.zeros(0))
+    # (np.empty, each entry written by its slice: numba makes np.zeros a parallel loop, one more wait)
+    plan = (row_of, count, found, body_extents(shapes) if margins[1] > 0.0 else np.empty(0))
     for t in prange(threads):
         plan_pairs(n_pairs * t // threads, n_pairs * (t + 1) // threads, bodies, shapes, store, cached, counts,
                    margins, rounded, plan)  # fmt: skip
@@ -426,6 +427,7 @@ def plan_pairs(first, last, bodies, shapes, store, cached, counts, margins, roun
                             count[q] = span[row, 1] - span[row, 0]
                             continue
         n, nx, ny, p1x, p1y, s1, f1, p2x, p2y, s2, f2 = manifold(a, b, x, shapes, margin, rounded)
+        row_of[q] = -1
         found[q, 0], found[q, 1], found[q, 2], found[q, 3], found[q, 4] = n, nx, ny, p1x, p1y
         found[q, 5], found[q, 6], found[q, 7], found[q, 8], found[q, 9], found[q, 10] = s1, f1, p2x, p2y, s2, f2
         count[q] = n

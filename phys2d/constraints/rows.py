@@ -553,9 +553,12 @@ def contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache):
     """``contact_rows_of`` over all the contacts, a slice of them on each of ``threads`` threads
     (each contact writes its own rows: the same results as one call). Returns the deepest overlap (m)."""
     K = rows.normal_row.shape[0]
-    deepest = np.zeros(threads)  # per slice: no shared accumulator
+    deepest = np.empty(threads)  # per slice: no shared accumulator
     for t in prange(threads):
         deepest[t] = contact_rows_of(
             K * t // threads, K * (t + 1) // threads, bodies, found, rows, settings, found_cache
         )
-    return deepest.max()
+    overall = 0.0  # (a loop: numba would make deepest.max() a parallel loop, one more wait for the threads)
+    for t in range(threads):
+        overall = max(overall, deepest[t])
+    return overall

@@ -122,20 +122,18 @@ def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h,
     """``soft_sweep`` group by group, each group's segments in parallel (groups: ``groups_for``);
     the same arguments, the same results. Returns the largest |delta lambda| A_kk (m/s)."""
     segment_start, group_start = groups
-    worst = np.zeros(segment_start.shape[0])  # per segment: no shared accumulator
+    worst = np.empty(segment_start.shape[0] - 1)  # per segment: no shared accumulator
     dynamic, static, joint = springs  # (numba's parallel loops take tuples, not tuples of tuples)
     for g in range(group_start.shape[0] - 1):  # the normal rows, group by group
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:  # one segment: on this thread, no threads to wake
             m0, m1 = segment_start[first], segment_start[first + 1]
-            w = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs)
-            worst[first] = max(worst[first], w)
+            worst[first] = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs)
             continue
         for s in prange(first, last):
             soft = (dynamic, static, joint)
             m0, m1 = segment_start[s], segment_start[s + 1]
-            w = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft)
-            worst[s] = max(worst[s], w)
+            worst[s] = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft)
     for g in range(group_start.shape[0] - 1):  # then the friction rows
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:
@@ -146,7 +144,19 @@ def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h,
             m0, m1 = segment_start[s], segment_start[s + 1]
             w = soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h)
             worst[s] = max(worst[s], w)
-    return worst.max()
+    return largest(worst)
+
+
+@njit(cache=True)
+def largest(values):
+    """The largest of ``values`` (0.0 when none), in a kernel of its own: inside a parallel one,
+    numba makes ``values.max()`` a parallel loop, and each parallel loop is a wait for the
+    threads (a long one when another program holds a core). So too np.zeros: the parallel
+    kernels make their per-thread arrays with np.empty and fill every entry."""
+    worst = 0.0
+    for v in values:
+        worst = max(worst, v)
+    return worst
 
 
 @njit(cache=True, parallel=True)
@@ -277,7 +287,7 @@ def note_impacts_on(threads, rows, points, n_pending, dv, h, threshold):
 
 @njit(cache=True, parallel=True)
 def note_impacts_in_slices(n_slices, rows, points, n_pending, dv, h, threshold):
-    kept = np.zeros(n_slices, np.int64)
+    kept = np.empty(n_slices, np.int64)
     for t in prange(n_slices):
         first = n_pending * t // n_slices  # its points still pending are kept from pending[first] on
         kept[t] = note_impacts_of(first, n_pending * (t + 1) // n_slices, rows, points, dv, h, threshold)

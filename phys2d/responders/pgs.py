@@ -50,7 +50,7 @@ from ..constraints.rows import (
     unsigned_indices,
 )
 from ..integrate import integrate_positions
-from ..pipeline.parallel import manifold_groups
+from ..pipeline.parallel import largest, manifold_groups
 from ..pipeline.records import RowRecord, new_bodies, record_of_joints, record_of_rows
 from ..validation import (
     Setting,
@@ -293,7 +293,7 @@ def sweep_in_groups(groups, rows_hat, V, visit, per_contact):
     after the contacts' (the joints') on this thread: each row sees what it sees in one sweep,
     so the results are the same (``pipeline.parallel``). Returns the largest correction (m/s)."""
     segment_start, group_start = groups
-    worst = np.zeros(segment_start.shape[0])  # per segment: no shared accumulator
+    worst = np.empty(segment_start.shape[0] - 1)  # per segment: no shared accumulator (each written once)
     for g in range(group_start.shape[0] - 1):
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:  # one segment: on this thread, no threads to wake
@@ -304,7 +304,7 @@ def sweep_in_groups(groups, rows_hat, V, visit, per_contact):
             c0, c1 = segment_start[s], segment_start[s + 1]
             worst[s] = sweep_rows(rows_hat, V, visit, per_contact * c0, per_contact * c1)
     after = sweep_rows(rows_hat, V, visit, per_contact * segment_start[-1], visit.shape[0])
-    return max(worst.max(), after)
+    return max(largest(worst), after)
 
 
 @njit(cache=True)
@@ -325,7 +325,7 @@ def block_sweep_on(groups, rows, rows_hat, V, joint_rows):
 @njit(cache=True, parallel=True)
 def block_sweep_in_groups(groups, rows, rows_hat, V):
     segment_start, group_start = groups
-    worst = np.zeros(segment_start.shape[0])
+    worst = np.empty(segment_start.shape[0] - 1)
     for g in range(group_start.shape[0] - 1):
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:
@@ -333,7 +333,7 @@ def block_sweep_in_groups(groups, rows, rows_hat, V):
             continue
         for s in prange(first, last):
             worst[s] = block_sweep_of(segment_start[s], segment_start[s + 1], rows, rows_hat, V)
-    return worst.max()
+    return largest(worst)
 
 
 @njit(cache=True)
