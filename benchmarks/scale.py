@@ -9,7 +9,7 @@
 Engines:
 
 - ``phys2d-pgs``: ``phys2d.PGS()`` (10 sweeps, warm started), ``phys2d-soft4``: ``phys2d.SoftStep(4)``;
-  ``phys2d-soft4-2t`` (asked for by ``--engines``): ``SoftStep(4)`` on 2 threads (``World.threads``);
+  ``phys2d-soft4-2t``, ``phys2d-pgs-2t`` (asked for by ``--engines``): the same on 2 threads (``World.threads``);
 - ``pymunk``: the same world, translated body by body (``pymunk_space``): iterations 10, sleeping
   off, each shape's friction sqrt(mu) (Chipmunk multiplies, phys2d mixes sqrt(mu_a mu_b));
   scenes pymunk cannot express (rush's pull, per-body damping or gravity) are skipped;
@@ -54,9 +54,9 @@ sys.path.insert(0, str(BENCH_DIR))
 DT = 1.0 / 60.0
 PYRAMIDS = tuple(range(10, 101, 10))
 QUICK_PYRAMIDS = (10, 50, 100)
-PHYS2D_ENGINES = ("phys2d-pgs", "phys2d-soft4", "phys2d-soft4-2t")
-THREADS = {"phys2d-soft4-2t": 2}  # World.threads of an engine (1 when not named)
-PEER = {"phys2d-soft4-2t": "box2d-v3-2w"}  # what an engine's ratio is taken against (else box2d-v3-1w)
+PHYS2D_ENGINES = ("phys2d-pgs", "phys2d-soft4", "phys2d-soft4-2t", "phys2d-pgs-2t")
+THREADS = {"phys2d-soft4-2t": 2, "phys2d-pgs-2t": 2}  # World.threads of an engine (1 when not named)
+PEER = {"phys2d-soft4-2t": "box2d-v3-2w", "phys2d-pgs-2t": "box2d-v3-2w"}  # an engine's ratio is against (else 1w)
 V3_SCENES = {"large_pyramid": 0, "many_pyramids": 1}  # scale_create's scene argument
 V3_ENGINES = {"box2d-v3-1w": 1, "box2d-v3-2w": 2}
 V3_SUBSTEPS = 4
@@ -88,7 +88,7 @@ def build_phys2d(scene: str, responder):
 def make_responder(engine: str):
     import phys2d
 
-    return phys2d.PGS() if engine == "phys2d-pgs" else phys2d.SoftStep(substeps=4)
+    return phys2d.PGS() if engine.startswith("phys2d-pgs") else phys2d.SoftStep(substeps=4)
 
 
 # -- pymunk ----------------------------------------------------------------------------------
