@@ -9,8 +9,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from phys2d.collision.broadphase import sweep_and_prune
-from phys2d.collision.sort import lower_bound, stable_argsort
+from phys2d.collision.broadphase import SORT_BY_MERGE, sort_pairs, sweep_and_prune
+from phys2d.collision.sort import counting_argsort, lower_bound, stable_argsort
 
 # few distinct values, so ties (and -0.0 beside 0.0, NaN beside NaN) are common
 FLOATS = st.sampled_from([-np.inf, -1.5, -0.0, 0.0, 1e-300, 2.0, np.inf, np.nan]) | st.floats(allow_nan=True)
@@ -25,6 +25,19 @@ def test_floats_sort_as_numpy_stable(keys):
 @given(arrays(np.int64, st.integers(0, 80), elements=INTS))
 def test_ints_sort_as_numpy_stable(keys):
     assert np.array_equal(stable_argsort(keys), np.argsort(keys, kind="stable"))
+
+
+@given(
+    st.integers(1, 300).flatmap(
+        lambda bound: st.tuples(
+            st.just(bound), arrays(np.int64, st.integers(0, 80), elements=st.integers(0, bound - 1))
+        )
+    )
+)
+def test_small_ints_count_sort_as_numpy_stable(bound_and_keys):
+    """The counting sort of keys in [0, bound) (the solve order's sets and colours)."""
+    bound, keys = bound_and_keys
+    assert np.array_equal(counting_argsort(keys, bound), np.argsort(keys, kind="stable"))
 
 
 @given(arrays(np.float64, st.tuples(st.integers(0, 40), st.just(4)), elements=FLOATS))
@@ -88,3 +101,18 @@ def test_the_strips_find_every_overlap_once_in_tall_and_flat_piles(boxes):
         and aabb[b, 1] <= aabb[a, 3]
     ]
     assert [tuple(p) for p in pairs[:count].tolist()] == expected
+
+
+@given(st.data(), st.integers(2, 60), st.booleans())
+def test_pairs_sort_by_body_then_partner(data, n_bodies, a_ground):
+    """sort_pairs against sorted(): any unique pairs a < b in any order, with (when a_ground)
+    body 0 paired with more than SORT_BY_MERGE partners, whose sort takes the merge sort."""
+    pair = st.tuples(st.integers(0, n_bodies - 1), st.integers(0, n_bodies - 1)).filter(lambda p: p[0] < p[1])
+    pairs = set(data.draw(st.lists(pair, max_size=200)))
+    if a_ground:
+        pairs |= {(0, b) for b in range(1, n_bodies)} | {(0, n_bodies + i) for i in range(SORT_BY_MERGE + 1)}
+        n_bodies += SORT_BY_MERGE + 1
+    order = data.draw(st.permutations(sorted(pairs)))
+    array = np.array(order, np.int32).reshape(-1, 2)
+    sort_pairs(array, array.shape[0], n_bodies)
+    assert [tuple(p) for p in array.tolist()] == sorted(pairs)

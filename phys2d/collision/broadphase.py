@@ -245,12 +245,42 @@ def sweep_and_prune(aabb, static, excluded, pairs, filters):
                 count += 1
     if count > cap:
         return -count
-    # sort by (a, b) so contact keys come out ascending and the solve order is stable
-    keys = np.empty(count, np.int64)
-    for k in range(count):
-        keys[k] = (np.int64(pairs[k, 0]) << 32) | np.int64(pairs[k, 1])
-    by_key = stable_argsort(keys)
-    for k in range(count):  # a key holds its pair: a = key >> 32, b = its low 32 bits
-        pairs[k, 0] = keys[by_key[k]] >> 32
-        pairs[k, 1] = keys[by_key[k]] & 0xFFFFFFFF
+    sort_pairs(pairs, count, n)  # by (a, b): contact keys come out ascending, the solve order is stable
     return count
+
+
+SORT_BY_MERGE = 32  # partners: a body with more has its b sorted by the merge sort, not by insertion
+
+
+@njit(cache=True)
+def sort_pairs(pairs, count, n_bodies):
+    """pairs[:count] (a < b, each pair once) sorted by (a, b): bucketed by a (a counting sort,
+    O(count + n_bodies)), then each body's few partners b in order (insertion; the merge sort
+    for a body with many, a ground under a thousand boxes)."""
+    start = np.zeros(n_bodies + 1, np.int64)
+    for k in range(count):
+        start[pairs[k, 0] + 1] += 1
+    for a in range(n_bodies):
+        start[a + 1] += start[a]
+    partner = np.empty(count, np.int64)
+    fill = start[:n_bodies].copy()
+    for k in range(count):
+        a = pairs[k, 0]
+        partner[fill[a]] = pairs[k, 1]
+        fill[a] += 1
+    for a in range(n_bodies):
+        lo, hi = start[a], start[a + 1]
+        if hi - lo > SORT_BY_MERGE:
+            bs = partner[lo:hi].copy()
+            by_b = stable_argsort(bs)
+            for i in range(hi - lo):
+                partner[lo + i] = bs[by_b[i]]
+        else:
+            for i in range(lo + 1, hi):  # insertion sort
+                b, j = partner[i], i
+                while j > lo and partner[j - 1] > b:
+                    partner[j] = partner[j - 1]
+                    j -= 1
+                partner[j] = b
+        for i in range(lo, hi):
+            pairs[i, 0], pairs[i, 1] = a, partner[i]

@@ -54,6 +54,22 @@ def stable_argsort(keys):
     return src
 
 
+@njit(cache=True)
+def counting_argsort(keys, bound):
+    """``stable_argsort`` of integer keys in [0, bound): a counting sort, O(n + bound), for keys
+    as few as the solve order's sets and colours. Equal keys keep their index order."""
+    start = np.zeros(bound + 1, np.int64)
+    for k in keys:
+        start[k + 1] += 1
+    for v in range(bound):
+        start[v + 1] += start[v]
+    out = np.empty(keys.shape[0], np.int64)
+    for i in range(keys.shape[0]):
+        out[start[keys[i]]] = i
+        start[keys[i]] += 1
+    return out
+
+
 @njit(cache=True, inline="always")
 def lower_bound(keys, key):
     """The first index i with keys[i] >= key in the ascending array keys (keys.shape[0] if none):

@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..collision.sort import stable_argsort
+from ..collision.sort import counting_argsort, stable_argsort
 
 MAX_COLOURS = 64  # a body in more pairs than this shares the last colour
 
@@ -119,14 +119,16 @@ def half_by_weight(bodies, weight):
 @njit(cache=True)
 def interleaving(bodies, cut, n_bodies):
     """How often, going through ``bodies`` in body order, the half changes (the first ``cut`` of
-    them are the first half)."""
-    first = np.zeros(n_bodies, np.bool_)
-    for i in range(cut):
-        first[bodies[i]] = True
-    by_index = bodies[stable_argsort(bodies)]  # (the sort the colours use: no other to compile)
-    changes = 0
-    for i in range(1, by_index.shape[0]):
-        changes += first[by_index[i]] != first[by_index[i - 1]]
+    them are the first half). A walk over the body indices, no sort: half[b] is 1 or 2 for the
+    bodies in ``bodies``, 0 for the others."""
+    half = np.zeros(n_bodies, np.int8)
+    for i in range(bodies.shape[0]):
+        half[bodies[i]] = 1 if i < cut else 2
+    changes, last = 0, 0
+    for b in range(n_bodies):
+        if half[b] != 0:
+            changes += last != 0 and half[b] != last
+            last = half[b]
     return changes
 
 
@@ -172,7 +174,7 @@ def order_pairs(pairs, n_pairs, static, x, part, visit):
         part_a = part[b] if static[a] else part[a]
         part_b = part[a] if static[b] else part[b]
         key[p] = set_of(part_a, part_b, PART_DEPTH)[0] * MAX_COLOURS + chosen
-    return stable_argsort(key).astype(np.int32)
+    return counting_argsort(key, ((1 << (PART_DEPTH + 1)) - 1) * MAX_COLOURS).astype(np.int32)  # sets x colours
 
 
 @njit(cache=True, inline="always")
