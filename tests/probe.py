@@ -8,6 +8,7 @@ import phys2d
 from phys2d import shapes as shapes_module
 from phys2d.collision.broadphase import update_geometry
 from phys2d.collision.narrowphase import collide_pairs
+from phys2d.constraints.order import PAIR_ORDER
 from phys2d.pipeline import records
 from phys2d.pipeline.stages import sweep
 from phys2d.pipeline.step import ContactBuffers
@@ -46,5 +47,5 @@ def contacts_now(w: phys2d.World) -> phys2d.Contacts:
     n = len(w.bodies)
     pairs = np.zeros((max(1, n * (n - 1) // 2), 2), np.int32)
     bodies, shapes, _, _ = records_now(w, w.V, pairs, dt=0.0)
-    n_pairs = sweep(shapes, w.x, False)
+    n_pairs = sweep(shapes, w.x, PAIR_ORDER)
     return manifolds_of(w, bodies, shapes, n_pairs)

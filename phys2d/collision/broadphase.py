@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..shapes import CIRCLE
-from .sort import lower_bound, stable_argsort
+from .sort import counting_argsort, lower_bound, stable_argsort
 
 
 @njit(cache=True)
@@ -214,7 +214,10 @@ def sweep_and_prune(aabb, static, excluded, pairs, filters):
         start[s + 1] += start[s]
     members = np.empty(start[n_strips], np.int64)  # strip s's boxes, by left edge: members[start[s]:start[s + 1]]
     fill = start[:n_strips].copy()
-    order = stable_argsort(aabb[:, 0])
+    left = np.empty(n)  # the left edges, contiguous: the sort compiled once, for the bisection's too
+    for b in range(n):
+        left[b] = aabb[b, 0]
+    order = stable_argsort(left)
     for ii in range(n):
         a = order[ii]
         for s in range(first[a], last[a] + 1):
@@ -249,38 +252,19 @@ def sweep_and_prune(aabb, static, excluded, pairs, filters):
     return count
 
 
-SORT_BY_MERGE = 32  # partners: a body with more has its b sorted by the merge sort, not by insertion
-
-
 @njit(cache=True)
 def sort_pairs(pairs, count, n_bodies):
-    """pairs[:count] (a < b, each pair once) sorted by (a, b): bucketed by a (a counting sort,
-    O(count + n_bodies)), then each body's few partners b in order (insertion; the merge sort
-    for a body with many, a ground under a thousand boxes)."""
-    start = np.zeros(n_bodies + 1, np.int64)
+    """pairs[:count] (body indices below n_bodies) sorted by (a, b): two counting sorts, O(count +
+    n_bodies) each (``counting_argsort``, stable), by b and then by a, as a radix sort does."""
+    keys = np.empty(count, np.int64)
     for k in range(count):
-        start[pairs[k, 0] + 1] += 1
-    for a in range(n_bodies):
-        start[a + 1] += start[a]
-    partner = np.empty(count, np.int64)
-    fill = start[:n_bodies].copy()
+        keys[k] = pairs[k, 1]
+    by_b = counting_argsort(keys, n_bodies)
     for k in range(count):
-        a = pairs[k, 0]
-        partner[fill[a]] = pairs[k, 1]
-        fill[a] += 1
-    for a in range(n_bodies):
-        lo, hi = start[a], start[a + 1]
-        if hi - lo > SORT_BY_MERGE:
-            bs = partner[lo:hi].copy()
-            by_b = stable_argsort(bs)
-            for i in range(hi - lo):
-                partner[lo + i] = bs[by_b[i]]
-        else:
-            for i in range(lo + 1, hi):  # insertion sort
-                b, j = partner[i], i
-                while j > lo and partner[j - 1] > b:
-                    partner[j] = partner[j - 1]
-                    j -= 1
-                partner[j] = b
-        for i in range(lo, hi):
-            pairs[i, 0], pairs[i, 1] = a, partner[i]
+        keys[k] = pairs[by_b[k], 0]
+    by_a = counting_argsort(keys, n_bodies)  # stable: equal a keep their order by b
+    sorted_pairs = np.empty((count, 2), np.int64)
+    for k in range(count):
+        sorted_pairs[k, 0], sorted_pairs[k, 1] = pairs[by_b[by_a[k]], 0], pairs[by_b[by_a[k]], 1]
+    for k in range(count):
+        pairs[k, 0], pairs[k, 1] = sorted_pairs[k, 0], sorted_pairs[k, 1]

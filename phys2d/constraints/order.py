@@ -160,7 +160,10 @@ def order_pairs(pairs, n_pairs, static, x, part, visit):
             if not static[pairs[p, i]]:
                 weight[pairs[p, i]] += 1
     colours = visit == COLOUR_ORDER
-    if colours or np.count_nonzero(weight) >= PARTS_FROM:
+    moving = 0
+    for w in weight:
+        moving += w > 0
+    if colours or moving >= PARTS_FROM:
         part[:] = partition(x, weight, PART_DEPTH)
     else:
         part[:] = 0
@@ -177,7 +180,7 @@ def order_pairs(pairs, n_pairs, static, x, part, visit):
     return counting_argsort(key, ((1 << (PART_DEPTH + 1)) - 1) * MAX_COLOURS).astype(np.int32)  # sets x colours
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def greedy_colour(a, b, static, used):
     """The smallest colour that neither of the pair's dynamic bodies has used yet (the last,
     MAX_COLOURS - 1, when all are), marked used for both."""

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..collision.recycle import ManifoldStore, collide_recycling_on
 from ..constraints.joints import start_joint_rows
-from ..constraints.order import PAIR_ORDER, order_pairs
+from ..constraints.order import PAIR_ORDER, PART_ORDER, PARTS_FROM, order_pairs
 from ..constraints.rows import Rows, RowSettings, contact_row_map, contact_rows
 from ..contacts import FEATURE_BITS, UID_BITS, Contacts, impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
@@ -379,25 +379,33 @@ class Pipeline:
             self._forget_state()
 
     def _order(self, world: World, visit: int) -> None:
-        """The pairs in the order ``visit`` (part or colour order), in the buffers."""
+        """The pairs in the order ``visit`` (part or colour order), in the buffers. Part order in
+        a scene of fewer than PARTS_FROM moving bodies is pair order (``order_pairs``): written
+        here, so that a small PGS world's first run does not compile the ordering twice (the
+        tick has its own copy)."""
         if self.ordered != visit:
             b = world._bodies
             self.state(world)  # (the part buffer sized for the bodies)
             static = b.static if self.sleep_masks is None else self.sleep_masks[0]
-            order = order_pairs(self.pairs, self.n_pairs, static, b.x, self.part, visit)
-            self.buffers.pair_order[: self.n_pairs] = order
+            pairs = self.pairs[: self.n_pairs]
+            if visit == PART_ORDER and np.count_nonzero(np.bincount(pairs[~static[pairs]], minlength=b.n)) < PARTS_FROM:
+                self.part[:] = 0
+                self.buffers.pair_order[: self.n_pairs] = np.arange(self.n_pairs)
+            else:
+                order = order_pairs(self.pairs, self.n_pairs, static, b.x, self.part, visit)
+                self.buffers.pair_order[: self.n_pairs] = order
             self.ordered = visit
 
     def _sweep(self, world: World) -> None:
         """The broadphase's pairs anew (``stages.sweep``), the pair buffer grown when short. The
         one-call tick sweeps itself while its buffers have room."""
         self.state(world)
-        n_pairs = sweep(self.shapes_record, world._bodies.x, False)
+        n_pairs = sweep(self.shapes_record, world._bodies.x, PAIR_ORDER)
         if n_pairs < 0:  # the pair buffer was too small: grow it and sweep again
             self.pairs = np.zeros((2 * -n_pairs, 2), np.int32)
             self._forget_state()
             self.state(world)
-            n_pairs = sweep(self.shapes_record, world._bodies.x, False)
+            n_pairs = sweep(self.shapes_record, world._bodies.x, PAIR_ORDER)
         self.n_pairs, self.sweep_again, self.ordered = n_pairs, False, PAIR_ORDER
 
     def _make_room(self) -> None:
