@@ -43,7 +43,7 @@ from phys2d.pipeline import step as stages
 from phys2d.pipeline.parallel import manifold_groups, soft_sweep_in_groups, using_threads, warm_start_in_groups
 from phys2d.responders.block import inverse_diagonal
 from phys2d.responders.soft_contacts import prepare_manifolds, soft_constants, soft_sweep, warm_start
-from phys2d.responders.soft_points import prepare_points, separations
+from phys2d.responders.soft_points import prepare_points
 
 REPO = Path(__file__).resolve().parent.parent
 DT = 1 / 60
@@ -124,13 +124,11 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     rows = unsigned_rows(records.record_of_rows(ctx.rows))
     manifolds = prepare_manifolds(rows, ctx.M_inv, soft.block)
     inv_A_kk = inverse_diagonal(ctx.rows.A_kk)  # (the same arrays as the record)
-    points = prepare_points((ctx.rows.order, ctx.separation, ctx.restitution, ctx.anchor), ctx.n_contacts)
+    points = prepare_points((ctx.rows.order, ctx.separation, ctx.restitution, ctx.anchor), ctx.x.shape[0])
     h = DT / soft.substeps
     hertz = min(soft.contact_hertz, 0.25 / h)
     springs = tuple(soft_constants(f * hertz, soft.damping_ratio, h, soft.push_max) for f in (1.0, 2.0, 1.0))
-    moved = np.zeros((ctx.x.shape[0], 4))  # (the bodies as the tick began: the points' separations as found)
-    moved[:, 2] = 1.0
-    separations(0, ctx.n_contacts, rows, points, moved)
+    points.C[:] = points.C0  # (the bodies as the tick began: the points' separations as found)
     groups = manifold_groups(manifolds[0], rows, ctx.M_inv, ctx.part)  # (``groups_for``)
     V = ctx.V.copy()
 
@@ -138,16 +136,16 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
         rows_of(*row_args[:-1], None)
         for _ in range(soft.substeps):
             warm_start(manifolds, rows, ctx.M_inv, V)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs, False)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs, True)
 
     def parallel() -> None:
         with using_threads(2):
             rows_of(*row_args[:-1], 2)
             for _ in range(soft.substeps):
                 warm_start_in_groups(groups, manifolds, rows, ctx.M_inv, V)
-                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs)
-                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (True, False), springs)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (False, True), springs)
 
     serial()
     parallel()  # compiled or loaded

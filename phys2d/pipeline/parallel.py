@@ -29,10 +29,9 @@ for the normal rows and again for the friction rows: with two parts, twice, howe
 colours there are (a group of one segment, the cut, runs on the calling thread).
 
 The tick's and the sub-step's passes over manifolds, points and bodies (the manifolds'
-constants, the points' gather, the separations, the noted approaches, the positions'
-integration, the store of the impulses) have no order to keep: each manifold, point or body
-writes only its own entries. The ``*_on`` functions run them in one call on one thread, else
-a slice per thread.
+constants, the points' gather, the positions' integration, the store of the impulses) have no
+order to keep: each manifold, point or body writes only its own entries. The ``*_on``
+functions run them in one call on one thread, else a slice per thread.
 
 Numba runs the inner loops (``prange``) on ``World.threads`` threads. The kernels here are
 compiled with ``parallel=True``, only for a world whose threads > 1 (``groups_for`` returns
@@ -62,12 +61,10 @@ from ..responders.soft_contacts import (
 from ..responders.soft_integrate import integrate_positions
 from ..responders.soft_points import (
     gather_contacts_of,
-    note_approach,
     note_impacts,
     note_impacts_of,
     points_of,
     prepare_points,
-    separations,
     store,
     store_of,
 )
@@ -118,22 +115,26 @@ def groups_for(threads, start, rows, M_inv):
 
 
 @njit(cache=True, parallel=True)
-def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
+def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, sweep, springs):
     """``soft_sweep`` group by group, each group's segments in parallel (groups: ``groups_for``);
-    the same arguments, the same results. Returns the largest |delta lambda| A_kk (m/s)."""
+    the same arguments (sweep: (use_bias, new_C)), the same results. Returns the largest
+    |delta lambda| A_kk (m/s)."""
     segment_start, group_start = groups
+    use_bias, new_C = sweep
     worst = np.empty(segment_start.shape[0] - 1)  # per segment: no shared accumulator
     dynamic, static, joint = springs  # (numba's parallel loops take tuples, not tuples of tuples)
     for g in range(group_start.shape[0] - 1):  # the normal rows, group by group
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:  # one segment: on this thread, no threads to wake
             m0, m1 = segment_start[first], segment_start[first + 1]
-            worst[first] = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs)
+            worst[first] = soft_normal_rows(
+                m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C
+            )
             continue
         for s in prange(first, last):
             soft = (dynamic, static, joint)
             m0, m1 = segment_start[s], segment_start[s + 1]
-            worst[s] = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft)
+            worst[s] = soft_normal_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, soft, new_C)
     for g in range(group_start.shape[0] - 1):  # then the friction rows
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:
@@ -200,13 +201,14 @@ def manifold_constants_in_slices(n_slices, manifolds, rows, M_inv, block):
 
 
 @njit(cache=True)
-def prepare_points_on(threads, found, n_contacts):
+def prepare_points_on(threads, found, n_bodies):
     """``soft_points.prepare_points``, the contacts gathered a slice per thread."""
     if threads is None:
-        return prepare_points(found, n_contacts)
+        return prepare_points(found, n_bodies)
+    n_contacts = found[0].shape[0]
     gathered = (np.empty(n_contacts), np.empty(n_contacts), np.empty((n_contacts, 4)))
     gather_contacts_in_slices(threads[0], found, gathered)
-    return points_of(*gathered)
+    return points_of(gathered[0], gathered[1], gathered[2], n_bodies)
 
 
 @njit(cache=True, parallel=True)
@@ -232,38 +234,6 @@ def store_in_slices(n_slices, rows, total, points):
     n = rows.normal_row.shape[0]
     for t in prange(n_slices):
         store_of(n * t // n_slices, n * (t + 1) // n_slices, rows, total, points)
-
-
-@njit(cache=True)
-def separations_on(threads, rows, points, moved):
-    """``soft_points.separations`` of every point."""
-    n = rows.normal_row.shape[0]
-    if threads is None:
-        separations(0, n, rows, points, moved)
-    else:
-        separations_in_slices(threads[0], rows, points, moved)
-
-
-@njit(cache=True, parallel=True)
-def separations_in_slices(n_slices, rows, points, moved):
-    n = rows.normal_row.shape[0]
-    for t in prange(n_slices):
-        separations(n * t // n_slices, n * (t + 1) // n_slices, rows, points, moved)
-
-
-@njit(cache=True)
-def note_approach_on(threads, rows, points, n_pending, V):
-    """``soft_points.note_approach`` of the n_pending points not yet met."""
-    if threads is None:
-        note_approach(0, n_pending, rows, points, V)
-    else:
-        note_approach_in_slices(threads[0], rows, points, n_pending, V)
-
-
-@njit(cache=True, parallel=True)
-def note_approach_in_slices(n_slices, rows, points, n_pending, V):
-    for t in prange(n_slices):
-        note_approach(n_pending * t // n_slices, n_pending * (t + 1) // n_slices, rows, points, V)
 
 
 @njit(cache=True)
@@ -329,11 +299,9 @@ def using_threads(threads: int) -> Iterator[None]:
 __all__ = [
     "integrate_positions_on",
     "manifold_groups",
-    "note_approach_on",
     "prepare_manifolds_on",
     "prepare_points_on",
     "groups_for",
-    "separations_on",
     "soft_sweep_in_groups",
     "store_on",
     "using_threads",

@@ -24,10 +24,12 @@ from ..constraints.rows import (
     pair_row_impulse_of,
     pair_row_velocity,
     pair_velocity,
+    row_velocity,
     speculative_friction_target,
     store_pair_velocity,
 )
 from .block import block_is_well_conditioned, lcp2
+from .soft_points import separation_now
 
 
 @njit(cache=True)
@@ -53,10 +55,11 @@ def soft_push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
+def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias,
     ``soft_normal_rows``), then the friction rows (``soft_friction_rows``). points.C[c] is
-    point c's separation now (m); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
+    point c's separation now (m), worked out afresh from points.moved when new_C (the bodies
+    moved since the last sweep); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
     1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); M_inv: the bodies'
     M^-1, from which each manifold forms M^-1 J^T as it applies an impulse
     (``pair_row_impulse_of``: the products the rows' JM holds, not read); springs: the soft
@@ -66,14 +69,16 @@ def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
     n = manifolds[0].shape[0] - 1
-    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs)
+    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
     return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
 
 
 @njit(cache=True)
-def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs):
+def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C):
     """The normal rows of manifolds first up to last, one manifold after another, with the soft
     push if use_bias (``soft_sweep``'s arguments). Returns the largest |delta lambda| A_kk (m/s).
+    When new_C, each manifold first works out its points' separations at the positions now
+    (``separation_now``), in the pass that reads their rows anyway, as Box2D v3 does.
 
     A two-point manifold marked as a block has its normal rows solved together (lcp2), each
     row scaled by its own softness (relax does so only while both points touch):
@@ -82,13 +87,16 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
     normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
     J, A_kk, lam = rows.J, rows.A_kk, rows.lam
     soft_dyn, soft_static = springs[0], springs[1]
-    C = points.C
+    C, C0, r, moved = points.C, points.C0, points.r, points.moved
     start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
     for m in range(first, last):
         c = start[m]
         k = normal_row[c]
         a, b = body_a[k], body_b[k]
+        if new_C:  # the bodies moved since the last sweep
+            for p in range(c, start[m + 1]):
+                C[p] = separation_now(p, normal_row[p], a, b, C0, r, J, moved)
         soft = soft_static if static_pair[m] else soft_dyn
         s1 = C[c]
         V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
@@ -130,10 +138,10 @@ def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V,
     """The friction rows of manifolds first up to last, one manifold after another
     (``soft_sweep``'s arguments): Coulomb's cone mu lambda_n; a point still apart that has not
     yet met its partner lets friction act only once it touches (``speculative_friction_target``
-    of points.vn, points.vt). Returns the largest |delta lambda| A_kk (m/s)."""
+    of its rows' J V_sweep). Returns the largest |delta lambda| A_kk (m/s)."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     J, A_kk, mu, lam = rows.J, rows.A_kk, rows.mu, rows.lam
-    C, vn, vt, impacted = points.C, points.vn, points.vt, points.impacted
+    C, V_sweep, impacted = points.C, points.V_sweep, points.impacted
     start = manifolds[0]
     worst = 0.0
     for m in range(first, last):
@@ -146,8 +154,9 @@ def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V,
                 continue  # static pair, or a point that does not push: its friction cone is [0, 0]
             top = mu[k] * lam[kn]
             target = 0.0  # stop sliding; a point landing within this sweep: only after its touch
-            if C[c] > 0.0 and not impacted[c]:
-                target = speculative_friction_target(C[c], vn[c], vt[c], h)
+            if C[c] > 0.0 and not impacted[c]:  # its approach as the sweep began
+                vn, vt = row_velocity(kn, a, b, J, V_sweep), row_velocity(k, a, b, J, V_sweep)
+                target = speculative_friction_target(C[c], vn, vt, h)
             d = -(pair_row_velocity(k, J, V_ab) - target) * inv_A_kk[k]
             new = min(max(lam[k] + d, -top), top)
             d = new - lam[k]

@@ -1,10 +1,12 @@
 """The soft step's contact points over a tick (``responders.soft_step``): gathered once, their
-separation kept up to date from the bodies' motion, their approach noted until they meet
-their partner, and the bounce of those that met it fast.
+separation followed from the bodies' motion, their approach kept until they meet their
+partner, and the bounce of those that met it fast.
 
-Between sweeps the separation of each contact point is updated from how far its bodies
-have moved (x - x0 and the rotated lever arms), so no new collision detection is needed
-within the tick.
+Each sweep of the contacts that follows a move of the bodies works out each point's
+separation C from how far its bodies have moved since the tick began (x - x0 and the
+rotated lever arms, ``separation_now``), so no new collision detection is needed within
+the tick. A point not yet met reads its approach J V from the bodies' velocities as the
+sweep began (``Points.V_sweep``), only when it pushes.
 """
 
 from __future__ import annotations
@@ -15,13 +17,15 @@ from numba.experimental import structref
 
 from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
 
-POINT_FIELDS = ("C0", "e", "r", "C", "vn", "vt", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
+POINT_FIELDS = ("C0", "e", "r", "C", "moved", "V_sweep", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
 _POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):
     as found, its separation C0 (m), restitution e and lever arms r = (r_a, r_b) (m); within a
-    sub-step its separation C now (m) and J V of its rows before the sweep, vn and vt (m/s, while it
-    has not met its partner: the landing's friction target); the points not yet met
-    (pending, in order) and, once met, their approach at impact (vn_impact, m/s, and dvn_impact,
-    the forces' share of the sub-step); landed: met its partner fast in this sub-step."""
+    sub-step its separation C now (m); what the points read of their bodies: moved (per body: dx,
+    dy (m), cos and sin dtheta since the tick began, what C follows) and V_sweep (per body: V as
+    the sweep began, before its forces and warm start: J V_sweep is the approach of a point not
+    yet met, the landing's friction target); the points not yet met (pending, in order) and, once
+    met, their approach at impact (vn_impact, m/s, and dvn_impact, the forces' share of the
+    sub-step); landed: met its partner fast in this sub-step."""
 
 if config.DISABLE_JIT:  # type: ignore[attr-defined]  # plain Python: a plain object, as the records are
 
@@ -64,33 +68,9 @@ def separation_now(c, k, a, b, C0, r, J, moved):
 
 
 @njit(cache=True)
-def separations(first, last, rows, points, moved):
-    """The separation C (m) of points first up to last at the positions now (each point its own:
-    ``pipeline.parallel.separations_on`` runs them a slice per thread)."""
-    normal_row, body_a, body_b, J = rows.normal_row, rows.body_a, rows.body_b, rows.J
-    C0, r, C = points.C0, points.r, points.C
-    for c in range(first, last):
-        k = normal_row[c]
-        C[c] = separation_now(c, k, body_a[k], body_b[k], C0, r, J, moved)
-
-
-@njit(cache=True)
-def note_approach(first, last, rows, points, V):
-    """Before a sweep: J V (m/s) of the normal and friction rows of the points not yet met,
-    pending[first:last] (each point its own: ``pipeline.parallel.note_approach_on``)."""
-    normal_row, friction_row, body_a, body_b, J = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b, rows.J
-    pending, vn, vt = points.pending, points.vn, points.vt
-    for q in range(first, last):
-        c = pending[q]
-        k, kt = normal_row[c], friction_row[c]
-        vn[c] = row_velocity(k, body_a[k], body_b[k], J, V)
-        vt[c] = row_velocity(kt, body_a[kt], body_b[kt], J, V)
-
-
-@njit(cache=True)
 def note_impacts(rows, points, n_pending, dv, h, threshold):
     """After a sweep: a point that pushed for the first time meets its partner in this
-    sub-step's motion (gap C, J V vn before a sub-step of forces dv): its approach
+    sub-step's motion (gap C, J V_sweep = vn before a sub-step of forces dv): its approach
     at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
     landed[c]: it was still apart and met its partner faster than the threshold.
     Returns how many points are still to meet theirs (kept in order in pending)."""
@@ -103,7 +83,7 @@ def note_impacts_of(first, last, rows, points, dv, h, threshold):
     order, from pending[first] on (``pipeline.parallel.note_impacts_on`` joins the slices).
     Returns how many were kept."""
     normal_row, body_a, body_b, J, lam = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.lam
-    pending, C, vn, impacted, landed = points.pending, points.C, points.vn, points.impacted, points.landed
+    pending, C, V_sweep, impacted, landed = points.pending, points.C, points.V_sweep, points.impacted, points.landed
     vn_impact, dvn_impact = points.vn_impact, points.dvn_impact
     n = first
     for q in range(first, last):
@@ -111,8 +91,9 @@ def note_impacts_of(first, last, rows, points, dv, h, threshold):
         k = normal_row[c]
         if lam[k] > 0.0:
             impacted[c] = True
-            dvn = row_velocity(k, body_a[k], body_b[k], J, dv)
-            vn_impact[c] = approach_at_impact(C[c], vn[c], vn[c] + dvn, h)
+            a, b = body_a[k], body_b[k]
+            vn, dvn = row_velocity(k, a, b, J, V_sweep), row_velocity(k, a, b, J, dv)
+            vn_impact[c] = approach_at_impact(C[c], vn, vn + dvn, h)
             dvn_impact[c] = dvn
             landed[c] = C[c] > MET and vn_impact[c] < -threshold
         else:
@@ -147,19 +128,22 @@ def gather_contacts_of(first, last, found, gathered):
 
 
 @njit(cache=True)
-def prepare_points(found, n_contacts):
+def prepare_points(found, n_bodies):
     """The tick's ``Points`` of the step's contacts: C0, e and r gathered into row order
     (``gather_contacts`` of found = (order, separation, e, anchor)), the rest to fill in."""
     C0, e, r = gather_contacts(found[0], found[1], found[2], found[3])
-    return points_of(C0, e, r)
+    return points_of(C0, e, r, n_bodies)
 
 
 @njit(cache=True)
-def points_of(C0, e, r):
-    """``Points`` over the gathered C0, e and r, the rest to fill in."""
+def points_of(C0, e, r, n_bodies):
+    """``Points`` over the gathered C0, e and r of n_bodies' contacts, the rest to fill in: the
+    bodies have not moved yet (moved = (0, 0, cos 0, sin 0))."""
     n_contacts = C0.shape[0]
+    moved = np.zeros((n_bodies, 4))
+    moved[:, 2] = 1.0
     return Points(
-        C0, e, r, np.zeros(n_contacts), np.zeros(n_contacts), np.zeros(n_contacts),
+        C0, e, r, np.zeros(n_contacts), moved, np.zeros((n_bodies, 3)),
         np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.zeros(n_contacts),
         np.zeros(n_contacts), np.zeros(n_contacts, np.bool_),
     )  # fmt: skip

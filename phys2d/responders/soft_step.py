@@ -47,11 +47,9 @@ from ..pipeline import records
 from ..pipeline.parallel import (
     groups_for,
     integrate_positions_on,
-    note_approach_on,
     note_impacts_on,
     prepare_manifolds_on,
     prepare_points_on,
-    separations_on,
     soft_sweep_in_groups,
     store_on,
     warm_start_in_groups,
@@ -88,13 +86,15 @@ class SoftSettings(NamedTuple):
 
 
 @njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, contacts, V, h, use_bias, springs, joints, system, threads, groups):
+def solve(rows, contacts, V, h, sweep, springs, joints, system, threads, groups):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). contacts: (manifolds, inv_A_kk, points, M_inv),
-    what ``soft_sweep`` reads besides the rows; springs: (contacts with a dynamic partner, with
+    what ``soft_sweep`` reads besides the rows; sweep: (use_bias, new_C: the bodies moved since
+    the last sweep, the points' separations to work out); springs: (contacts with a dynamic partner, with
     a static one, joints) (``soft_constants``); on one thread (threads None) the contacts'
     ``soft_sweep``, else its groups on several (``pipeline.parallel``, groups: ``groups_for``).
     Returns the largest velocity correction (m/s)."""
+    use_bias, new_C = sweep
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
@@ -102,9 +102,11 @@ def solve(rows, contacts, V, h, use_bias, springs, joints, system, threads, grou
     manifolds, inv_A_kk, points, M_inv = contacts
     if threads is None:  # ``soft_sweep``'s two passes, called here (numba drops the branch not taken)
         n = manifolds[0].shape[0] - 1
-        worst = max(worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
+        worst = max(
+            worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
+        )
         return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
-    return max(worst, soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs))
+    return max(worst, soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, sweep, springs))
 
 
 @njit(cache=True)
@@ -150,9 +152,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     inv_A_kk = inverse_diagonal(rows.A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
-    moved = np.zeros((x.shape[0], 4))  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
-    moved[:, 2] = 1.0
-    points = prepare_points_on(threads, found, n_contacts)
+    points = prepare_points_on(threads, found, x.shape[0])
+    moved = points.moved  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     system = joint_system(joints, rows, settings.direct_joints)
     dv = split_forces(bodies, substeps)
     contacts = (manifolds, inv_A_kk, points, bodies.M_inv)  # what the contacts' sweeps read besides the rows
@@ -163,10 +164,9 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             prepare_joints(joints, bodies, joint_rows_in, system)
         for sweep in range(2 if relax else 1):  # with bias, then the relax sweep without
             with_bias = sweep == 0
-            if not with_bias or i == 0 or not relax:  # (after a relax sweep the positions have not moved)
-                separations_on(threads, rows, points, moved)
-            if n_pending > 0:  # (once every point has met its partner, nothing is left to note)
-                note_approach_on(threads, rows, points, n_pending, V)
+            new_C = not with_bias or i == 0 or not relax  # (after a relax sweep the positions have not moved)
+            if n_pending > 0:  # the approach of the points not yet met, as the sweep begins
+                points.V_sweep[:, :] = V
             if with_bias:
                 integrate_velocities(V, dv)
                 if threads is None:  # ``warm_start``'s two parts
@@ -174,7 +174,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                     warm_start_joints(rows, V)
                 else:
                     warm_start_in_groups(groups, manifolds, rows, bodies.M_inv, V)
-            worst = solve(rows, contacts, V, h, with_bias, springs, joints, system, threads, groups)
+            worst = solve(rows, contacts, V, h, (with_bias, new_C), springs, joints, system, threads, groups)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts_on(threads, rows, points, n_pending, dv, h, threshold)
             if with_bias:
