@@ -128,7 +128,6 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     h = DT / soft.substeps
     hertz = min(soft.contact_hertz, 0.25 / h)
     springs = tuple(soft_constants(f * hertz, soft.damping_ratio, h, soft.push_max) for f in (1.0, 2.0, 1.0))
-    points.C[:] = points.C0  # (the bodies as the tick began: the points' separations as found)
     groups = manifold_groups(manifolds[0], rows, ctx.M_inv, ctx.part)  # (``groups_for``)
     V = ctx.V.copy()
 
@@ -136,7 +135,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
         rows_of(*row_args[:-1], None)
         for _ in range(soft.substeps):
             warm_start(manifolds, rows, ctx.M_inv, V)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs, False)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs, True)
             soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs, True)
 
     def parallel() -> None:
@@ -144,7 +143,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
             rows_of(*row_args[:-1], 2)
             for _ in range(soft.substeps):
                 warm_start_in_groups(groups, manifolds, rows, ctx.M_inv, V)
-                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (True, False), springs)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (True, True), springs)
                 soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (False, True), springs)
 
     serial()
