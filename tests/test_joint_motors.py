@@ -204,7 +204,10 @@ def test_slider_on_a_spinning_base_keeps_its_axis(angle, spin):
     # step: PGS's one correction a step lets a car flung along a turning axis drift by centimetres)
     w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep())
     hub = w.add_circle(position=(0.0, 0.0), radius=0.3, density=50.0, angular_velocity=spin)
-    w.add_pin_joint(w.add_box(position=(0.0, 0.0), half_extents=(0.05, 0.05), static=True), hub, anchor=(0.0, 0.0))
+    # the pin's static body lies out of the car's way: the car may slide through the hub's centre, and
+    # a box there met it in 3 of 40 random cases, its friction fighting the slider's angle (up to 18 mrad)
+    pin_base = w.add_box(position=(0.0, -5.0), half_extents=(0.05, 0.05), static=True)
+    w.add_pin_joint(pin_base, hub, anchor=(0.0, 0.0))
     car = w.add_box(position=(0.8, 0.0), half_extents=(0.1, 0.05))
     slider = w.add_slider_joint(hub, car, anchor=(0.8, 0.0), axis=(math.cos(angle), math.sin(angle)))
     for _ in range(60):

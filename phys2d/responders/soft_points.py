@@ -142,10 +142,10 @@ def points_of(C0, e, r, n_bodies):
     n_contacts = C0.shape[0]
     moved = np.zeros((n_bodies, 4))
     moved[:, 2] = 1.0
-    return Points(
-        C0, e, r, np.zeros(n_contacts), moved, np.zeros((n_bodies, 3)),
-        np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.zeros(n_contacts),
-        np.zeros(n_contacts), np.zeros(n_contacts, np.bool_),
+    return Points(  # (np.empty: C, V_sweep and the approach at impact are written before they are read)
+        C0, e, r, np.empty(n_contacts), moved, np.empty((n_bodies, 3)),
+        np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.empty(n_contacts),
+        np.empty(n_contacts), np.zeros(n_contacts, np.bool_),
     )  # fmt: skip
 
 
