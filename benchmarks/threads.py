@@ -135,16 +135,16 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
         rows_of(*row_args[:-1], None)
         for _ in range(soft.substeps):
             warm_start(manifolds, rows, ctx.M_inv, V)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (True, True, True), springs)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (False, True, False), springs)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs, True)
+            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs, True)
 
     def parallel() -> None:
         with using_threads(2):
             rows_of(*row_args[:-1], 2)
             for _ in range(soft.substeps):
                 warm_start_in_groups(groups, manifolds, rows, ctx.M_inv, V)
-                for kind in ((True, True, True), (False, True, False)):  # (use_bias, new_C, met_later)
-                    soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, kind, springs)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (True, True), springs)
+                soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (False, True), springs)
 
     serial()
     parallel()  # compiled or loaded

@@ -117,9 +117,10 @@ def groups_for(threads, start, rows, M_inv):
 @njit(cache=True, parallel=True)
 def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, sweep, springs):
     """``soft_sweep`` group by group, each group's segments in parallel (groups: ``groups_for``);
-    the same arguments, the same results. Returns the largest |delta lambda| A_kk (m/s)."""
+    the same arguments (sweep: (use_bias, new_C)), the same results. Returns the largest
+    |delta lambda| A_kk (m/s)."""
     segment_start, group_start = groups
-    use_bias, new_C, met_later = sweep
+    use_bias, new_C = sweep
     worst = np.empty(segment_start.shape[0] - 1)  # per segment: no shared accumulator
     dynamic, static, joint = springs  # (numba's parallel loops take tuples, not tuples of tuples)
     for g in range(group_start.shape[0] - 1):  # the normal rows, group by group
@@ -138,12 +139,11 @@ def soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h,
         first, last = group_start[g], group_start[g + 1]
         if last - first == 1:
             m0, m1 = segment_start[first], segment_start[first + 1]
-            w = soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, met_later)
-            worst[first] = max(worst[first], w)
+            worst[first] = max(worst[first], soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h))
             continue
         for s in prange(first, last):
             m0, m1 = segment_start[s], segment_start[s + 1]
-            w = soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h, met_later)
+            w = soft_friction_rows(m0, m1, rows, manifolds, inv_A_kk, points, M_inv, V, h)
             worst[s] = max(worst[s], w)
     return largest(worst)
 

@@ -55,25 +55,22 @@ def soft_push(s, h, use_bias, soft):
 
 
 @njit(cache=True)
-def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, sweep, springs):
+def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C):
     """One sweep over the contacts: the normal rows manifold by manifold (soft push if use_bias,
-    ``soft_normal_rows``), then the friction rows (``soft_friction_rows``). sweep = (use_bias,
-    new_C, met_later): points.C[c] is point c's separation now (m), worked out afresh from
-    points.moved when new_C (the bodies moved since the last sweep); met_later: the points that
-    have met their partner take their friction in the relax sweep that follows, not in this
-    one. ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk = 1 / A_kk
-    (``inverse_diagonal``: the sweeps multiply, never divide); M_inv: the bodies' M^-1, from
-    which each manifold forms M^-1 J^T as it applies an impulse (``pair_row_impulse_of``: the
-    products the rows' JM holds, not read); springs: the soft push against a dynamic and a
-    static partner (``soft_constants``). The same updates run part by part on several threads
-    in ``pipeline.parallel.soft_sweep_in_groups``.
+    ``soft_normal_rows``), then the friction rows (``soft_friction_rows``). points.C[c] is
+    point c's separation now (m), worked out afresh from points.moved when new_C (the bodies
+    moved since the last sweep); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
+    1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); M_inv: the bodies'
+    M^-1, from which each manifold forms M^-1 J^T as it applies an impulse
+    (``pair_row_impulse_of``: the products the rows' JM holds, not read); springs: the soft
+    push against a dynamic and a static partner (``soft_constants``). The same updates run
+    part by part on several threads in ``pipeline.parallel.soft_sweep_in_groups``.
 
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
-    use_bias, new_C, met_later = sweep
     n = manifolds[0].shape[0] - 1
     worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
-    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, met_later))
+    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
 
 
 @njit(cache=True)
@@ -137,29 +134,24 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
 
 
 @njit(cache=True)
-def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, met_later):
+def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h):
     """The friction rows of manifolds first up to last, one manifold after another
     (``soft_sweep``'s arguments): Coulomb's cone mu lambda_n; a point still apart that has not
     yet met its partner lets friction act only once it touches (``speculative_friction_target``
-    of its rows' J V_sweep). met_later: only those landing points; the ones that have met
-    their partner (points.impacted) take their friction in the relax sweep, as Box2D v3 does:
-    it acts on the velocities the push has been taken out of, and a manifold whose points have
-    all met is not visited here at all. Returns the largest |delta lambda| A_kk (m/s)."""
+    of its rows' J V_sweep). Returns the largest |delta lambda| A_kk (m/s)."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     J, A_kk, mu, lam = rows.J, rows.A_kk, rows.mu, rows.lam
     C, V_sweep, impacted = points.C, points.V_sweep, points.impacted
     start = manifolds[0]
     worst = 0.0
     for m in range(first, last):
-        if met_later and impacted[start[m]] and impacted[start[m + 1] - 1]:  # (one or two points)
-            continue
         k = friction_row[start[m]]
         a, b = body_a[k], body_b[k]
         V_ab, M_ab = pair_velocity(a, b, V), pair_inverse_mass(a, b, M_inv)
         for c in range(start[m], start[m + 1]):
             k, kn = friction_row[c], normal_row[c]
-            if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0) or (met_later and impacted[c]):
-                continue  # static pair, a point that does not push (its cone is [0, 0]), or one met
+            if A_kk[k] <= 0.0 or (lam[kn] == 0.0 and lam[k] == 0.0):
+                continue  # static pair, or a point that does not push: its friction cone is [0, 0]
             top = mu[k] * lam[kn]
             target = 0.0  # stop sliding; a point landing within this sweep: only after its touch
             if C[c] > 0.0 and not impacted[c]:  # its approach as the sweep began

@@ -12,11 +12,9 @@ Box2D v3's names:
     integrate velocities  V += h M^-1 F_ext  external forces, a slice at a time
     warm start            V += M^-1 J^T lam  the impulse per sub-step
     solve (with bias)                        joint rows, then one PGS sweep of the contacts
-                                             with a soft push (friction: only of the points
-                                             still landing)
+                                             with a soft push
     integrate positions   x += h v, theta += h omega
     relax                                    the same without the push: remove its velocity
-                                             (friction: of every point)
     store                                    add the sub-step's impulses to the tick's
 
 and after the last sub-step one restitution pass: the points that met their partner
@@ -91,12 +89,12 @@ class SoftSettings(NamedTuple):
 def solve(rows, contacts, V, h, sweep, springs, joints, system, threads, groups):
     """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
     last (they have the last word on overlap). contacts: (manifolds, inv_A_kk, points, M_inv),
-    what ``soft_sweep`` reads besides the rows; sweep: ``soft_sweep``'s (use_bias, new_C,
-    met_later); springs: (contacts with a dynamic partner, with a static one, joints)
-    (``soft_constants``); on one thread (threads None) the contacts' ``soft_sweep``, else its
-    groups on several (``pipeline.parallel``, groups: ``groups_for``).
+    what ``soft_sweep`` reads besides the rows; sweep: (use_bias, new_C: the bodies moved since
+    the last sweep, the points' separations to work out); springs: (contacts with a dynamic partner, with
+    a static one, joints) (``soft_constants``); on one thread (threads None) the contacts'
+    ``soft_sweep``, else its groups on several (``pipeline.parallel``, groups: ``groups_for``).
     Returns the largest velocity correction (m/s)."""
-    use_bias, new_C, met_later = sweep
+    use_bias, new_C = sweep
     worst = 0.0
     if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
         worst = solve_joints(rows, system, V, h, use_bias, springs[2])
@@ -107,7 +105,7 @@ def solve(rows, contacts, V, h, sweep, springs, joints, system, threads, groups)
         worst = max(
             worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
         )
-        return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, met_later))
+        return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
     return max(worst, soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, sweep, springs))
 
 
@@ -176,8 +174,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                     warm_start_joints(rows, V)
                 else:
                     warm_start_in_groups(groups, manifolds, rows, bodies.M_inv, V)
-            sweep_kind = (with_bias, new_C, with_bias and relax)  # (a met point's friction: in the relax sweep)
-            worst = solve(rows, contacts, V, h, sweep_kind, springs, joints, system, threads, groups)
+            worst = solve(rows, contacts, V, h, (with_bias, new_C), springs, joints, system, threads, groups)
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts_on(threads, rows, points, n_pending, dv, h, threshold)
             if with_bias:
@@ -208,12 +205,8 @@ class SoftStep(Responder):
     warm_start     start each sub-step from last tick's impulse per sub-step
     block          solve a two-point manifold's normal rows together (see ``soft_sweep``)
 
-    Friction is Coulomb's (|lambda_t| <= mu lambda_n). With relax, a point that has met its
-    partner takes its friction in the relax sweep, on the velocities the push has been taken
-    out of, as Box2D v3 does; the sweep with the push solves only the landing points' friction
-    (from their touch on). Without relax, every sweep solves all of it. Joints' rows are
-    rebuilt at every sub-step's positions; angle limits are one-sided rows treated like
-    contact points.
+    Friction is Coulomb's (|lambda_t| <= mu lambda_n). Joints' rows are rebuilt at every
+    sub-step's positions; angle limits are one-sided rows treated like contact points.
     Contact rows take the lever arms each manifold was found with (``found_lever_arms``;
     a recycled manifold keeps them, as in Box2D v3, ``collision.recycle``): a 20-box stack
     leaning 1 mm a box stands, where arms turned with the boxes let it buckle. Angular
