@@ -138,12 +138,12 @@ def prepare_points(found, n_bodies):
 @njit(cache=True)
 def points_of(C0, e, r, n_bodies):
     """``Points`` over the gathered C0, e and r of n_bodies' contacts, the rest to fill in: the
-    bodies have not moved yet (moved = (0, 0, cos 0, sin 0))."""
+    bodies have not moved yet (moved = (0, 0, cos 0, sin 0)), so each point's C is its C0."""
     n_contacts = C0.shape[0]
     moved = np.zeros((n_bodies, 4))
     moved[:, 2] = 1.0
-    return Points(  # (np.empty: C, V_sweep and the approach at impact are written before they are read)
-        C0, e, r, np.empty(n_contacts), moved, np.empty((n_bodies, 3)),
+    return Points(  # (np.empty: V_sweep and the approach at impact are written before they are read)
+        C0, e, r, C0.copy(), moved, np.empty((n_bodies, 3)),
         np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.empty(n_contacts),
         np.empty(n_contacts), np.zeros(n_contacts, np.bool_),
     )  # fmt: skip

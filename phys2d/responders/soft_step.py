@@ -164,7 +164,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             prepare_joints(joints, bodies, joint_rows_in, system)
         for sweep in range(2 if relax else 1):  # with bias, then the relax sweep without
             with_bias = sweep == 0
-            new_C = not with_bias or i == 0 or not relax  # (after a relax sweep the positions have not moved)
+            new_C = not with_bias or (i > 0 and not relax)  # (after a relax sweep the positions have not moved)
             if n_pending > 0:  # the approach of the points not yet met, as the sweep begins
                 points.V_sweep[:, :] = V
             if with_bias:
