@@ -26,17 +26,12 @@ if TYPE_CHECKING:  # constraints.rows imports this module: its contact rows star
 
 
 @njit(cache=True)
-def warm_start_from_cache(cache_keys, keys, cached):
-    """Contact caching: walk both sorted key lists together (a merge), and for every contact c
-    set cached[c] to the index of its key in last tick's cache, or -1 when it is not there."""
-    look_up(0, keys.shape[0], cache_keys, keys, cached)
-
-
-@njit(cache=True)
 def look_up(first, last, cache_keys, keys, cached):
-    """``warm_start_from_cache`` of contacts first up to last: the merge starts where keys[first]
-    sits in cache_keys (a binary search, where the walk from 0 would have got to), so a slice
-    finds what the whole walk finds. Returns how many were found."""
+    """Contact caching: walk both sorted key lists together (a merge), and for every contact c
+    of first up to last set cached[c] to the index of its key in last tick's cache, or -1 when
+    it is not there. The merge starts where keys[first] sits in cache_keys (a binary search,
+    where the walk from 0 would have got to), so a slice finds what the whole walk finds.
+    Returns how many were found."""
     m = lower_bound(cache_keys, keys[first]) if first < last else 0
     found = 0
     for c in range(first, last):
@@ -89,11 +84,9 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
     was removed, or they flew apart) leaves the impulses cached around it sized for a
     load that is gone. Those stored impulses would launch what was under it, so every
     contact connected to either body through dynamic bodies starts cold. Static bodies
-    do not connect islands: nothing flows through the ground.
+    do not connect islands: nothing flows through the ground. ``find_in_cache`` calls it only
+    on the rare tick when such a pair exists (``lost_a_load``).
     """
-    if not lost_a_load(cache_keys, cache_pushed, keys):  # the usual tick: no island to look for
-        cold[:] = False
-        return
     n = uid.shape[0]
     parent = np.arange(n)
     for c in range(keys.shape[0]):
@@ -124,7 +117,7 @@ def unloaded_islands(cache_keys, cache_pushed, keys, body_a, body_b, uid, static
 @njit(cache=True)
 def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, cached, hit, threads):
     """Contact caching: cached[c] = the cache entry contact c starts its rows from
-    (``warm_start_from_cache``; ``constraints.rows.contact_rows`` reads it), or -1 when it
+    (``look_up``; ``constraints.rows.contact_rows`` reads it), or -1 when it
     is new or its island lost a load (``unloaded_islands``); hit[c] = cached[c] >= 0.
     threads: None on one thread, else a count: the look-up runs a slice of the contacts, and of
     the cache, per thread (``look_up_in_slices``), with the same results. Returns the hits."""
