@@ -179,14 +179,15 @@ def jacobian(r_ax, r_ay, r_bx, r_by, dx, dy):
 
 
 @njit(cache=True, inline="always")
-def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk):
-    """Row k's J = j, JM = M^-1 J^T and A_kk = J M^-1 J^T, from its entries and the two bodies'
-    rows of M^-1 in hand."""
+def store_row(k, j, M_inv_a, M_inv_b, J, JM, A_kk, with_JM=True):
+    """Row k's J = j, JM = M^-1 J^T (unless not with_JM) and A_kk = J M^-1 J^T, from its entries
+    and the two bodies' rows of M^-1 in hand."""
     A = 0.0
     for c in range(3):
         jm_a, jm_b = M_inv_a[c] * j[c], M_inv_b[c] * j[3 + c]
         J[k, c], J[k, 3 + c] = j[c], j[3 + c]
-        JM[k, c], JM[k, 3 + c] = jm_a, jm_b
+        if with_JM:
+            JM[k, c], JM[k, 3 + c] = jm_a, jm_b
         A += j[c] * jm_a + j[3 + c] * jm_b
     A_kk[k] = A
 
@@ -411,6 +412,7 @@ class RowSettings(NamedTuple):
     friction_model: int  # FRICTION_COULOMB or FRICTION_LECTURE
     found_arms: bool  # lever arms as each manifold was found (else p - x now)
     warm_start: bool  # lambda starts from the cache
+    targets: bool  # write the lecture's targets and bounds (xi, push, bounce, lo, hi, bound_row) and JM
 
 
 @njit(cache=True)
@@ -437,6 +439,10 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
     impulses (N s) cached under the contact's key last tick, cache_lambda_n[m] and
     cache_lambda_t[m] of cache entry m = cached[c] (``phys2d.contacts.find_in_cache``), or
     from 0 when it is new or its island lost a load; hit[c] says which. Without, from 0.
+
+    Without ``settings.targets`` (the one-call tick of a responder that works out its own
+    targets from C and its bounds from mu, ``Responder.reads_targets``) only the bodies, J,
+    A_kk, mu, lam and impact are written: xi, push, bounce, lo, hi, bound_row and JM are not.
 
     Each contact's rows are its own (``contact_rows_of``): with ``threads`` a count, not None,
     they are built on that many threads, a slice of the contacts each (``contact_rows_in_slices``),
@@ -483,6 +489,7 @@ def contact_rows_of(first, last, bodies, found, rows, settings, found_cache):
     out_a, out_b = rows.body_a, rows.body_b
     cache_lambda_n, cache_lambda_t, cached, points_in_manifold = found_cache
     coulomb = settings.friction_model == FRICTION_COULOMB
+    targets = settings.targets
     deepest = 0.0
     beta_over_dt = beta / dt
     for q in range(first, last):
@@ -501,37 +508,40 @@ def contact_rows_of(first, last, bodies, found, rows, settings, found_cache):
         k = normal_row[q]
         out_a[k] = a
         out_b[k] = b
-        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, nx, ny), M_inv_a, M_inv_b, J, JM, A_kk)
-        xi_k = speculative_target(C, dt)
-        push[k] = baumgarte_push(C, beta_over_dt, slop, push_max)
+        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, nx, ny), M_inv_a, M_inv_b, J, JM, A_kk, targets)
         vn_start, vn_forced = row_velocity(k, a, b, J, V1), row_velocity(k, a, b, J, V)
         vn = approach_at_impact(C, vn_start, vn_forced, dt)
-        bounce_k = 0.0
         threshold = settings.restitution_threshold
         impact[k] = C > MET and vn < -threshold
-        if vn < -threshold:
-            target = bounce_target(e[c], vn, vn_forced - vn_start)
-            if C > MET:
-                bounce_k = target  # it meets its partner within the step: bounce once it has moved there
-            else:
-                xi_k = max(xi_k, target)  # touching already: bounce now, as the lecture does
-        xi[k] = xi_k
-        bounce[k] = bounce_k
-        lo[k] = 0.0
-        hi[k] = np.inf
-        bound_row[k] = -1
         out_mu[k] = 0.0
         lam[k] = cache_lambda_n[m] if m >= 0 else 0.0
+        if targets:
+            xi_k = speculative_target(C, dt)
+            bounce_k = 0.0
+            if vn < -threshold:
+                target = bounce_target(e[c], vn, vn_forced - vn_start)
+                if C > MET:
+                    bounce_k = target  # it meets its partner within the step: bounce once it has moved there
+                else:
+                    xi_k = max(xi_k, target)  # touching already: bounce now, as the lecture does
+            xi[k] = xi_k
+            push[k] = baumgarte_push(C, beta_over_dt, slop, push_max)
+            bounce[k] = bounce_k
+            lo[k] = 0.0
+            hi[k] = np.inf
+            bound_row[k] = -1
         k_n, k = k, friction_row[q]
         out_a[k] = a
         out_b[k] = b
-        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, -ny, nx), M_inv_a, M_inv_b, J, JM, A_kk)
-        xi[k] = speculative_friction_target(C, vn_forced, row_velocity(k, a, b, J, V), dt)
-        push[k] = 0.0
-        bounce[k] = 0.0
+        store_row(k, jacobian(r_ax, r_ay, r_bx, r_by, -ny, nx), M_inv_a, M_inv_b, J, JM, A_kk, targets)
         impact[k] = False
         out_mu[k] = mu[c]
         lam[k] = cache_lambda_t[m] if m >= 0 else 0.0
+        if not targets:
+            continue
+        xi[k] = speculative_friction_target(C, vn_forced, row_velocity(k, a, b, J, V), dt)
+        push[k] = 0.0
+        bounce[k] = 0.0
         if coulomb:
             bound_row[k] = k_n
             lo[k] = -np.inf

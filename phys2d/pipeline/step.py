@@ -102,13 +102,14 @@ def tick_for(responder: Responder) -> TickSpec | None:
 
 def _tick_spec(r: Responder) -> TickSpec:
     rows = (r.beta, r.slop, r.push_max, r.restitution_threshold, r.friction_model, r.found_lever_arms, r.warm_start)
-    staged = TickSpec(False, None, None, 0, rows, r.name, r.counts, r.visit_order)
+    staged = TickSpec(False, None, None, 0, (*rows, True), r.name, r.counts, r.visit_order)
     if "respond" in r.__dict__:  # replaced on the instance (a test's spy, say): call it, stage by stage
         return staged
+    own = (*rows, r.reads_targets)  # the engine's own tick: the rows it reads, no more
     if isinstance(r, PGS) and type(r).respond is PGS.respond and r.form == "impulse":
-        return staged._replace(one_call=True, pgs=r.settings, n_residuals=r.iterations)
+        return staged._replace(one_call=True, rows=own, pgs=r.settings, n_residuals=r.iterations)
     if isinstance(r, SoftStep) and type(r).respond is SoftStep.respond:
-        return staged._replace(one_call=True, soft=r.settings, n_residuals=r.substeps)
+        return staged._replace(one_call=True, rows=own, soft=r.settings, n_residuals=r.substeps)
     return staged
 
 

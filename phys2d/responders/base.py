@@ -214,6 +214,10 @@ class Responder:
                     (``Contacts.anchor``: a recycled one keeps them) instead of p - x now;
                     see ``collision.recycle``. False keeps angular momentum exact: an
                     impulse then acts at one point of both bodies
+    reads_targets   whether its tick reads the contact rows' targets and bounds (xi, push,
+                    bounce, lo, hi, bound_row) and their JM. False (the soft step: its push
+                    comes from C, its cone from mu) lets the world skip them in the
+                    responder's own one-call tick; ``respond`` is always given them all
     """
 
     counts = "iterations"  # what StepReport.count counts for this responder
@@ -228,6 +232,7 @@ class Responder:
     part_order = False
     contacts_in_row_order = True
     found_lever_arms = False
+    reads_targets = True
 
     @property
     def visit_order(self) -> int:

@@ -206,7 +206,7 @@ def new_manifolds(rows):
 @njit(cache=True)
 def manifold_constants(first, last, manifolds, rows, M_inv, block):
     """``prepare_manifolds`` of manifolds first up to last: each writes only its own entries."""
-    normal_row, body_a, body_b, J, JM, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.JM, rows.A_kk
+    normal_row, body_a, body_b, J, A_kk = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.A_kk
     start, static_pair, K12, as_block, inv_det = manifolds
     for m in range(first, last):
         k = normal_row[start[m]]
@@ -214,9 +214,10 @@ def manifold_constants(first, last, manifolds, rows, M_inv, block):
         static_pair[m] = M_inv[a, 0] == 0.0 or M_inv[b, 0] == 0.0
         if block and start[m + 1] - start[m] == 2:
             k2 = normal_row[start[m] + 1]
+            M_ab = pair_inverse_mass(a, b, M_inv)
             K = 0.0
             for q in range(6):
-                K += J[k, q] * JM[k2, q]
+                K += J[k, q] * (M_ab[q] * J[k2, q])  # J_1 (M^-1 J_2^T): JM's products, formed from J
             K12[m] = K
             as_block[m] = block_is_well_conditioned(A_kk[k], K, A_kk[k2])
             if as_block[m]:

@@ -15,7 +15,17 @@ import numpy as np
 from numba import config, njit, types
 from numba.experimental import structref
 
-from ..constraints.rows import MET, apply_row_impulse, approach_at_impact, bounce_target, row_velocity
+from ..constraints.rows import (
+    MET,
+    approach_at_impact,
+    bounce_target,
+    pair_inverse_mass,
+    pair_row_impulse_of,
+    pair_row_velocity,
+    pair_velocity,
+    row_velocity,
+    store_pair_velocity,
+)
 
 POINT_FIELDS = ("C0", "e", "r", "C", "moved", "V_sweep", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
 _POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):
@@ -175,25 +185,28 @@ def store_of(first, last, rows, total, points):
 
 
 @njit(cache=True)
-def restitution(rows, points, threshold, total, V):
+def restitution(rows, points, threshold, total, V, M_inv):
     """Bounce the points that met their partner fast (``constraints.rows.bounce_target``),
-    keeping the tick's friction inside mu lambda_n."""
+    keeping the tick's friction inside mu lambda_n; M^-1 J^T formed from J and the pair's M^-1
+    (``M_inv``), as in the sweeps."""
     normal_row, friction_row, body_a, body_b = rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
-    J, JM, A_kk, mu = rows.J, rows.JM, rows.A_kk, rows.mu
+    J, A_kk, mu = rows.J, rows.A_kk, rows.mu
     e, impacted, vn_impact, dvn_impact = points.e, points.impacted, points.vn_impact, points.dvn_impact
     for c in range(normal_row.shape[0]):
         k, kt = normal_row[c], friction_row[c]
         if e[c] == 0.0 or not impacted[c] or vn_impact[c] >= -threshold or total[k] == 0.0 or A_kk[k] <= 0.0:
             continue
         a, b = body_a[k], body_b[k]
+        V_ab, M_ab = pair_velocity(a, b, V), pair_inverse_mass(a, b, M_inv)  # M^-1 J^T formed from J
         target = bounce_target(e[c], vn_impact[c], dvn_impact[c])
-        d = (target - row_velocity(k, a, b, J, V)) / A_kk[k]
+        d = (target - pair_row_velocity(k, J, V_ab)) / A_kk[k]
         new = max(total[k] + d, 0.0)
         d = new - total[k]
         total[k] = new
-        apply_row_impulse(k, a, b, JM, d, V)
+        V_ab = pair_row_impulse_of(k, J, M_ab, d, V_ab)
         top = mu[kt] * total[k]  # a smaller push shrinks the cone
         d = min(max(total[kt], -top), top) - total[kt]
         if d != 0.0:
             total[kt] += d
-            apply_row_impulse(kt, a, b, JM, d, V)
+            V_ab = pair_row_impulse_of(kt, J, M_ab, d, V_ab)
+        store_pair_velocity(a, b, V_ab, V)

@@ -182,7 +182,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             residuals[n_sweeps] = 0.0 if with_bias else worst  # the relax sweep's, when there is one
         n_sweeps += 1
         store_on(threads, rows, total, points)
-    restitution(rows, points, threshold, total, V)
+    restitution(rows, points, threshold, total, V, bodies.M_inv)
     for k in range(n_rows):
         lam[k] = total[k]
     return n_sweeps
@@ -220,6 +220,7 @@ class SoftStep(Responder):
     colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
     contacts_in_row_order = False  # it gathers the three fields it reads itself (gather_contacts)
     found_lever_arms = True  # measured: a 1 mm leaning 20-stack stands (it buckled with arms p - x)
+    reads_targets = False  # its push and cone come from C and mu; it forms M^-1 J^T from J
     beta = 0.0  # the rows' Baumgarte terms are not used: the push is soft
     slop = 0.0
 
