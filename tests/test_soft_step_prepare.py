@@ -61,3 +61,37 @@ def test_manifolds_of_a_resting_stack(block):
         # a block's 1 / det K, from the Jacobians as above (lcp2 multiplies by it)
         det = A_kk[k] * A_kk[k2] - K * K
         assert inv_det[m] == (pytest.approx(1.0 / det, rel=1e-12) if block else 0.0)
+
+
+class _ReadsTargets(phys2d.SoftStep):
+    """The soft step, its own tick, with the rows built as for a responder that reads them all."""
+
+    reads_targets = True
+
+
+@pytest.mark.parametrize("scene", ["pyramid", "mixed"])
+def test_the_soft_step_reads_none_of_the_targets_its_tick_skips(scene):
+    # its one-call tick skips xi, push, bounce, lo, hi, bound_row and JM of the contact rows
+    # (reads_targets = False): built or not, the states are bit for bit the same
+    make = {"pyramid": lambda r: scenes.pyramid(8, responder=r), "mixed": lambda r: scenes.mixed_shapes(12, r)}
+    lean, full = make[scene](phys2d.SoftStep()), make[scene](_ReadsTargets())
+    for _ in range(90):
+        lean.step(1 / 60)
+        full.step(1 / 60)
+    assert len(lean.contacts) > 0
+    for name in ("x", "theta", "V"):
+        assert np.array_equal(getattr(lean, name), getattr(full, name))
+
+
+def test_a_soft_step_whose_respond_is_replaced_is_given_every_row_field():
+    w = scenes.pyramid(5, responder=phys2d.SoftStep())
+    rows, M_inv = rows_after(w, w.responder, 30)
+    k_n, k_t = np.asarray(rows.normal_row), np.asarray(rows.friction_row)
+    a, b = rows.body_a, rows.body_b
+    # JM = M^-1 J^T, row by row, as the lecture forms it
+    assert np.array_equal(rows.JM[:, :3], M_inv[a] * rows.J[:, :3])
+    assert np.array_equal(rows.JM[:, 3:], M_inv[b] * rows.J[:, 3:])
+    # the normal rows: lambda in [0, inf); the friction rows: Coulomb's cone on their normal row
+    assert np.all(rows.lo[k_n] == 0.0) and np.all(rows.hi[k_n] == np.inf) and np.all(rows.bound_row[k_n] == -1)
+    assert np.array_equal(rows.bound_row[k_t], k_n)
+    assert np.all(rows.mu[k_t] > 0.0) and np.all(np.isfinite(rows.xi)) and np.all(rows.push == 0.0)  # beta = 0
