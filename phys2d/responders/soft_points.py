@@ -81,8 +81,9 @@ def separation_now(c, k, a, b, C0, r, J, moved):
 def note_impacts(rows, points, n_pending, dv, h, threshold):
     """After a sweep: a point that pushed for the first time meets its partner in this
     sub-step's motion (gap C, J V_sweep = vn before a sub-step of forces dv): its approach
-    at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s).
-    landed[c]: it was still apart and met its partner faster than the threshold.
+    at impact (``approach_at_impact``) and the forces' share of the sub-step (m/s), which
+    only restitution reads, and only of a point with e > 0. landed[c]: it was still apart
+    and met its partner faster than the threshold.
     Returns how many points are still to meet theirs (kept in order in pending)."""
     return note_impacts_of(0, n_pending, rows, points, dv, h, threshold)
 
@@ -94,13 +95,15 @@ def note_impacts_of(first, last, rows, points, dv, h, threshold):
     Returns how many were kept."""
     normal_row, body_a, body_b, J, lam = rows.normal_row, rows.body_a, rows.body_b, rows.J, rows.lam
     pending, C, V_sweep, impacted, landed = points.pending, points.C, points.V_sweep, points.impacted, points.landed
-    vn_impact, dvn_impact = points.vn_impact, points.dvn_impact
+    e, vn_impact, dvn_impact = points.e, points.vn_impact, points.dvn_impact
     n = first
     for q in range(first, last):
         c = pending[q]
         k = normal_row[c]
         if lam[k] > 0.0:
             impacted[c] = True
+            if e[c] == 0.0 and C[c] <= MET:
+                continue  # touching, without restitution: it neither bounces nor lands (landed is False)
             a, b = body_a[k], body_b[k]
             vn, dvn = row_velocity(k, a, b, J, V_sweep), row_velocity(k, a, b, J, dv)
             vn_impact[c] = approach_at_impact(C[c], vn, vn + dvn, h)
