@@ -124,7 +124,7 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     rows = unsigned_rows(records.record_of_rows(ctx.rows))
     manifolds = prepare_manifolds(rows, ctx.M_inv, soft.block)
     inv_A_kk = inverse_diagonal(ctx.rows.A_kk)  # (the same arrays as the record)
-    points = prepare_points((ctx.rows.order, ctx.separation, ctx.restitution, ctx.anchor), ctx.x.shape[0])
+    points = prepare_points((ctx.rows.order, ctx.separation, ctx.restitution), ctx.x.shape[0])
     h = DT / soft.substeps
     hertz = min(soft.contact_hertz, 0.25 / h)
     springs = tuple(soft_constants(f * hertz, soft.damping_ratio, h, soft.push_max) for f in (1.0, 2.0, 1.0))

@@ -6,6 +6,8 @@ import copy
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import phys2d
 from phys2d import scenes
@@ -95,3 +97,33 @@ def test_a_soft_step_whose_respond_is_replaced_is_given_every_row_field():
     assert np.all(rows.lo[k_n] == 0.0) and np.all(rows.hi[k_n] == np.inf) and np.all(rows.bound_row[k_n] == -1)
     assert np.array_equal(rows.bound_row[k_t], k_n)
     assert np.all(rows.mu[k_t] > 0.0) and np.all(np.isfinite(rows.xi)) and np.all(rows.push == 0.0)  # beta = 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4),  # r_a, r_b (m)
+    st.floats(0.0, 2.0 * np.pi),  # the normal's direction
+    st.lists(st.floats(-0.2, 0.2), min_size=4, max_size=4),  # each body's dx, dy since the tick began (m)
+    st.lists(st.floats(-0.5, 0.5), min_size=2, max_size=2),  # and its turn (rad)
+    st.floats(-0.1, 0.1),  # C0 (m)
+)
+def test_separation_now_is_the_moved_anchors_apart_along_n(arms, angle, shift, turn, C0):
+    """``separation_now`` reads n and the arms' products from the point's two rows; a second
+    method moves the anchors themselves: C = C0 + n . ((x_b + R_b r_b) - (x_a + R_a r_a)) less
+    the same at the start (x + r)."""
+    from phys2d.constraints.rows import jacobian
+    from phys2d.responders.soft_integrate import cos_less_one_sin
+    from phys2d.responders.soft_points import separation_now
+
+    n = np.array([np.cos(angle), np.sin(angle)])
+    r = np.array(arms).reshape(2, 2)
+    J = np.array([jacobian(*arms, n[0], n[1]), jacobian(*arms, -n[1], n[0])])
+    moved = np.array([[*shift[2 * body : 2 * body + 2], *cos_less_one_sin(turn[body])] for body in (0, 1)])
+
+    def anchor_moved(body: int) -> np.ndarray:
+        c, s = np.cos(turn[body]), np.sin(turn[body])
+        return np.array(shift[2 * body : 2 * body + 2]) + np.array([[c, -s], [s, c]]) @ r[body] - r[body]
+
+    expected = C0 + n @ (anchor_moved(1) - anchor_moved(0))
+    got = separation_now(0, 0, 1, 0, 1, np.array([C0]), J, moved)
+    assert got == pytest.approx(expected, abs=1e-14)

@@ -121,11 +121,10 @@ def test_gather_contacts_is_fancy_indexing():
     rng = np.random.default_rng(4)
     k = 13
     order = rng.permutation(k).astype(np.int32)
-    separation, restitution, anchor = rng.normal(size=k), rng.random(k), rng.normal(size=(k, 4))
-    C0, e, r = gather_contacts(order, separation, restitution, anchor)
+    separation, restitution = rng.normal(size=k), rng.random(k)
+    C0, e = gather_contacts(order, separation, restitution)
     assert np.array_equal(C0, separation[order])
     assert np.array_equal(e, restitution[order])
-    assert np.array_equal(r, anchor[order])
 
 
 def _spying_soft_step(in_row_order, seen):
@@ -176,10 +175,11 @@ def test_soft_step_gathering_for_itself_moves_the_bodies_as_the_world_s_gather()
     assert np.array_equal(worlds[0].V, worlds[1].V)
 
 
-def test_cos_sin_is_libm_s_to_an_ulp():
+def test_cos_less_one_sin_is_libm_s_to_an_ulp():
     """Against np.cos, np.sin: the Taylor series below SMALL_TURN within one ulp (turns from
-    1e-12 rad up, both signs), libm's own at and above it."""
-    from phys2d.responders.soft_integrate import SMALL_TURN, cos_sin
+    1e-12 rad up, both signs), and cos d - 1 within 4 ulps of -2 sin^2(d / 2), which has no
+    cancellation (np.cos(d) - 1 loses the digits of a small turn); libm's own at and above it."""
+    from phys2d.responders.soft_integrate import SMALL_TURN, cos_less_one_sin
 
     rng = np.random.default_rng(2)
     small = np.concatenate(
@@ -187,12 +187,14 @@ def test_cos_sin_is_libm_s_to_an_ulp():
     )
     small = small[np.abs(small) < SMALL_TURN]
     for d in small:
-        c, s = cos_sin(d)
-        assert abs(c - np.cos(d)) <= np.spacing(np.cos(d))
+        c, s = cos_less_one_sin(d)
+        assert abs((1.0 + c) - np.cos(d)) <= np.spacing(np.cos(d))
+        exact = -2.0 * np.sin(0.5 * d) ** 2
+        assert abs(c - exact) <= 4 * np.spacing(abs(exact))
         assert abs(s - np.sin(d)) <= np.spacing(abs(np.sin(d)))
     for d in (SMALL_TURN, -SMALL_TURN, 0.5, -2.0, 7.0):
-        assert cos_sin(d) == (np.cos(d), np.sin(d))
-    assert cos_sin(0.0) == (1.0, 0.0)
+        assert cos_less_one_sin(d) == (np.cos(d) - 1.0, np.sin(d))
+    assert cos_less_one_sin(0.0) == (0.0, 0.0)
 
 
 @pytest.mark.parametrize("responder", ["pgs", "soft"])

@@ -128,9 +128,9 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     if pgs is not None:
         jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals, typeof(joints), solve_threads)))
     if soft is not None:
-        quad = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0), np.zeros((0, 4))))
+        found_of = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0)))  # (order, separation, e)
         jobs.append(
-            (soft_step_solve, (bodies, rows, quad, typeof(joints), f64, typeof(soft), residuals, solve_threads))
+            (soft_step_solve, (bodies, rows, found_of, typeof(joints), f64, typeof(soft), residuals, solve_threads))
         )
     if joints is not None:
         jobs.append((start_joint_rows, (typeof(joints), i64, bodies, f64, f64, typeof(True), rows)))

@@ -206,9 +206,9 @@ def prepare_points_on(threads, found, n_bodies):
     if threads is None:
         return prepare_points(found, n_bodies)
     n_contacts = found[0].shape[0]
-    gathered = (np.empty(n_contacts), np.empty(n_contacts), np.empty((n_contacts, 4)))
+    gathered = (np.empty(n_contacts), np.empty(n_contacts))
     gather_contacts_in_slices(threads[0], found, gathered)
-    return points_of(gathered[0], gathered[1], gathered[2], n_bodies)
+    return points_of(gathered[0], gathered[1], n_bodies)
 
 
 @njit(cache=True, parallel=True)

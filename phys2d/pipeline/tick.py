@@ -74,7 +74,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
         else:  # the count and each body's part of the solve order (``pipeline.parallel``)
             count = pgs_step(s.bodies, rows, separation, step.dt, pgs, s.residuals, joints, (threads, s.shapes.part))
     if soft is not None:
-        found = (new.order[:k], new.separation[:k], new.restitution[:k], new.anchor[:k])
+        found = (new.order[:k], new.separation[:k], new.restitution[:k])
         if threads is None:
             count = soft_step_solve(s.bodies, rows, found, joints, step.dt, soft, s.residuals, None)
         else:

@@ -87,7 +87,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
     normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
     J, A_kk, lam = rows.J, rows.A_kk, rows.lam
     soft_dyn, soft_static = springs[0], springs[1]
-    C, C0, r, moved = points.C, points.C0, points.r, points.moved
+    friction_row, C, C0, moved = rows.friction_row, points.C, points.C0, points.moved
     start, static_pair, K12, as_block, inv_det = manifolds
     worst = 0.0
     for m in range(first, last):
@@ -96,7 +96,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
         a, b = body_a[k], body_b[k]
         if new_C:  # the bodies moved since the last sweep
             for p in range(c, start[m + 1]):
-                C[p] = separation_now(p, normal_row[p], a, b, C0, r, J, moved)
+                C[p] = separation_now(p, normal_row[p], friction_row[p], a, b, C0, J, moved)
         soft = soft_static if static_pair[m] else soft_dyn
         s1 = C[c]
         V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)

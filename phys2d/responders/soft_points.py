@@ -27,11 +27,11 @@ from ..constraints.rows import (
     store_pair_velocity,
 )
 
-POINT_FIELDS = ("C0", "e", "r", "C", "moved", "V_sweep", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
+POINT_FIELDS = ("C0", "e", "C", "moved", "V_sweep", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
 _POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):
-    as found, its separation C0 (m), restitution e and lever arms r = (r_a, r_b) (m); within a
-    sub-step its separation C now (m); what the points read of their bodies: moved (per body: dx,
-    dy (m), cos and sin dtheta since the tick began, what C follows) and V_sweep (per body: V as
+    as found, its separation C0 (m) and restitution e; within a sub-step its separation C now
+    (m); what the points read of their bodies: moved (per body: dx, dy (m), cos dtheta - 1 and
+    sin dtheta since the tick began, what C follows) and V_sweep (per body: V as
     the sweep began, before its forces and warm start: J V_sweep is the approach of a point not
     yet met, the landing's friction target); the points not yet met (pending, in order) and, once
     met, their approach at impact (vn_impact, m/s, and dvn_impact, the forces' share of the
@@ -60,21 +60,30 @@ else:
 
 
 @njit(cache=True)
-def separation_now(c, k, a, b, C0, r, J, moved):
-    """Current separation of point c (m) from its bodies' motion since the tick began.
+def separation_now(c, k, kt, a, b, C0, J, moved):
+    """Current separation of point c (m) from its bodies' motion since the tick began: C0 plus
+    how far its anchors have moved apart along the normal n.
 
-    moved[body] = (dx, dy, cos dtheta, sin dtheta); each anchor has moved by
-    dx + R(dtheta) r - r. The normal n is that of the point's normal row k (J_k = [-n, . | n, .]).
+    moved[body] = (dx, dy, cos dtheta - 1, sin dtheta): an anchor r has moved by d + (R - I) r,
+    whose part along n is n.d + (cos dtheta - 1) n.r + sin dtheta (r x n). The point's rows
+    hold what that needs (``constraints.rows.jacobian``): its normal row k, J_k = [-n, -(r_a x n)
+    | n, r_b x n], and its friction row kt, along t = (-n_y, n_x), J_kt = [., -(n.r_a) | ., n.r_b].
     """
-    s = C0[c]
-    for side in range(2):
-        body = a if side == 0 else b
-        rx, ry = r[c, 2 * side], r[c, 2 * side + 1]
-        dx = moved[body, 0] + moved[body, 2] * rx - moved[body, 3] * ry - rx
-        dy = moved[body, 1] + moved[body, 3] * rx + moved[body, 2] * ry - ry
-        d = dx * J[k, 3] + dy * J[k, 4]
-        s += d if side == 1 else -d
-    return s
+    nx, ny = J[k, 3], J[k, 4]
+    along_n = nx * (moved[b, 0] - moved[a, 0]) + ny * (moved[b, 1] - moved[a, 1])
+    turned_b = moved[b, 2] * J[kt, 5] + moved[b, 3] * J[k, 5]  # n.(R - I) r_b
+    turned_a = moved[a, 2] * J[kt, 2] + moved[a, 3] * J[k, 2]  # -n.(R - I) r_a
+    return C0[c] + along_n + (turned_b + turned_a)
+
+
+@njit(cache=True)
+def note_sweep_start(points, V):
+    """V_sweep = V (m/s, rad/s) as a sweep begins: the approach of the points not yet met. (A
+    loop: numba copies ``V_sweep[:, :] = V`` element by element, checking for broadcasting.)"""
+    V_sweep = points.V_sweep
+    for b in range(V.shape[0]):
+        for c in range(3):
+            V_sweep[b, c] = V[b, c]
 
 
 @njit(cache=True)
@@ -116,47 +125,44 @@ def note_impacts_of(first, last, rows, points, dv, h, threshold):
 
 
 @njit(cache=True)
-def gather_contacts(order, separation, restitution, anchor):
+def gather_contacts(order, separation, restitution):
     """What the tick reads of each contact, in row order (row pair q is contact order[q]):
-    its separation C0 (m), restitution e and lever arms (r_a, r_b) (m). One pass, at prepare;
-    the normal is read from the contact's normal row (J_k = [-n, . | n, .])."""
+    its separation C0 (m) and restitution e. One pass, at prepare; the normal and the lever
+    arms are read from the contact's rows (``separation_now``)."""
     n = order.shape[0]
-    C0, e, r = np.empty(n), np.empty(n), np.empty((n, 4))
-    gather_contacts_of(0, n, (order, separation, restitution, anchor), (C0, e, r))
-    return C0, e, r
+    C0, e = np.empty(n), np.empty(n)
+    gather_contacts_of(0, n, (order, separation, restitution), (C0, e))
+    return C0, e
 
 
 @njit(cache=True)
 def gather_contacts_of(first, last, found, gathered):
-    """``gather_contacts`` of row pairs first up to last: found = (order, separation, e, anchor)
-    into gathered = (C0, e, r)."""
-    order, separation, restitution, anchor = found
-    C0, e, r = gathered
+    """``gather_contacts`` of row pairs first up to last: found = (order, separation, e) into
+    gathered = (C0, e)."""
+    order, separation, restitution = found
+    C0, e = gathered
     for q in range(first, last):
         c = order[q]
         C0[q] = separation[c]
         e[q] = restitution[c]
-        for i in range(4):
-            r[q, i] = anchor[c, i]
 
 
 @njit(cache=True)
 def prepare_points(found, n_bodies):
-    """The tick's ``Points`` of the step's contacts: C0, e and r gathered into row order
-    (``gather_contacts`` of found = (order, separation, e, anchor)), the rest to fill in."""
-    C0, e, r = gather_contacts(found[0], found[1], found[2], found[3])
-    return points_of(C0, e, r, n_bodies)
+    """The tick's ``Points`` of the step's contacts: C0 and e gathered into row order
+    (``gather_contacts`` of found = (order, separation, e)), the rest to fill in."""
+    C0, e = gather_contacts(found[0], found[1], found[2])
+    return points_of(C0, e, n_bodies)
 
 
 @njit(cache=True)
-def points_of(C0, e, r, n_bodies):
-    """``Points`` over the gathered C0, e and r of n_bodies' contacts, the rest to fill in: the
-    bodies have not moved yet (moved = (0, 0, cos 0, sin 0)), so each point's C is its C0."""
+def points_of(C0, e, n_bodies):
+    """``Points`` over the gathered C0 and e of n_bodies' contacts, the rest to fill in: the
+    bodies have not moved yet (moved = (0, 0, cos 0 - 1, sin 0) = 0), so each point's C is its C0."""
     n_contacts = C0.shape[0]
     moved = np.zeros((n_bodies, 4))
-    moved[:, 2] = 1.0
     return Points(  # (np.empty: V_sweep and the approach at impact are written before they are read)
-        C0, e, r, C0.copy(), moved, np.empty((n_bodies, 3)),
+        C0, e, C0.copy(), moved, np.empty((n_bodies, 3)),
         np.arange(n_contacts, dtype=np.uint32), np.zeros(n_contacts, np.bool_), np.empty(n_contacts),
         np.empty(n_contacts), np.zeros(n_contacts, np.bool_),
     )  # fmt: skip

@@ -67,7 +67,7 @@ from .soft_contacts import (
 )
 from .soft_integrate import integrate_velocities, split_forces
 from .soft_joints import first_joint_row_of, joint_system, prepare_joints, solve_joints
-from .soft_points import restitution
+from .soft_points import note_sweep_start, restitution
 
 
 class SoftSettings(NamedTuple):
@@ -117,7 +117,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
 
     bodies: a BodyRecord (V after the external forces, V1 before); rows: the step's rows, the
     K contacts' first (row pair q is contact order[q]), then the joints' from row 2K;
-    found: (order, separation, e, anchor) of the K contacts, in contact order; joints: a
+    found: (order, separation, e) of the K contacts, in contact order; joints: a
     JointRecord, or None for a world without joints (then no joint code is compiled: numba
     drops the ``joints is not None`` branches); settings: a ``SoftSettings``.
 
@@ -166,7 +166,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             with_bias = sweep == 0
             new_C = not with_bias or (i > 0 and not relax)  # (after a relax sweep the positions have not moved)
             if n_pending > 0:  # the approach of the points not yet met, as the sweep begins
-                points.V_sweep[:, :] = V
+                note_sweep_start(points, V)
             if with_bias:
                 integrate_velocities(V, dv)
                 if threads is None:  # ``warm_start``'s two parts
@@ -218,7 +218,7 @@ class SoftStep(Responder):
     handles_joints = True
     solves_mouse_joints = True
     colour_order = True  # measured: steadier tall piles than pair order, and faster sweeps
-    contacts_in_row_order = False  # it gathers the three fields it reads itself (gather_contacts)
+    contacts_in_row_order = False  # it gathers the two fields it reads itself (gather_contacts)
     found_lever_arms = True  # measured: a 1 mm leaning 20-stack stands (it buckled with arms p - x)
     reads_targets = False  # its push and cone come from C and mu; it forms M^-1 J^T from J
     beta = 0.0  # the rows' Baumgarte terms are not used: the push is soft
@@ -263,7 +263,7 @@ class SoftStep(Responder):
     def respond(self, ctx: StepContext) -> SolveResult:
         rows = ctx.rows
         bodies = records.new_bodies((ctx.x, ctx.theta, ctx.V, ctx.M_inv, ctx.V1))
-        found = (rows.order, ctx.separation, ctx.restitution, ctx.anchor)
+        found = (rows.order, ctx.separation, ctx.restitution)
         joints = None  # a world without joints compiles none of their code
         if isinstance(ctx.joints, JointArrays) and ctx.joints.kind.shape[0] > 0:
             joints = records.record_of_joints(ctx.joints, rows.lam[rows.first_joint_row :])  # (lam: not read)
