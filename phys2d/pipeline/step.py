@@ -102,7 +102,7 @@ def tick_for(responder: Responder) -> TickSpec | None:
 
 def _tick_spec(r: Responder) -> TickSpec:
     rows = (r.beta, r.slop, r.push_max, r.restitution_threshold, r.friction_model, r.found_lever_arms, r.warm_start)
-    staged = TickSpec(False, None, None, 0, (*rows, True), r.name, r.counts, r.visit_order)
+    staged = TickSpec(False, None, None, 0, (*rows, True), r.name, r.counts, r.visit_order)  # respond: every field
     if "respond" in r.__dict__:  # replaced on the instance (a test's spy, say): call it, stage by stage
         return staged
     own = (*rows, r.reads_targets)  # the engine's own tick: the rows it reads, no more

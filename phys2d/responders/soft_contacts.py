@@ -62,7 +62,7 @@ def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs
     moved since the last sweep); ``manifolds`` comes from ``prepare_manifolds``; inv_A_kk =
     1 / A_kk (``inverse_diagonal``: the sweeps multiply, never divide); M_inv: the bodies'
     M^-1, from which each manifold forms M^-1 J^T as it applies an impulse
-    (``pair_row_impulse_of``: the products the rows' JM holds, not read); springs: the soft
+    (``pair_row_impulse_of``: the products JM would hold; the soft step's contact rows carry none); springs: the soft
     push against a dynamic and a static partner (``soft_constants``). The same updates run
     part by part on several threads in ``pipeline.parallel.soft_sweep_in_groups``.
 
@@ -100,7 +100,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
         soft = soft_static if static_pair[m] else soft_dyn
         s1 = C[c]
         V_ab = pair_velocity(a, b, V)  # the pair's velocities in hand through its rows (sweep, pgs.py)
-        M_ab = pair_inverse_mass(a, b, M_inv)  # and its M^-1: M^-1 J^T formed from J, JM not read
+        M_ab = pair_inverse_mass(a, b, M_inv)  # and its M^-1: M^-1 J^T formed from J
         if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
             k2 = normal_row[c + 1]
             s2 = C[c + 1]
@@ -217,7 +217,7 @@ def manifold_constants(first, last, manifolds, rows, M_inv, block):
             M_ab = pair_inverse_mass(a, b, M_inv)
             K = 0.0
             for q in range(6):
-                K += J[k, q] * (M_ab[q] * J[k2, q])  # J_1 (M^-1 J_2^T): JM's products, formed from J
+                K += J[k, q] * (M_ab[q] * J[k2, q])  # J_1 (M^-1 J_2^T), M^-1 J_2^T formed from J
             K12[m] = K
             as_block[m] = block_is_well_conditioned(A_kk[k], K, A_kk[k2])
             if as_block[m]:

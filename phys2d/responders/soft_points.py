@@ -3,10 +3,11 @@ separation followed from the bodies' motion, their approach kept until they meet
 partner, and the bounce of those that met it fast.
 
 Each sweep of the contacts that follows a move of the bodies works out each point's
-separation C from how far its bodies have moved since the tick began (x - x0 and the
-rotated lever arms, ``separation_now``), so no new collision detection is needed within
-the tick. A point not yet met reads its approach J V from the bodies' velocities as the
-sweep began (``Points.V_sweep``), only when it pushes.
+separation C from how far its bodies have moved since the tick began (x - x0 and their
+turns, with n and the lever arms' products read from the point's rows, ``separation_now``),
+so no new collision detection is needed within the tick. A point not yet met reads its
+approach J V from the bodies' velocities as the sweep began (``Points.V_sweep``), only
+when it pushes.
 """
 
 from __future__ import annotations
