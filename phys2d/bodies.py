@@ -45,6 +45,10 @@ if TYPE_CHECKING:
     from .world import World
 
 MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
+# densities a body may have (kg/m^2, 2D): water 1 m deep is 1000, steel 1 m deep 7800; the range
+# keeps mass ratios within 1e12 and M^-1 a normal float
+MIN_DENSITY = 1e-6
+MAX_DENSITY = 1e6
 
 
 ALL_CATEGORIES = MAX_BITS  # the default mask: collide with every category
@@ -67,6 +71,7 @@ class PlacedBodyOptions(TypedDict, total=False):
     category: int  # the categories it belongs to, a 64-bit mask
     mask: int  # the categories it collides with, a 64-bit mask
     group: int  # a shared negative group never collides, a shared positive group always does
+    fixed_rotation: bool  # it never turns: M^-1's 1/I is 0 and omega stays 0 (Box2D's motion lock)
 
 
 class BodyOptions(PlacedBodyOptions, total=False):
@@ -92,6 +97,7 @@ class BodySettings(NamedTuple):
     category: int = 1
     mask: int = ALL_CATEGORIES
     group: int = 0
+    fixed_rotation: bool = False
 
 
 def body_settings(options: BodyOptions) -> BodySettings:
@@ -103,7 +109,7 @@ def body_settings(options: BodyOptions) -> BodySettings:
     v = vec2(o.velocity, "velocity")
     checked = BodySettings(
         finite_float(o.angle, "angle"),
-        positive_float(o.density, "density"),
+        _density(o.density),
         non_negative_float(o.friction, "friction"),
         float_in(o.restitution, "restitution", 0.0, 1.0),
         check_bool(o.static, "static"),
@@ -116,10 +122,24 @@ def body_settings(options: BodyOptions) -> BodySettings:
         filter_bits(o.category, "category"),
         filter_bits(o.mask, "mask"),
         filter_group(o.group, "group"),
+        check_bool(o.fixed_rotation, "fixed_rotation"),
     )
     if checked.static and checked.kinematic:
         raise ValueError("static and kinematic are both True: a body is static (never moves) or kinematic, not both")
+    if checked.fixed_rotation and checked.angular_velocity != 0.0:
+        raise ValueError(
+            f"angular_velocity: a body with fixed_rotation=True never turns, got angular_velocity="
+            f"{checked.angular_velocity}"
+        )
     return checked
+
+
+def _density(value: object) -> float:
+    """``value`` as a density in [MIN_DENSITY, MAX_DENSITY] (kg/m^2)."""
+    d = positive_float(value, "density")
+    if not MIN_DENSITY <= d <= MAX_DENSITY:
+        raise ValueError(f"density must be between {MIN_DENSITY:g} and {MAX_DENSITY:g} kg/m^2 (2D), got {d:g}")
+    return d
 
 
 def should_collide(category_a: int, mask_a: int, group_a: int, category_b: int, mask_b: int, group_b: int) -> bool:
@@ -175,6 +195,7 @@ class BodyArrays:
     group: np.ndarray  # (N,) int32 collision group (0: none)
     sleep_time: np.ndarray  # (N,) s the body has rested (``phys2d.sleep``)
     island: np.ndarray  # (N,) int64 id of the sleeping island it is in; -1: awake
+    fixed_rotation: np.ndarray  # (N,) bool: it never turns (M^-1's 1/I is 0, omega 0)
     local_v: np.ndarray  # (n_verts, 2) polygon vertices in the body frame, m (a chain segment's two
     # ghost vertices follow its two vertices: ``stored_rows``)
     local_n: np.ndarray  # (n_verts, 2) unit outward edge normals in the body frame
@@ -202,6 +223,7 @@ class BodyArrays:
     _group: np.ndarray
     _sleep_time: np.ndarray
     _island: np.ndarray
+    _fixed_rotation: np.ndarray
     _local_v: np.ndarray
     _local_n: np.ndarray
 
@@ -229,6 +251,7 @@ class BodyArrays:
         "group": ((), np.int32),
         "sleep_time": ((), np.float64),
         "island": ((), np.int64),
+        "fixed_rotation": ((), np.bool_),
     }
 
     def __init__(self) -> None:
@@ -273,7 +296,8 @@ class BodyArrays:
         self._x[i] = x
         self._theta[i] = o.angle
         self._V[i] = (*o.velocity, o.angular_velocity)
-        self._M_inv[i] = (0.0, 0.0, 0.0) if infinite_mass else (1.0 / mass, 1.0 / mass, 1.0 / inertia)
+        turns = not (infinite_mass or o.fixed_rotation)
+        self._M_inv[i] = (0.0 if infinite_mass else 1.0 / mass,) * 2 + (1.0 / inertia if turns else 0.0,)
         self._mass[i] = mass
         self._inertia[i] = inertia
         self._kind[i] = spec.kind
@@ -293,6 +317,7 @@ class BodyArrays:
         self._group[i] = o.group
         self._sleep_time[i] = 0.0
         self._island[i] = -1  # awake
+        self._fixed_rotation[i] = o.fixed_rotation
         self.next_uid += 1
         self.n_verts += rows
         self.n += 1
@@ -433,7 +458,10 @@ class Body:
     @angular_velocity.setter
     def angular_velocity(self, value: float) -> None:
         v = finite_float(value, "angular_velocity")
-        self._arrays().V[self._index, 2] = v
+        a = self._arrays()
+        if v != 0.0 and a.fixed_rotation[self._index]:
+            raise ValueError(f"angular_velocity: body {self._index} has fixed_rotation=True and never turns, got {v}")
+        a.V[self._index, 2] = v
         if v != 0.0:
             self._world._wake_island_of(self._index)
 
@@ -458,6 +486,26 @@ class Body:
         """Kinematic bodies have M^-1 = 0 and move at the velocity they are given: no force,
         impulse or contact changes it."""
         return bool(self._arrays().kinematic[self._index])
+
+    @property
+    def fixed_rotation(self) -> bool:
+        """Whether the body never turns (Box2D's motion lock, pymunk's infinite moment): the 1/I
+        of its M^-1 is 0, so no torque or contact turns it, and omega stays 0. Its ``inertia``
+        stays what its shape gives (energies read it). Settable: True stops its turning now,
+        False gives a dynamic body its 1/I back."""
+        return bool(self._arrays().fixed_rotation[self._index])
+
+    @fixed_rotation.setter
+    def fixed_rotation(self, value: bool) -> None:
+        v = check_bool(value, "fixed_rotation")
+        a, i = self._arrays(), self._index
+        a.fixed_rotation[i] = v
+        if v:
+            a.V[i, 2] = 0.0
+            a.M_inv[i, 2] = 0.0
+        elif not a.static[i]:
+            a.M_inv[i, 2] = 1.0 / a.inertia[i]
+            self._world._wake_island_of(i)
 
     gravity_scale = PerBody(
         "gravity_scale",
@@ -577,12 +625,19 @@ class Body:
         self._add_force(f[0], f[1], r[0] * f[1] - r[1] * f[0])
 
     def apply_torque(self, torque: float) -> None:
-        """Apply a torque tau (N m) for the next step only: omega += dt tau / I then."""
+        """Apply a torque tau (N m) for the next step only: omega += dt tau / I then (none on a
+        body with ``fixed_rotation``)."""
         self._add_force(0.0, 0.0, finite_float(torque, "torque"))
+
+    def clear_forces(self) -> None:
+        """Drop the force and torque applied to the body for the next step (``apply_force``,
+        ``apply_torque``): the way on when a step was refused for them."""
+        self._arrays().force[self._index] = 0.0
 
     def _add_force(self, fx: float, fy: float, tau: float) -> None:
         a = self._arrays()
-        total = a.force[self._index] + (fx, fy, tau)
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused just below, by name
+            total = a.force[self._index] + (fx, fy, tau)
         if not np.all(np.isfinite(total)):
             raise ValueError("force: the total force on the body would not be finite")
         a.force[self._index] = total

@@ -182,31 +182,31 @@ def plot_choice(args: argparse.Namespace):
     return None
 
 
-# seconds a first run compiles for, by responder (benchmarks/STARTUP.md: a quiet 2-core machine, a fresh cache)
-FIRST_RUN_SECONDS = {"pgs": 15, "soft-step": 20, "other": 25}
-
-
 def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None) -> None:
     """Step each world once; when numba compiles a kernel meanwhile (a first run: its disk cache
     is cold), say so in one line before it starts, so a quiet wait is not mistaken for a hang."""
     from numba.core import event
 
+    from . import first_run
     from .pipeline import ahead
 
     out = sys.stderr if stream is None else stream
 
     class Notice(event.Listener):
         said = 0.0  # when the first compile started (0: none yet)
+        names: list[str] = []
+        cores = 2 if ahead.wanted() else 1  # the first step compiles on two processes (``pipeline.ahead``)
 
         def on_start(self, ev: event.Event) -> None:
             if not Notice.said:
                 Notice.said = time.perf_counter()
-                names = sorted({getattr(getattr(w, "responder", None), "name", "other") for w in worlds})
+                Notice.names = names = sorted({getattr(getattr(w, "responder", None), "name", "other") for w in worlds})
                 if ahead.last_plan == "behind":  # an edit: only what it touched, the one-call tick aside
                     what = "the kernels an edit touched (a few seconds; the one-call step compiles aside)"
-                else:
-                    about = max(FIRST_RUN_SECONDS.get(name, FIRST_RUN_SECONDS["other"]) for name in names)
-                    what = f"the numba kernels for {', '.join(names)} (first run only: about {about} s on 2 cores)"
+                else:  # from this machine's pace (``phys2d.first_run``)
+                    about = first_run.estimate(names, Notice.cores)
+                    cores = f"{Notice.cores} cores" if Notice.cores > 1 else "1 core"
+                    what = f"the numba kernels for {', '.join(names)} (first run only: about {about:.0f} s on {cores})"
                 print(f"phys2d: compiling {what}; cached after that ...", file=out, flush=True)
 
         def on_end(self, ev: event.Event) -> None:
@@ -216,7 +216,10 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
         for w in worlds:
             w.step(dt)
     if Notice.said:
-        print(f"phys2d: compiled in {time.perf_counter() - Notice.said:.0f} s", file=out, flush=True)
+        took = time.perf_counter() - Notice.said
+        print(f"phys2d: compiled in {took:.0f} s", file=out, flush=True)
+        if ahead.last_plan == "ahead" or (not ahead.wanted() and took > 5.0):  # a first run: the next estimate's base
+            first_run.remember(Notice.names, took, Notice.cores)
     # importing numba and loading the kernels leave ~10^5 objects that live to the end of the process;
     # each full collection walks them all (~0.07 s), and the exit collects several times (~0.5 s of a
     # 2.5 s run): frozen, they are left out of the collections

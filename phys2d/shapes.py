@@ -12,7 +12,9 @@ origin is the body's centre of mass ``x_b`` (docs/formulation.md#symbols-arrays-
 given with its centroid elsewhere is re-centred, so the body's position is always
 the centre of mass the lecture integrates.
 
-Units: metres, kilograms, kg/m^2 for density (2D), kg*m^2 for inertia.
+Units: metres, kilograms, kg/m^2 for density (2D), kg*m^2 for inertia. Sizes: every radius, half
+extent and half length, and a polygon's reach from its centroid, lies in [MIN_SIZE, MAX_SIZE] =
+[1 mm, 100 km]; densities in [1e-6, 1e6] kg/m^2 (``bodies.MIN_DENSITY``).
 """
 
 from __future__ import annotations
@@ -26,8 +28,9 @@ import numpy as np
 from .validation import non_negative_float, positive_float, vec2
 
 __all__ = [
-    "CAPSULE", "CHAIN", "CIRCLE", "KIND_NAMES", "POLYGON", "SEGMENT", "ShapeSpec", "box", "capsule", "chain",
-    "circle", "mass_properties", "polygon", "positive_float", "rounded_area_properties", "segment",
+    "CAPSULE", "CHAIN", "CIRCLE", "KIND_NAMES", "MAX_SIZE", "MIN_SIZE", "POLYGON", "SEGMENT", "ShapeSpec", "box",
+    "capsule", "chain", "circle", "mass_properties", "polygon", "positive_float", "rounded_area_properties", "segment",
+    "size",
 ]  # fmt: skip
 
 CIRCLE = 0
@@ -39,6 +42,12 @@ KIND_NAMES = ("circle", "polygon", "capsule", "segment", "chain")  # by kind
 
 MAX_POLYGON_VERTICES = 64
 MIN_EDGE_LENGTH = 1e-4  # m: shorter edges make normals meaningless
+# The sizes a shape may have (Box2D's are the guide: its linear slop of 5 mm, its 100 km "huge"):
+# every radius, half extent and half length, a polygon's reach from its centroid (its largest
+# |x| or |y|), a segment's half length. Smaller shapes slip through the contact margin and slop; larger ones lose the
+# millimetres of float64 that contact needs.
+MIN_SIZE = 1e-3  # m
+MAX_SIZE = 1e5  # m
 _COLLINEAR_TOL = 1e-7  # sin of the smallest turn accepted between two edges
 
 
@@ -57,8 +66,27 @@ class ShapeSpec:
     # the previous segment's first point and the next one's last, in the body frame
 
 
+def size(value, name: str) -> float:
+    """``value`` as a length in [MIN_SIZE, MAX_SIZE] (m): a radius, half extent or half length."""
+    v = positive_float(value, name)
+    if not MIN_SIZE <= v <= MAX_SIZE:
+        raise ValueError(f"{name} must be between {MIN_SIZE:g} m and {MAX_SIZE:g} m (phys2d's sizes), got {v:g}")
+    return v
+
+
+def _reach(vertices: np.ndarray, name: str) -> None:
+    """Check a polygon's reach, the largest |x| or |y| of its vertices about the centroid (a box's
+    larger half extent), against the sizes."""
+    reach = float(np.max(np.abs(vertices)))
+    if not MIN_SIZE <= reach <= MAX_SIZE:
+        raise ValueError(
+            f"{name} reach {reach:.3g} m from their centroid: a shape must reach between {MIN_SIZE:g} m and "
+            f"{MAX_SIZE:g} m (phys2d's sizes)"
+        )
+
+
 def circle(radius) -> ShapeSpec:
-    r = positive_float(radius, "radius")
+    r = size(radius, "radius")
     area = math.pi * r * r
     unit_inertia = 0.5 * area * r * r
     if not (0.0 < unit_inertia < math.inf):  # r^4 underflows to 0 or overflows
@@ -71,6 +99,10 @@ def box(half_extents) -> ShapeSpec:
     h = vec2(half_extents, "half_extents")
     if np.any(h <= 0.0):
         raise ValueError(f"half_extents must both be > 0, got {h.tolist()}")
+    if not np.all((MIN_SIZE <= h) & (h <= MAX_SIZE)):
+        raise ValueError(
+            f"half_extents must both be between {MIN_SIZE:g} m and {MAX_SIZE:g} m (phys2d's sizes), got {h.tolist()}"
+        )
     return _box(float(h[0]), float(h[1]))
 
 
@@ -151,6 +183,7 @@ def _convex_polygon(v: np.ndarray, name: str) -> ShapeSpec:
     if not (0.0 < second < math.inf):
         raise ValueError(f"{name} is too large: its moment of inertia overflows")
     normals = np.stack([e[:, 1], -e[:, 0]], axis=1) / length[:, None]
+    _reach(a, name)
     return ShapeSpec(POLYGON, 0.0, a.copy(), normals, centroid, area, float(second))
 
 
@@ -183,6 +216,8 @@ def _core(a: np.ndarray, b: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarr
             f"{name}: its points are {length:.3g} m apart (closer than {MIN_EDGE_LENGTH} m): "
             "repeated or too-close points"
         )
+    if 0.5 * length > MAX_SIZE:
+        raise ValueError(f"{name}: its points are {length:.3g} m apart: a segment is at most {2 * MAX_SIZE:g} m long")
     mid = 0.5 * (a + b)
     n = np.array([d[1], -d[0]]) / length
     return np.stack([a - mid, b - mid]), np.stack([n, -n]), mid, 0.5 * length
@@ -199,9 +234,11 @@ def capsule(half_length, radius) -> ShapeSpec:
     """A capsule along the body's x axis: the core from (-half_length, 0) to (half_length, 0) (m),
     rounded by ``radius`` (m): a stadium 2 (half_length + radius) long and 2 radius wide."""
     h = positive_float(half_length, "half_length")
-    r = positive_float(radius, "radius")
+    r = size(radius, "radius")
     if 2.0 * h < MIN_EDGE_LENGTH:
         raise ValueError(f"half_length must be >= {0.5 * MIN_EDGE_LENGTH} m, got {h:g}: use add_circle for a disc")
+    if h > MAX_SIZE:
+        raise ValueError(f"half_length must be at most {MAX_SIZE:g} m (phys2d's sizes), got {h:g}")
     vertices, normals, _, _ = _core(np.array([-h, 0.0]), np.array([h, 0.0]), "half_length")
     spec = _rounded(CAPSULE, vertices, normals, np.zeros(2), h, r)
     if not spec.unit_inertia > 0.0:
@@ -214,6 +251,8 @@ def segment(a, b, radius=0.0) -> ShapeSpec:
     centroid (the body's position) is their midpoint. Two-sided."""
     pa, pb = vec2(a, "a"), vec2(b, "b")
     r = non_negative_float(radius, "radius")
+    if r != 0.0:  # 0: a bare segment
+        size(r, "radius")
     vertices, normals, mid, h = _core(pa, pb, "a, b")
     return _rounded(SEGMENT, vertices, normals, mid, h, r)
 

@@ -266,24 +266,33 @@ class World:
             self._pipeline.settings_changed()
 
     # -- the lecture's arrays (views: the first N rows) ------------------------
+    # Each is the world's own array, writable, as the lessons use them. A held array goes stale
+    # when a body is added or removed (the world's arrays are new views then): read w.x again.
+    # The next step checks what was written: a non-finite value, a negative M^-1, or M^-1 > 0 on
+    # a static or kinematic body is refused (ValueError naming the body and the array; the
+    # world is not stepped).
     @property
     def x(self) -> np.ndarray:
-        """(N, 2) centres of mass, m."""
+        """(N, 2) centres of mass, m (writable; stale after an add or remove)."""
         return self._bodies.x
 
     @property
     def theta(self) -> np.ndarray:
-        """(N,) angles, rad."""
+        """(N,) angles, rad (writable; stale after an add or remove)."""
         return self._bodies.theta
 
     @property
     def V(self) -> np.ndarray:
-        """(N, 3) velocities [vx, vy, omega]: the lecture's V, one row per body."""
+        """(N, 3) velocities [vx, vy, omega]: the lecture's V, one row per body (writable; stale
+        after an add or remove)."""
         return self._bodies.V
 
     @property
     def M_inv(self) -> np.ndarray:
-        """(N, 3) the diagonal of M^-1: [1/m, 1/m, 1/I], zeros for static bodies."""
+        """(N, 3) the diagonal of M^-1: [1/m, 1/m, 1/I], zeros for static and kinematic bodies
+        (writable; stale after an add or remove). Writing it changes how impulses move a body,
+        not its ``mass`` or ``inertia``, which the energies and momenta read; a 0 locks that
+        direction (``fixed_rotation=True`` locks the turning, as an option)."""
         return self._bodies.M_inv
 
     @property
@@ -299,8 +308,10 @@ class World:
     # takes the body's (``bodies.BodyOptions``): angle (rad), density (kg/m^2, 2D), friction
     # (mu >= 0), restitution (e in [0, 1]), static (never moves), kinematic (moves at its
     # velocity, no force or contact changes it), velocity (m/s), angular_velocity (rad/s),
-    # gravity_scale, linear_damping and angular_damping (c >= 0, 1/s: v /= 1 + c dt), and the
-    # collision filter category, mask (64-bit masks) and group (Box2D's meaning).
+    # gravity_scale, linear_damping and angular_damping (c >= 0, 1/s: v /= 1 + c dt), the
+    # collision filter category, mask (64-bit masks) and group (Box2D's meaning), and
+    # fixed_rotation (it never turns). Sizes (every radius, half extent, half length) lie in
+    # [1 mm, 100 km] and densities in [1e-6, 1e6] kg/m^2 (``shapes.MIN_SIZE``, ``bodies.MIN_DENSITY``).
     def add_box(
         self, position: ArrayLike = (0.0, 0.0), *, half_extents: ArrayLike = (0.5, 0.5), **options: Unpack[BodyOptions]
     ) -> Body:
@@ -424,8 +435,14 @@ class World:
         ia, ib = self._own(a, "a"), self._own(b, "b")
         if ia == ib:
             raise ValueError("a and b are the same body: a joint needs two bodies")
-        if self._bodies.static[ia] and self._bodies.static[ib]:
-            raise ValueError("a and b are both static: a joint between them could never act")
+        arrays = self._bodies
+        if arrays.static[ia] and arrays.static[ib]:
+            kinds = sorted({"kinematic" if arrays.kinematic[i] else "static" for i in (ia, ib)})
+            both = "both " + kinds[0] if len(kinds) == 1 else "static and kinematic"
+            raise ValueError(
+                f"a and b are {both}: both have infinite mass, so a joint between them could never act "
+                "(join a dynamic body)"
+            )
         return self._handles[ia], self._handles[ib]
 
     def add_distance_joint(
@@ -671,6 +688,12 @@ class World:
         self._joints_packed = True
 
     # -- one tick ----------------------------------------------------------------
+    def clear_forces(self) -> None:
+        """Drop every force and torque applied for the next step (``Body.apply_force``,
+        ``apply_torque``): the way on when a step was refused for one of them."""
+        self._bodies.force[:] = 0.0
+        self._bodies.forces_applied = False
+
     def step(self, dt: float) -> StepReport:
         """Advance the world by dt seconds; returns (and keeps as ``last_step``) the report.
 

@@ -408,13 +408,13 @@ def test_stock_scenes_refuse_bad_arguments(data) -> None:
 
 @st.composite
 def extreme_scenes(draw) -> SceneSpec:
-    """Valid but extreme: huge friction, densities 1e-6..1e6, sizes 1e-3..1e3 m,
+    """Valid but extreme: huge friction, densities 1e-6..1e6 (the whole range), sizes 1.5e-3..1e3 m,
     positions far from the origin, speeds near the limit."""
     scene = draw(scenes(max_bodies=5, ground=None, static=None, region=1.0))
     far = draw(st.sampled_from([0.0, 1e6, -1e9, 1e12]))
     out = []
     for b in scene.bodies:
-        scale = draw(st.sampled_from([1e-3, 1.0, 1e3]))
+        scale = draw(st.sampled_from([1e-2, 1.0, 1e3]))  # sizes 0.15..1 m scaled: within [MIN_SIZE, MAX_SIZE]
         if b.kind == "polygon":  # edges must stay >= MIN_EDGE_LENGTH
             scale = max(scale, 1e-2)
         size = (
@@ -452,3 +452,108 @@ def test_valid_extremes_never_go_non_finite(scene: SceneSpec, responder: phys2d.
             with np.errstate(over="ignore"):  # mu up to 1.7e308: a bound past the largest float is inf
                 bound = c.friction * c.normal_impulse * (1 + 1e-12) + 1e-300
             assert np.all(np.abs(c.tangent_impulse) <= bound)
+
+
+# -- the rest of the public entries that take floats (issue 41): each bad value refused by name ----
+
+huge_or_tiny = st.sampled_from([1e-300, 1e-8, 1e-4, 2e5, 1e30, 1e300])
+
+
+@given(data=st.data(), w=worlds)
+def test_other_shapes_refuse_bad_sizes(data, w: phys2d.World) -> None:
+    """add_capsule, add_segment and add_chain: NaN, infinities, wrong types and shapes, and sizes
+    outside [1 mm, 100 km] are refused naming the argument; nothing is added."""
+    what = data.draw(st.sampled_from(["half_length", "capsule radius", "a", "b", "segment radius", "points"]))
+    if what == "half_length":
+        value = data.draw(bad_scalars | st.sampled_from([0.0, -1.0, 1e30, 2e5]))
+        rejects(w, "half_length", lambda: w.add_capsule((0.0, 3.0), half_length=value, radius=0.2))
+    elif what == "capsule radius":
+        value = data.draw(bad_scalars | huge_or_tiny.filter(lambda r: not 1e-3 <= r <= 1e5))
+        rejects(w, "radius", lambda: w.add_capsule((0.0, 3.0), half_length=0.5, radius=value))
+    elif what in ("a", "b"):
+        value = data.draw(bad_pairs)
+        ends = {"a": (0.0, 0.0), "b": (1.0, 0.0), what: value}
+        rejects(w, what, lambda: w.add_segment(ends["a"], ends["b"]))
+    elif what == "segment radius":
+        value = data.draw(bad_scalars | st.sampled_from([-1.0, 1e-8, 1e30]))
+        rejects(w, "radius", lambda: w.add_segment((0.0, 0.0), (1.0, 0.0), radius=value))
+    else:
+        value = data.draw(
+            st.sampled_from([None, "ab", 3.0, [(0, 0)], [(0, 0, 0), (1, 1, 1)], [(0, 0), (NAN, 1)], [(0, 0), (INF, 0)]])
+        )
+        rejects(w, "points", lambda: w.add_chain(value))
+
+
+BODY_FLOATS = {
+    "gravity_scale": bad_scalars,
+    "linear_damping": bad_scalars | st.sampled_from([-1.0, -1e-300]),
+    "angular_damping": bad_scalars | st.sampled_from([-1.0]),
+    "fixed_rotation": st.sampled_from([1, 0, None, "yes"]),
+}
+
+
+@given(data=st.data(), w=worlds)
+def test_body_forces_and_settings_refuse_bad_values(data, w: phys2d.World) -> None:
+    """apply_force (force, point), apply_torque, and the body settings gravity_scale, damping and
+    fixed_rotation, as add_* options and as setters: refused naming them, the world unchanged
+    (pending forces included)."""
+    body = data.draw(st.sampled_from(w.bodies))
+    what = data.draw(st.sampled_from(["force", "point", "torque", "overflow", *BODY_FLOATS]))
+    if what == "force":
+        rejects(w, "force", lambda: body.apply_force(data.draw(bad_pairs)))
+    elif what == "point":
+        value = data.draw(bad_pairs.filter(lambda v: v is not None))
+        rejects(w, "point", lambda: body.apply_force((1.0, 0.0), point=value))
+    elif what == "torque":
+        rejects(w, "torque", lambda: body.apply_torque(data.draw(bad_scalars)))
+    elif what == "overflow":  # two finite forces whose sum is not
+        body.apply_force((1.7e308, 0.0))
+        rejects(w, "force", lambda: body.apply_force((1.7e308, 0.0)))
+    else:
+        value = data.draw(BODY_FLOATS[what], label=what)
+        rejects(w, what, lambda: setattr(body, what, value))
+        rejects(w, what, lambda: w.add_box((0.0, 5.0), **{what: value}))
+
+
+@given(data=st.data(), w=worlds)
+def test_queries_refuse_bad_points(data, w: phys2d.World) -> None:
+    """ray_cast, query_point and query_aabb: bad points refused naming them; lower > upper too."""
+    what = data.draw(st.sampled_from(["start", "end", "point", "lower", "upper"]))
+    value = data.draw(bad_pairs)
+    if what in ("start", "end"):
+        ends = {"start": (0.0, 5.0), "end": (0.0, -5.0), what: value}
+        rejects(w, what, lambda: w.ray_cast(ends["start"], ends["end"]))
+    elif what == "point":
+        rejects(w, "point", lambda: w.query_point(value))
+    else:
+        box = {"lower": (-1.0, -1.0), "upper": (1.0, 1.0), what: value}
+        rejects(w, what, lambda: w.query_aabb(box["lower"], box["upper"]))
+    rejects(w, "lower", lambda: w.query_aabb((1.0, 1.0), (0.0, 0.0)))
+
+
+@given(data=st.data(), w=scenes(min_bodies=2, max_bodies=3, ground=False, static=False).map(stepped))
+def test_motors_sliders_and_mice_refuse_bad_values(data, w: phys2d.World) -> None:
+    """Slider axes, motor speeds and torques, a mouse's target, force, hertz and damping ratio: at
+    creation and as settings afterwards, refused naming them, the world unchanged."""
+    a, b = w.bodies[:2]
+    what = data.draw(st.sampled_from(["axis", "motor_speed", "max_motor_torque", "target", "max_force", "hertz"]))
+    if what == "axis":
+        value = data.draw(bad_pairs | st.just((0.0, 0.0)))
+        rejects(w, "axis", lambda: w.add_slider_joint(a, b, anchor=(0.0, 0.0), axis=value))
+    elif what in ("motor_speed", "max_motor_torque"):
+        value = data.draw(bad_scalars.filter(lambda v: v is not None) | st.just(-1.0 if what != "motor_speed" else NAN))
+        rejects(w, what, lambda: w.add_pin_joint(a, b, anchor=(0.0, 0.0), motor_speed=1.0, **{what: value}))
+        pin = w.add_pin_joint(a, b, anchor=(0.0, 0.0), motor_speed=1.0, max_motor_torque=1.0)
+        rejects(w, what, lambda: setattr(pin, what, value))
+    else:
+        mouse = w.add_mouse_joint(a, target=a.position, max_force=100.0)
+        if what == "target":
+            value = data.draw(bad_pairs)
+            rejects(w, "target", lambda: setattr(mouse, "target", value))
+            rejects(w, "target", lambda: w.add_mouse_joint(b, target=value, max_force=1.0))
+        elif what == "max_force":
+            value = data.draw(bad_scalars | st.just(-1.0))
+            rejects(w, "max_force", lambda: setattr(mouse, "max_force", value))
+        else:
+            value = data.draw(bad_scalars | st.sampled_from([0.0, -1.0]))
+            rejects(w, "hertz", lambda: w.add_mouse_joint(b, target=b.position, max_force=1.0, hertz=value))

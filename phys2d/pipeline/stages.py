@@ -34,6 +34,8 @@ OK = 0
 NEED_SWEEP = 1  # a body left its fat box (or the bodies changed): sweep, then go on at stage 1
 TOO_FAST = 2  # a body ended the step past max_speed or not finite: undo and raise
 NEED_ROOM = 3  # the manifold store has no room for this step's new manifolds: make it, then go on at stage 1
+BAD_STATE = 4  # a body's x, theta, V or M^-1, as written between steps, cannot be stepped: refuse, nothing changed
+NOT_FINITE = 5  # the responder left a non-finite impulse or residual: undo and refuse
 
 
 class StepSettings(NamedTuple):
@@ -68,6 +70,30 @@ def head_of_rows(rows, k, n):
         rows.A_kk[:n], rows.xi[:n], rows.push[:n], rows.bounce[:n], rows.impact[:n], rows.lo[:n], rows.hi[:n],
         rows.bound_row[:n], rows.mu[:n], rows.lam[:n],
     )  # fmt: skip
+
+
+@njit(cache=True)
+def first_bad_body(x, theta, V, M_inv, static):
+    """The first body whose state, as written between steps (``w.x``, ``w.theta``, ``w.V``,
+    ``w.M_inv``), a step cannot take: not finite, M^-1 < 0, or M^-1 > 0 on a body of infinite
+    mass (``static``: static, kinematic or asleep); -1 when every body is fine."""
+    for i in range(x.shape[0]):
+        if not (np.isfinite(x[i, 0]) and np.isfinite(x[i, 1]) and np.isfinite(theta[i])):
+            return i
+        for c in range(3):
+            m = M_inv[i, c]
+            if not (np.isfinite(V[i, c]) and 0.0 <= m < np.inf) or (static[i] and m != 0.0):  # NaN fails too
+                return i
+    return -1
+
+
+@njit(cache=True)
+def all_finite(values, n):
+    """Whether values[:n] are all finite (a responder's impulses lambda, its residuals)."""
+    for k in range(n):
+        if not np.isfinite(values[k]):
+            return False
+    return True
 
 
 @njit(cache=True)

@@ -35,12 +35,15 @@ from ..shapes import POLYGON
 from . import ahead, records
 from .parallel import using_threads
 from .stages import (
+    BAD_STATE,
     NEED_ROOM,
     NEED_SWEEP,
+    NOT_FINITE,
     TOO_FAST,
     Counts,
     StepSettings,
     begin,
+    first_bad_body,
     head_of_rows,
     order_contacts,
     sweep,
@@ -199,7 +202,7 @@ class Pipeline:
         self._state: Any = None  # the StepState over all of the above, made anew when one is replaced
         self._records: list = []  # the records it holds: bodies, shapes, store, sides, rows
         self._state_over: Any = None  # the bodies' x it was made with (x is replaced when bodies are)
-        self._compiled: tuple = (None, None, None)  # (spec, state, machine code) of the last call
+        self._compiled: tuple = (None, None, None)  # (inputs, state, machine code) of the last call
         self._compiled_types: tuple = ()  # the types of the arguments it was compiled for
         self._ready: StepInputs | None = None  # what the last step read of the world
         self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
@@ -458,8 +461,11 @@ class Pipeline:
             else:
                 with using_threads(ready.threads):
                     done = self._one_tick(world, responder, ready, one_call)
+        except _TooFast as fast:
+            world._bodies.restore(self.undo)
+            raise SimulationError(fast.message(world, dt)) from None  # told of the world as it is again
         except BaseException:
-            if self.began:
+            if self.began and (self.undo[1].shape[0] == 0 or np.isfinite(self.undo[1][0])):  # (begin ran)
                 world._bodies.restore(self.undo)
             raise
         return self._commit(world, ready, done)
@@ -481,23 +487,25 @@ class Pipeline:
             s = self.state(world)
             counts = self._counts(visit)
             args = (s, joints, stage, counts, step, row_settings, spec.pgs, spec.soft, self.rounded, threads)
-            spec_was, state_was, kernel = self._compiled  # the machine code of the last call
-            if spec_was is not spec or state_was is not s or kernel is tick:  # are the types still its?
+            ready_was, state_was, kernel = self._compiled  # the machine code of the last call
+            if ready_was is not ready or state_was is not s or kernel is tick:  # are the types still its?
                 types_now = (getattr(s, "_numba_type_", None), joints is None, self.rounded, threads is None)
-                if spec_was is spec and self._compiled_types == types_now:
-                    self._compiled = (spec, s, kernel)  # the same code serves the new state
+                if ready_was is not None and ready_was.spec is spec and self._compiled_types == types_now:
+                    self._compiled = (ready, s, kernel)  # the same code serves the new settings or state
                 else:
                     kernel = tick
             if kernel is tick and self._behind(world, spec, args, types_now):
                 return None  # a child compiles the tick: this step goes stage by stage
             child = self._compile_ahead(world, args) if kernel is tick else None
+            if stage == 0 and self.undo[1].shape[0]:  # a NaN angle to undo to: ``begin`` has not run (yet)
+                self.undo[1][0] = np.nan
             self.began = True
             result = kernel(*args)
             if child is not None:  # the tick is compiled: the child's work is done or no longer needed
                 child.kill()
                 child.wait()
             if kernel is tick:  # the next steps call its machine code for these types directly
-                self._compiled, self._compiled_types = (spec, s, compiled_for(tick, args)), types_now
+                self._compiled, self._compiled_types = (ready, s, compiled_for(tick, args)), types_now
             if result[-1] >= 0:  # the kernel swept: its pairs (and their order) are the world's
                 self.n_pairs, self.ordered = result[-1], visit
             if result[0] == NEED_SWEEP:
@@ -507,8 +515,13 @@ class Pipeline:
             else:
                 break
             stage = 1  # forces and geometry are done: go on from the contacts
+        if result[0] == BAD_STATE:
+            self.began = False  # refused before anything changed: nothing to undo
+            raise_bad_state(world)
         if result[0] == TOO_FAST:
-            raise_too_fast(world)
+            raise_too_fast(world, explain=True)
+        if result[0] == NOT_FINITE:
+            raise_not_finite(world, "impulses or residuals")
         _, k, n_new, recycled, rows_used, points_used, hits, deepest, count, _ = result
         return k, n_new, recycled, rows_used, points_used, hits, deepest, count, self.residuals[:count].copy(), None
 
@@ -546,6 +559,10 @@ class Pipeline:
         visit = responder.visit_order
         self._room(joint_lam.shape[0], 0)
         s = self.state(world)
+        b = world._bodies
+        static, M_inv = (b.static, b.M_inv) if self.sleep_masks is None else self.sleep_masks
+        if first_bad_body(b.x, b.theta, b.V, M_inv, static) >= 0:
+            raise_bad_state(world)  # written between steps: refused before anything changed
         self.began = True
         fits = begin(s, step.gravity, step.dt, step.contact_margin, threads)
         if self.sweep_again or not fits:  # something left its fat box: sweep again
@@ -583,13 +600,17 @@ class Pipeline:
                 f"integrated=...), got {type(result).__name__}"
             )
         b = world._bodies
+        if not np.isfinite(ctx.rows.lam).all():  # before the bounce pass reads them
+            raise_not_finite(world, "impulses rows.lam")
         if not result.integrated:  # the world moves the positions, then bounces the points that met (rows.bounce)
             bounce_after_moving(ctx, b.V, BOUNCE_SWEEPS, 0.0)
         # the limits, then the impulses per contact and the cache the next step starts from
         if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:
-            raise_too_fast(world)
+            raise_too_fast(world, explain=True)
+        residuals = result.residuals
+        if not (np.isfinite(ctx.rows.lam).all() and np.isfinite(residuals).all()):
+            raise_not_finite(world, "impulses or residuals")
         impulses_to_contacts_and_cache(rows, new_record, k, threads)
-        residuals = np.asarray(result.residuals, float)
         return k, n_new, recycled, rows_used, points_used, hits, deepest, result.iterations, residuals, result
 
     def _context(self, world: World, responder: Responder, k: int, step: StepSettings) -> StepContext:
@@ -618,8 +639,7 @@ class Pipeline:
         if not (b.forces_applied or np.any(b.gravity_scale != 1.0) or np.any(b.damping)):
             return None
         F = np.zeros(b.V.shape)
-        dyn = M_inv[:, 0] > 0.0
-        F[dyn] = (b.V[dyn] - self.undo[2][dyn]) / (dt * M_inv[dyn])
+        np.divide(b.V - self.undo[2], dt * M_inv, out=F, where=M_inv > 0.0)  # (a locked direction: 0)
         return F
 
     def _commit(self, world: World, ready: StepInputs, done: tuple) -> StepReport:
@@ -646,14 +666,93 @@ class Pipeline:
         )  # fmt: skip
 
 
-def raise_too_fast(world: World) -> None:
-    """Raise SimulationError naming the bodies past the world's max_speed or not finite."""
+def _body_label(world: World, i: int) -> str:
+    return f"body {i} ({world._handles[i]!r})"
+
+
+def raise_bad_state(world: World) -> None:
+    """Raise ValueError naming the first body whose state, as written between steps, a step
+    cannot take, the array and what is wrong (``stages.first_bad_body``); nothing has changed."""
+    b = world._bodies
+    for i in range(b.n):
+        label = _body_label(world, i)
+        for name, values in (("x", b.x[i]), ("theta", b.theta[i : i + 1]), ("V", b.V[i]), ("M_inv", b.M_inv[i])):
+            if not np.all(np.isfinite(values)):
+                raise ValueError(
+                    f"w.{name}[{i}] = {values.tolist()} is not finite: {label} cannot be stepped; write finite values "
+                    "back (body.position, .angle, .velocity, .angular_velocity); the world was not stepped"
+                )
+        if np.any(b.M_inv[i] < 0.0):
+            raise ValueError(
+                f"w.M_inv[{i}] = {b.M_inv[i].tolist()} is negative: {label}'s M^-1 = [1/m, 1/m, 1/I] must be >= 0 "
+                "(0 locks a direction); the world was not stepped"
+            )
+        if b.static[i] and np.any(b.M_inv[i] != 0.0):
+            kind = "kinematic" if b.kinematic[i] else "static"
+            raise ValueError(
+                f"w.M_inv[{i}] = {b.M_inv[i].tolist()} on a {kind} body: {label} has infinite mass, so its M^-1 must "
+                f"stay 0 (w.M_inv[{i}] = 0); the world was not stepped"
+            )
+    raise ValueError("a body's state cannot be stepped; the world was not stepped")  # (asleep: its island's copy)
+
+
+def raise_not_finite(world: World, what: str) -> None:
+    """Raise SimulationError: the responder left non-finite ``what``; the step is undone."""
+    r = world._responder
+    raise SimulationError(
+        f"responder {r.name!r} ({type(r).__name__}) left non-finite {what}; the step was refused and the world and "
+        "its contact cache were left as they were before it"
+    )
+
+
+class _TooFast(Exception):
+    """A step left bodies past the limits (``raise_too_fast``): ``Pipeline.step`` undoes it, then
+    raises SimulationError with ``message``, which describes the world as it was again."""
+
+    def __init__(self, bad: np.ndarray) -> None:
+        super().__init__()
+        self.bad = bad
+
+    def message(self, world: World, dt: float) -> str:
+        return too_fast_message(world, self.bad) + "; " + _causes(world, int(self.bad[0]), dt)
+
+
+def _causes(world: World, i: int, dt: float) -> str:
+    """What could have sent body i past the limits in a step of dt (s) from where the world is
+    now: the velocity it has, the forces waiting on it, its gravity, the world's; else the
+    responder's impulses. Each with what to undo."""
+    b, limit = world._bodies, world._max_speed
+    causes = []
+    if not (np.hypot(b.V[i, 0], b.V[i, 1]) <= limit and abs(b.V[i, 2]) <= limit):
+        causes.append(f"it begins the step at V = {b.V[i].tolist()} (set body.velocity and .angular_velocity lower)")
+    if np.any(b.force[i] != 0.0):
+        with np.errstate(over="ignore", invalid="ignore"):
+            dv = float(np.max(np.abs(dt * b.M_inv[i] * b.force[i])))
+        causes.append(
+            f"a pending force ({b.force[i, 0]:g}, {b.force[i, 1]:g}) N and torque {b.force[i, 2]:g} N m, "
+            f"{dv:.3g} m/s (or rad/s) in one step: body.clear_forces() or w.clear_forces() drops it"
+        )
+    if b.M_inv[i, 0] > 0.0:
+        g = world._gravity_norm
+        if abs(b.gravity_scale[i]) * g * dt > limit and b.gravity_scale[i] != 1.0:
+            dv = abs(b.gravity_scale[i]) * g * dt
+            causes.append(f"its gravity_scale {b.gravity_scale[i]:g} ({dv:.3g} m/s a step)")
+        if g * dt > limit:
+            causes.append(f"w.gravity = {world._gravity.tolist()} m/s^2 ({g * dt:.3g} m/s a step)")
+    if not causes:
+        causes.append(
+            f"the impulses of {world._responder.name!r} (a deep overlap pushed out, a stiff joint or a fast collision: "
+            "lower the responder's push_max or beta, or raise max_speed)"
+        )
+    return f"{_body_label(world, i)}: " + "; ".join(causes)
+
+
+def _past_limits(world: World) -> np.ndarray:
+    """The bodies past max_speed or with a non-finite state."""
     b = world._bodies
     V, max_speed = b.V, world._max_speed
-    if first_too_fast(V, b.x, b.theta, max_speed) < 0:
-        return
     speed = np.hypot(V[:, 0], V[:, 1])
-    bad = ~(
+    ok = (
         np.isfinite(speed)
         & (speed <= max_speed)
         & np.isfinite(V[:, 2])
@@ -661,12 +760,28 @@ def raise_too_fast(world: World) -> None:
         & np.isfinite(b.x).all(axis=1)
         & np.isfinite(b.theta)
     )
-    idx = np.flatnonzero(bad)
-    shown = ", ".join(str(i) for i in idx[:10]) + (" ..." if idx.size > 10 else "")
-    raise SimulationError(
-        f"step would leave bodies [{shown}] faster than max_speed={max_speed:g} "
+    return np.flatnonzero(~ok)
+
+
+def too_fast_message(world: World, bad: np.ndarray) -> str:
+    shown = ", ".join(str(i) for i in bad[:10]) + (" ..." if bad.size > 10 else "")
+    return (
+        f"step would leave bodies [{shown}] faster than max_speed={world._max_speed:g} "
         "(m/s or rad/s) or with a non-finite state; the world was left as it was before the step"
     )
+
+
+def raise_too_fast(world: World, explain: bool = False) -> None:
+    """Raise SimulationError naming the bodies past the world's max_speed or not finite (with
+    ``explain``: ``_TooFast``, which ``Pipeline.step`` turns into one that says what sent the
+    first there, once the step is undone); nothing when none is."""
+    b = world._bodies
+    if first_too_fast(b.V, b.x, b.theta, world._max_speed) < 0:
+        return
+    bad = _past_limits(world)
+    if explain:
+        raise _TooFast(bad)
+    raise SimulationError(too_fast_message(world, bad))
 
 
 __all__ = ["Pipeline", "SimulationError", "TickSpec", "tick_for"]

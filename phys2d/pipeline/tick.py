@@ -18,7 +18,21 @@ from ..contacts import impulses_to_contacts_and_cache
 from ..integrate import first_too_fast
 from ..responders.pgs import pgs_step
 from ..responders.soft_step import soft_step_solve
-from .stages import NEED_ROOM, NEED_SWEEP, OK, TOO_FAST, begin, head_of_rows, in_row_order, order_contacts, sweep
+from .stages import (
+    BAD_STATE,
+    NEED_ROOM,
+    NEED_SWEEP,
+    NOT_FINITE,
+    OK,
+    TOO_FAST,
+    all_finite,
+    begin,
+    first_bad_body,
+    head_of_rows,
+    in_row_order,
+    order_contacts,
+    sweep,
+)
 
 
 @njit(cache=True)
@@ -35,12 +49,17 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     returns NEED_SWEEP when the bodies or joints changed or the pairs outgrow the buffers (Python
     sweeps and calls again at stage 1). NEED_ROOM: the manifold store is short of room for a
     new manifold per pair (Python makes it). TOO_FAST: a body ended the step past max_speed
-    (Python undoes it). Returns (status, K, manifolds, recycled, rows_used, points_used,
+    (Python undoes it). BAD_STATE: a body's state as written between steps cannot be stepped
+    (refused before anything changed). NOT_FINITE: the solve left a non-finite impulse or
+    residual (Python undoes it). Returns (status, K, manifolds, recycled, rows_used, points_used,
     contacts warm started, deepest overlap m, sweeps or sub-steps, the pairs' count when it
     swept them, else -1).
     """
     n_pairs, swept = counts.n_pairs, -1
     if stage == 0:
+        b = s.bodies
+        if first_bad_body(b.x, b.theta, b.V, b.M_inv, s.shapes.static) >= 0:  # written between steps: refused
+            return BAD_STATE, 0, 0, 0, 0, 0, 0, 0.0, 0, -1
         fits = begin(s, step.gravity, step.dt, step.contact_margin, threads)
         if not fits and not counts.sweep_again:
             swept = n_pairs = sweep(s.shapes, s.bodies.x, counts.visit)
@@ -83,5 +102,7 @@ def tick(s, joints, stage, counts, step, row_settings, pgs, soft, rounded, threa
     b = s.bodies
     if first_too_fast(b.V, b.x, b.theta, step.max_speed) >= 0:
         return TOO_FAST, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept
+    if not (all_finite(rows.lam, n) and all_finite(s.residuals, count)):
+        return NOT_FINITE, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept
     impulses_to_contacts_and_cache(rows, new, k, threads)
     return OK, k, n_new, recycled, rows_used, points_used, hits, deepest, count, swept

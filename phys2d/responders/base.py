@@ -60,10 +60,35 @@ class StepContext:
 
 @dataclass(eq=False)
 class SolveResult:
-    iterations: int
-    residuals: np.ndarray  # (iterations,) largest velocity correction of each sweep, m/s
+    """What ``Responder.respond`` returns: the work done and each unit's residual. Checked when
+    built, so a wrong value is named where it is made, not at the step that reads it."""
+
+    iterations: int  # the sweeps, passes or sub-steps made (>= 0), counted in ``Responder.counts``
+    residuals: np.ndarray  # (iterations,) largest velocity correction of each sweep, m/s (finite, kept as float64)
     system: object = None  # the assembled matrix system, for responders that build one
     integrated: bool = False  # True if the responder moved the positions itself (sub-steps, or a pass after)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.iterations, (bool, np.bool_)) or not isinstance(self.iterations, (int, np.integer)):
+            raise TypeError(f"SolveResult: iterations must be an integer, got {self.iterations!r}")
+        if self.iterations < 0:
+            raise ValueError(f"SolveResult: iterations must be >= 0, got {self.iterations}")
+        self.iterations = int(self.iterations)
+        r = self.residuals
+        if r is None or isinstance(r, (str, bytes)):
+            raise TypeError(f"SolveResult: residuals must be a sequence of numbers (m/s), got {r!r}")
+        try:
+            a = np.asarray(r)
+        except Exception as exc:  # ragged input and the like
+            raise TypeError(f"SolveResult: residuals must be a sequence of numbers (m/s): {exc}") from None
+        if a.dtype == object or a.dtype.kind not in "iuf" or a.ndim != 1:
+            raise TypeError(f"SolveResult: residuals must be a 1-D sequence of numbers (m/s), got {r!r}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"SolveResult: residuals must be finite, got {a.tolist()[:8]}")
+        self.residuals = a.astype(np.float64)
+        if not isinstance(self.integrated, (bool, np.bool_)):
+            raise TypeError(f"SolveResult: integrated must be True or False, got {self.integrated!r}")
+        self.integrated = bool(self.integrated)
 
 
 EMPTY = np.zeros(0)
