@@ -20,7 +20,7 @@ import pytest
 
 import phys2d
 from phys2d.checks import CLAIMS, Card, CheckError, Result, Stage, check, load
-from phys2d.checks.card import Progress
+from phys2d.checks.card import Progress, compiling
 from phys2d.checks.claims import ContactSystem, exact_lcp, largest, lcp_residual
 from phys2d.testing.strategies import fingerprint
 from tests import card_docs
@@ -315,6 +315,20 @@ def test_progress_reports_each_claim_and_the_seconds_simulated() -> None:
     assert [(s.index, s.count, s.claim) for s in starts] == [(1, 2, "ramp: stick"), (2, 2, "ramp: slide")]
     within = [s.simulated for s in stages if s.claim == "ramp: slide" and s.simulated]
     assert within == [1.0] and str(stages[-1]) == "[2/2] ramp: slide, 1 of 2 s simulated"  # 2 s quick
+
+
+def test_progress_says_when_numba_compiles() -> None:
+    """A first run compiles the engine's kernels for a minute before the first step: the card says so."""
+    from numba import njit
+
+    said: list[int] = []
+    with compiling(lambda: said.append(1)):
+        njit(lambda x: x + 1)(1)  # a new function: numba compiles it
+        njit(lambda x: x + 2)(1)  # and another: said once
+    with compiling(lambda: said.append(2)):
+        pass  # nothing compiled
+    assert said == [1]
+    assert str(Stage(1, 13, "lambda_n >= 0", compiling=True)).startswith("[1/13] lambda_n >= 0: compiling")
 
 
 def test_progress_off_a_terminal_writes_claim_starts_and_now_and_then() -> None:

@@ -20,8 +20,9 @@ import math
 import os
 import re
 import sys
-from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from ..responders.base import Responder
@@ -215,10 +216,38 @@ class Stage:
     claim: str
     simulated: float = 0.0
     seconds: float = 0.0
+    compiling: bool = False  # numba has begun compiling kernels (a first run: its cache is cold)
 
     def __str__(self) -> str:
         within = f", {self.simulated:g} of {self.seconds:g} s simulated" if self.simulated else ""
+        if self.compiling:
+            within += ": compiling the engine's numba kernels (a first run only; cached after that)"
         return f"[{self.index}/{self.count}] {self.claim}{within}"
+
+
+@contextmanager
+def compiling(say: Callable[[], Any] | None) -> Iterator[None]:
+    """Within it, say() when numba starts compiling a kernel, at most once (none: nothing)."""
+    if say is None:
+        yield
+        return
+    from numba.core import event
+
+    announce = say
+
+    class Notice(event.Listener):
+        said = False
+
+        def on_start(self, ev: event.Event) -> None:
+            if not self.said:
+                self.said = True
+                announce()
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    with event.install_listener("numba:compile", Notice()):
+        yield
 
 
 def check(
@@ -255,10 +284,14 @@ def check(
     outcomes: dict[str, Outcome] = {}
     try:
         for i, claim in enumerate(claims):
+            say = None
             if progress is not None:
-                progress(Stage(i + 1, len(claims), claim.name))
-                how.progress = lambda t, of, i=i, claim=claim: progress(Stage(i + 1, len(claims), claim.name, t, of))
-            outcomes[claim.name] = _run(claim, make, how, responder)
+                here = Stage(i + 1, len(claims), claim.name)
+                progress(here)
+                how.progress = lambda t, of, here=here, tell=progress: tell(replace(here, simulated=t, seconds=of))
+                say = lambda here=here, tell=progress: tell(replace(here, compiling=True))  # noqa: E731
+            with compiling(say):
+                outcomes[claim.name] = _run(claim, make, how, responder)
             if echo is not None:  # the line now; its hint, which reads every claim, comes with the summary
                 echo(_result(claim, outcomes[claim.name], responder, "", "").line())
     finally:
