@@ -22,6 +22,8 @@ import phys2d
 from phys2d.checks import CLAIMS, Card, CheckError, Result, Stage, check, load
 from phys2d.checks.card import Progress, compiling
 from phys2d.checks.claims import ContactSystem, exact_lcp, largest, lcp_residual
+from phys2d.checks.hints import CAUSES as CAUSES_FOUND
+from phys2d.checks.hints import NEEDS
 from phys2d.testing.strategies import fingerprint
 from tests import card_docs
 from tests import responders_for_check as rc
@@ -167,6 +169,12 @@ def test_the_residual_before_the_clamp_is_shown_not_judged(card: Cards) -> None:
     own = [float(v) for v in note.split("its own residuals ")[1].split(" m/s")[0].split(" -> ")]
     assert own[1] > 0.1 * own[0]  # it falls less than 10x, and the claim passes
     assert not card.failing(rc.ResidualBeforeClamp)
+
+
+def test_every_claim_has_words_for_its_failure() -> None:
+    assert set(NEEDS) == set(NAMES)
+    for cause in CAUSES_FOUND:
+        assert cause.explains <= set(NAMES), cause.name
 
 
 def test_hints_come_from_measurements_not_names(card: Cards) -> None:

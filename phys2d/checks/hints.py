@@ -15,27 +15,11 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
-from .claims import Outcome
+from .claims import CLAIMS, Outcome
 
 Outcomes = Mapping[str, Outcome]
 
-ALL = frozenset(
-    {
-        "lambda_n >= 0",
-        "|lambda_t| <= mu lambda_n",
-        "ramp: stick",
-        "ramp: slide",
-        "momenta",
-        "no energy gain",
-        "bounce",
-        "no impulse across a gap",
-        "converges to the LCP",
-        "deterministic",
-        "10-box stack",
-        "10-row pyramid",
-        "pushes overlap out",
-    }
-)
+ALL = frozenset(c.name for c in CLAIMS)
 FRICTION = frozenset({"|lambda_t| <= mu lambda_n", "ramp: stick", "ramp: slide"})
 MOTION = ALL - {"deterministic", "momenta", "pushes overlap out"}
 
@@ -44,6 +28,12 @@ def figure(outcomes: Outcomes, claim: str, name: str) -> float:
     """What ``claim`` measured as ``name`` (NaN if it did not)."""
     o = outcomes.get(claim)
     return float(o.evidence.get(name, math.nan)) if o is not None else math.nan
+
+
+def smallest(*values: float) -> float:
+    """The smallest of the values measured (NaN: not measured; NaN if none was)."""
+    measured = [v for v in values if not math.isnan(v)]
+    return min(measured) if measured else math.nan
 
 
 def failed(outcomes: Outcomes, claim: str) -> bool:
@@ -117,7 +107,7 @@ def warm_start_in_V(o: Outcomes) -> str:
 
 
 def clamp_accumulated(o: Outcomes) -> str:
-    low = min(figure(o, "lambda_n >= 0", "lambda_n_min"), figure(o, "no energy gain", "lambda_n_min"))
+    low = smallest(figure(o, "lambda_n >= 0", "lambda_n_min"), figure(o, "no energy gain", "lambda_n_min"))
     if low < 0.0:
         return f"lambda_n went to {low:.3g} N s: a contact pulled"
     came_down = figure(o, CONVERGES, "came_down")
@@ -267,25 +257,27 @@ MASKS = {  # a cause found hides these: what they saw follows from it
     "the clamp on the accumulated impulse": {"the cone from the current lambda_n", "Gauss-Seidel's order"},
 }
 
+REMEDY = {cause.name: cause.remedy for cause in CAUSES}
+
 # what a failing claim needs when no cause is detected, in the lecture's words
 NEEDS = {
-    "lambda_n >= 0": "the clamp on the accumulated impulse: a normal row's lambda_k + delta into [0, inf)",
-    "|lambda_t| <= mu lambda_n": CAUSES[5].remedy,
+    "lambda_n >= 0": "the clamp on the accumulated impulse: a normal row's lam[k] + delta clamped into [0, inf)",
+    "|lambda_t| <= mu lambda_n": REMEDY["the cone from the current lambda_n"],
     "ramp: stick": "the cone from the current lambda_n, and friction's target xi (0: stop the sliding)",
     "ramp: slide": "the cone from the current lambda_n: a sliding box's friction is exactly mu lambda_n",
     "momenta": "every impulse on both bodies, equal and opposite: V[a] += JM[k, :3] * delta and "
     "V[b] += JM[k, 3:] * delta",
-    "no energy gain": "impulses that overshoot and are never taken back add energy: the clamp on the "
-    "accumulated impulse, and each row's change applied to V before the next row reads it (Gauss-Seidel)",
-    "bounce": "a touching contact's bounce is in xi; leave SolveResult(integrated=False) and the world bounces "
-    "the contacts that meet within the step (rows.bounce)",
-    "no impulse across a gap": "a contact still apart has xi = -C/dt: it may close its gap, no more; "
-    "the target xi + push, and lambda_n clamped at 0",
+    "no energy gain": "the clamp on the accumulated impulse (an impulse applied too strongly is taken back within "
+    "the step), and each row's change applied to V before the next row reads it (Gauss-Seidel)",
+    "bounce": "the bounce in the target: a touching contact's is in xi; a contact still apart is bounced by the "
+    "world after respond (rows.bounce) when SolveResult(integrated=False)",
+    "no impulse across a gap": "the target xi + push, no more: a contact still apart has xi = -C/dt, which "
+    "closes its gap and no more; and lambda_n clamped at 0",
     CONVERGES: "the clamp on the accumulated impulse, each change applied to V, and the warm start applied to V",
     "deterministic": "nothing random or order-dependent in respond (no sets, no clocks)",
     "10-box stack": "the warm start applied to V (contact caching) and enough sweeps (iterations=)",
     "10-row pyramid": "the warm start applied to V (contact caching) and enough sweeps (iterations=)",
-    "pushes overlap out": CAUSES[6].remedy,
+    "pushes overlap out": REMEDY["the push in the target"],
 }
 
 
