@@ -20,6 +20,7 @@ import math
 import os
 import re
 import sys
+import textwrap
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, replace
@@ -311,7 +312,7 @@ def check(
         if hints_:
             echo("hints, from what the card measured:")
             for h in hints_:
-                echo(f"  {h}")
+                echo(textwrap.fill(h, 110, initial_indent="  ", subsequent_indent="      ", break_on_hyphens=False))
         echo(card.summary())
         if kept:
             echo(f"the failing scenes (runs {', '.join(card.runs)}): phys2d view {kept}")
