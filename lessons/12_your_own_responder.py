@@ -5,8 +5,9 @@ collisions between multiple objects"): the lecture's PGS, written from scratch i
 about 30 lines of plain Python on the rows the engine hands over (J, M^-1 J^T,
 A_kk, the target xi + push, the bounds lo, hi, mu lambda_n), meets every claim of
 the lecture the report card measures, and steps a 10-box stack at 100 steps/s or
-more; the naive take, written the same way, fails where the lecture says it does:
-it "does not support stacking".
+more (its loops run on lists, not on numpy arrays: docs/your-responder.md, "Fast
+plain Python"); the naive take, written the same way, fails where the lecture says
+it does: it "does not support stacking".
 
 The two responders are in lessons/your_responder.py (the protocol they follow is in
 docs/your-responder.md): copy that file, change it, and grade your own with
@@ -14,8 +15,8 @@ docs/your-responder.md): copy that file, change it, and grade your own with
     phys2d check lessons/your_responder.py:LecturePGS
 
 Part 1 times a 10-box stack under each. Part 2 runs the stack beside the built-in
-responders. Part 3 prints each one's report card (the failing scenes are recorded
-under <out>/check/).
+responders. Part 3 prints each one's report card, with a hint under each failing
+claim (a failing card's scenes are kept in <out>/check/<name>.rrd, one run each).
 
 In the viewer: runs "stack-lecture-pgs" and "stack-pgs" stand side by side, as do
 "stack-lecture-naive" and "stack-naive", which both fall. Plot solver/residual: the

@@ -8,8 +8,12 @@ The protocol (docs/your-responder.md): ``respond(ctx)`` gets the step's rows in
 ``ctx.rows`` (J, JM = M^-1 J^T, A_kk, xi, push, lo, hi, bound_row, mu, lam, body_a,
 body_b) and the velocities ``ctx.V`` after external forces; it changes ``ctx.V`` in
 place, leaves each row's impulse in ``rows.lam`` (N s) and returns a ``SolveResult``.
-The world then moves the positions with ``ctx.V``. Lists, not numpy arrays, in the
-loops: a Python loop reads a list's floats several times faster than an array's.
+The world then moves the positions with ``ctx.V``.
+
+Lists, not numpy arrays, in the loops: ``.tolist()`` each array once per step, loop over
+the lists, write ``ctx.V`` and ``rows.lam`` back at the end. A Python loop reads a list's
+floats about five times faster than it indexes an array's (a 10-box stack: about 700
+steps/s here, 120 with ``V[a] += JM[k, :3] * delta`` on the arrays).
 """
 
 from __future__ import annotations
@@ -39,15 +43,16 @@ def velocity(V: list, a: int, b: int, j: list) -> float:
 class LecturePGS(phys2d.Responder):
     """The lecture's projected Gauss-Seidel, sequential impulses, warm started (contact caching).
 
-    sweeps  sweeps over the rows per step
+    iterations  sweeps over the rows per step, as ``phys2d.PGS(iterations=)`` names them (the
+                card builds LecturePGS() with the default)
     """
 
     name = "lecture-pgs"
-    counts = "sweeps"
+    counts = "sweeps"  # the unit of SolveResult's count: the reports say "10 sweeps"
     warm_start = True  # rows.lam holds last step's impulses: apply them first
 
-    def __init__(self, sweeps: int = 10) -> None:
-        self.sweeps = sweeps
+    def __init__(self, iterations: int = 10) -> None:
+        self.iterations = iterations
 
     def respond(self, ctx: phys2d.StepContext) -> phys2d.SolveResult:
         r = ctx.rows
@@ -59,8 +64,8 @@ class LecturePGS(phys2d.Responder):
         for k in rows:  # warm start: V += M^-1 J^T lambda
             apply(V, a[k], b[k], JM[k], lam[k])
         residuals = []
-        for _ in range(self.sweeps):
-            worst = 0.0
+        for _ in range(self.iterations):
+            worst = 0.0  # the largest change of the sweep, |new - lam[k]| A_kk (m/s): after the clamp
             for k in rows:
                 if bound[k] >= 0:  # friction: inside +-mu lambda_n of its normal row
                     high = mu[k] * lam[bound[k]]
@@ -75,10 +80,10 @@ class LecturePGS(phys2d.Responder):
             residuals.append(worst)
         ctx.V[:] = V
         r.lam[:] = lam
-        return phys2d.SolveResult(self.sweeps, np.array(residuals))
+        return phys2d.SolveResult(self.iterations, np.array(residuals))
 
     def __repr__(self) -> str:
-        return f"LecturePGS(sweeps={self.sweeps})"
+        return f"LecturePGS(iterations={self.iterations})"
 
 
 class LectureNaive(phys2d.Responder):

@@ -327,15 +327,17 @@ def test_12_your_own_responder(tmp_path):
     assert line(out, r"^10-box stack: lecture-pgs ")[0] >= 100  # steps/s in plain Python
     moved = {name: line(out, rf"^  {name}\s+(?={NUM})")[0] for name in ("lecture-pgs", "pgs", "lecture-naive")}
     assert moved["lecture-pgs"] < 0.1 and moved["pgs"] < 0.1 and moved["lecture-naive"] > 1.0
-    assert re.search(r"^lecture-pgs: 12 of 12 claims pass$", out, re.M)
-    assert re.search(r"^pgs: 12 of 12 claims pass$", out, re.M)
+    assert re.search(r"^lecture-pgs: 13 of 13 claims pass$", out, re.M)
+    assert re.search(r"^pgs: 13 of 13 claims pass$", out, re.M)
     naive = re.search(
-        r"^lecture-naive: \d+ of 12 claims pass; \d+ fail, (\d+) of them as the lecture predicts", out, re.M
+        r"^lecture-naive: \d+ of 13 claims pass; \d+ fail, (\d+) of them as the lecture predicts", out, re.M
     )
     assert naive and int(naive.group(1)) >= 2
     assert re.search(
         r"^FAIL  10-box stack .*expected: the lecture: the naive takes 'do not support stacking'", out, re.M
     )
-    assert (tmp_path / "check" / "lecture-naive-10-box-stack.rrd").stat().st_size > 0
+    assert re.search(r"^hints, from what the card measured:$", out, re.M)  # under the failing claims
+    assert "stack" in runs_in(tmp_path / "check" / "lecture-naive.rrd")  # the failing card's scenes
+    assert not (tmp_path / "check" / "lecture-pgs.rrd").exists()  # a passing card keeps none
     runs = runs_in(tmp_path / "12_your_own_responder.rrd")
     assert runs == {f"stack-{r}": 180 for r in ("lecture-pgs", "pgs", "lecture-naive", "naive")}

@@ -4,7 +4,7 @@
 responder, prints the card, records failing scenes and is the command line's glue.
 """
 
-from .card import Card, CheckError, Result, check, load
-from .claims import CLAIMS, Claim, Outcome
+from .card import Card, CheckError, Result, Stage, check, load
+from .claims import CLAIMS, Claim, Outcome, Run
 
-__all__ = ["CLAIMS", "Card", "CheckError", "Claim", "Outcome", "Result", "check", "load"]
+__all__ = ["CLAIMS", "Card", "CheckError", "Claim", "Outcome", "Result", "Run", "Stage", "check", "load"]
