@@ -54,10 +54,9 @@ MISS = math.inf  # the fraction of no hit
 def norm(x, y):
     """|(x, y)|: sqrt(x^2 + y^2), rescaled when the squares would overflow or underflow (not
     math.hypot, whose last bit differs between numba and Python)."""
-    square = x * x + y * y
-    if 1e-290 < square < math.inf:
-        return math.sqrt(square)
     big = max(abs(x), abs(y))
+    if 1e-145 < big < 1e145:
+        return math.sqrt(x * x + y * y)
     if big == 0.0 or big == math.inf:
         return big
     x, y = x / big, y / big
@@ -119,7 +118,7 @@ def ray_circle(start, d, centre, radius):
 def circle_contains(point, centre, radius):
     """True when ``point`` is in the circle or on it: |p - c| <= r."""
     f_x, f_y = point[0] - centre[0], point[1] - centre[1]
-    return f_x * f_x + f_y * f_y <= radius * radius
+    return abs(f_x) <= radius and abs(f_y) <= radius and f_x * f_x + f_y * f_y <= radius * radius  # no square overflows
 
 
 # -- a rounded polygon ------------------------------------------------------------------------
@@ -261,21 +260,38 @@ def ray_segment(start, d, a, b):
 
 
 @njit(cache=True)
+def cone_normal(vertices, i, m_x, m_y):
+    """The unit m from vertex i, or the nearer of the normals of the edges meeting there when m
+    leaves their arc (counter-clockwise from edge i-1's to edge i's; half a turn at a capsule's
+    end): past the arc a point of v_i's circle lies in an edge's band, where the surface and its
+    normal are that edge's (a ray grazing a flat side meets a circle there, its normal off by
+    sqrt(eps) without this)."""
+    before_x, before_y, _ = edge_normal(vertices, i - 1 if i > 0 else vertices.shape[0] - 1)
+    after_x, after_y, _ = edge_normal(vertices, i)
+    if before_x * m_y - before_y * m_x >= 0.0 and m_x * after_y - m_y * after_x >= 0.0:
+        return m_x, m_y
+    if before_x * m_x + before_y * m_y >= after_x * m_x + after_y * m_y:  # the nearer
+        return before_x, before_y
+    return after_x, after_y
+
+
+@njit(cache=True)
 def ray_rounded_polygon(start, d, vertices, radius):
     """The ray against a polygon grown by r >= 0: its surface is each edge pushed out by r along
     its normal, joined by arcs of radius r about the vertices, so from outside the entry is
     the first of the ray's crossings of those edges (heading in) and of the vertices'
-    circles (``circle_entry``), all measured along the unit direction (m)."""
+    circles (``circle_entry``, its normal kept to the vertex's arc: ``cone_normal``), all
+    measured along the unit direction (m)."""
     u_x, u_y, length = ray_direction(d)
     if length == 0.0 or polygon_contains(vertices, radius, start):
         return MISS, 0.0, 0.0
-    best, best_x, best_y = MISS, 0.0, 0.0
+    best, best_x, best_y, vertex = MISS, 0.0, 0.0, -1
     n = vertices.shape[0]
     for i in range(n):
         w_x, w_y = start[0] - vertices[i, 0], start[1] - vertices[i, 1]
         s, n_x, n_y = circle_entry(w_x, w_y, u_x, u_y, radius)  # the arc about v_i
         if s < best:
-            best, best_x, best_y = s, n_x, n_y
+            best, best_x, best_y, vertex = s, n_x, n_y, i
         if n < 2:
             continue
         n_x, n_y, e_length = edge_normal(vertices, i)
@@ -287,9 +303,11 @@ def ray_rounded_polygon(start, d, vertices, radius):
             continue
         along = (-n_y * (w_x + s * u_x) + n_x * (w_y + s * u_y)) / e_length  # along the edge, 0 at v_i
         if 0.0 <= along <= 1.0:
-            best, best_x, best_y = s, n_x, n_y
+            best, best_x, best_y, vertex = s, n_x, n_y, -1
     if best > length:
         return MISS, 0.0, 0.0
+    if vertex >= 0 and n >= 2:
+        best_x, best_y = cone_normal(vertices, vertex, best_x, best_y)
     return best / length, best_x, best_y
 
 
@@ -342,9 +360,9 @@ def ray_cast_bodies(geometry, start, end, fraction, normal):
     ValueError when end - start overflows a float (no fraction of it would be finite)."""
     x, theta = geometry[0], geometry[1]
     d_x, d_y = end[0] - start[0], end[1] - start[1]
-    u_x, u_y, length = ray_direction(np.array([d_x, d_y]))
-    if not math.isfinite(length):
+    if not (math.isfinite(d_x) and math.isfinite(d_y)):
         raise ValueError("start and end are too far apart: end - start overflows a float")
+    u_x, u_y, length = ray_direction(np.array([d_x, d_y]))
     for b in range(x.shape[0]):
         fraction[b] = MISS
         if length == 0.0:  # a ray of length 0 enters nothing
@@ -371,9 +389,9 @@ def bodies_containing(geometry, point, inside):
     """inside[b] = whether body b's shape holds ``point`` (m), on its surface included."""
     x, theta = geometry[0], geometry[1]
     for b in range(x.shape[0]):
-        w_x, w_y = point[0] - x[b, 0], point[1] - x[b, 1]
-        r = reach(geometry, b)
-        inside[b] = w_x * w_x + w_y * w_y <= r * r and shape_contains(geometry, b, to_body_frame(x, theta, b, point))
+        inside[b] = circle_contains(point, x[b], reach(geometry, b)) and shape_contains(
+            geometry, b, to_body_frame(x, theta, b, point)
+        )
 
 
 @njit(cache=True)
