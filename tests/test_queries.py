@@ -271,6 +271,141 @@ def test_a_one_vertex_rounded_polygon_is_a_circle(centre, r, start, end) -> None
     assert queries.polygon_contains(c[None, :], r, s) == queries.circle_contains(s, c, r)
 
 
+# -- rays through vertices, along edges, from surfaces and 1e8 m long: exact where float64 allows -
+
+
+EPS = np.finfo(float).eps
+
+
+def test_a_ray_through_a_chains_vertex_hits_both_segments_there() -> None:
+    """The vertex (0, 0) ends both segments: the ray down through it enters each at t = 1/2,
+    on their upper side (a ground listed right to left), normal up."""
+    w = phys2d.World()
+    right, left = w.add_chain([(5.0, 0.0), (0.0, 0.0), (-5.0, 0.0)])
+    hits = w.ray_cast((0.0, 5.0), (0.0, -5.0))
+    assert [h.body for h in hits] == [right, left]
+    for h in hits:
+        assert h.fraction == 0.5
+        assert np.array_equal(h.point, [0.0, 0.0]) and np.array_equal(h.normal, [0.0, 1.0])
+
+
+def test_a_ray_through_a_segments_end() -> None:
+    """Straight down through the end (1, 0): the face's normal; at 45 degrees through the end
+    (-1, 0): a normal of that end, up (the face) or left (out of the end), facing the ray."""
+    w = phys2d.World()
+    seg = w.add_segment((-1.0, 0.0), (1.0, 0.0))
+    (hit,) = w.ray_cast((1.0, 5.0), (1.0, -5.0))
+    assert hit.body == seg and hit.fraction == 0.5
+    assert np.array_equal(hit.point, [1.0, 0.0]) and np.array_equal(hit.normal, [0.0, 1.0])
+    (hit,) = w.ray_cast((-2.0, 1.0), (0.0, -1.0))
+    assert hit.fraction == 0.5 and np.array_equal(hit.point, [-1.0, 0.0])
+    assert hit.normal.tolist() in ([0.0, 1.0], [-1.0, 0.0])
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.25])
+def test_a_ray_along_a_segments_own_line_enters_by_its_end(radius) -> None:
+    """Along the line of the segment (-1, 0) (1, 0), rounded by r: it enters at the near end's
+    cap, x = -1 - r (or 1 + r from the right), its normal pointing back along the ray."""
+    w = phys2d.World()
+    w.add_segment((-1.0, 0.0), (1.0, 0.0), radius=radius)
+    (hit,) = w.ray_cast((-5.0, 0.0), (5.0, 0.0))
+    assert hit.fraction == pytest.approx((4.0 - radius) / 10.0, abs=1e-15)
+    np.testing.assert_allclose(hit.point, [-1.0 - radius, 0.0], atol=1e-15)
+    assert np.array_equal(hit.normal, [-1.0, 0.0])
+    (hit,) = w.ray_cast((5.0, 0.0), (-5.0, 0.0))
+    np.testing.assert_allclose(hit.point, [1.0 + radius, 0.0], atol=1e-15)
+    assert np.array_equal(hit.normal, [1.0, 0.0])
+
+
+def test_a_ray_along_a_chain_enters_each_segment_by_its_near_end() -> None:
+    w = phys2d.World()
+    right, left = w.add_chain([(5.0, 0.0), (0.0, 0.0), (-5.0, 0.0)])
+    hits = w.ray_cast((-10.0, 0.0), (10.0, 0.0))
+    assert [h.body for h in hits] == [left, right]
+    assert [h.fraction for h in hits] == [0.25, 0.5]
+    assert [h.point.tolist() for h in hits] == [[-5.0, 0.0], [0.0, 0.0]]
+    assert all(np.array_equal(h.normal, [-1.0, 0.0]) for h in hits)
+
+
+def test_a_ray_along_an_edge_touches_at_its_corner() -> None:
+    """Touching counts (as for query_point): along a box's top edge the ray is on the box from
+    the corner (-1, 1), where it crosses the left edge's line; along a capsule's flat side, from
+    where the side begins over its left cap's centre."""
+    w = phys2d.World()
+    box = w.add_box((0.0, 0.0), half_extents=(1.0, 1.0))
+    (hit,) = w.ray_cast((-3.0, 1.0), (3.0, 1.0))
+    assert hit.body == box and hit.fraction == pytest.approx(1.0 / 3.0, abs=1e-15)
+    np.testing.assert_allclose(hit.point, [-1.0, 1.0], atol=1e-15)
+    assert np.array_equal(hit.normal, [-1.0, 0.0])
+    w = phys2d.World()
+    w.add_capsule((0.0, 0.0), half_length=1.0, radius=0.5)
+    (hit,) = w.ray_cast((-5.0, 0.5), (5.0, 0.5))
+    assert hit.fraction == 0.4 and np.array_equal(hit.point, [-1.0, 0.5])
+    assert np.array_equal(hit.normal, [0.0, 1.0])
+
+
+@pytest.mark.parametrize("length", [1e6, 1e8, 1e9])
+def test_a_long_ray_at_a_small_circle(length) -> None:
+    """From (-L, 0) to (L, 0) at a circle of radius 0.5 about the origin: the entry (-0.5, 0),
+    within a few ulps of the ray's start (eps L), and within 1 mm at 1e8 m."""
+    w = phys2d.World()
+    w.add_circle((0.0, 0.0), radius=0.5)
+    (hit,) = w.ray_cast((-length, 0.0), (length, 0.0))
+    error = float(np.linalg.norm(hit.point - [-0.5, 0.0]))
+    assert error <= 16 * EPS * length and error <= 1e-3
+    np.testing.assert_allclose(hit.normal, [-1.0, 0.0], atol=1e-12)
+    assert hit.fraction == pytest.approx((length - 0.5) / (2 * length), rel=4 * EPS)
+
+
+@pytest.mark.parametrize("length", [1e6, 1e8, 1e9])
+def test_a_long_ray_at_a_capsule(length) -> None:
+    """Along y = 0.1 at a capsule of core (-0.5, 0) (0.5, 0) and radius 0.25: it enters the left
+    cap at x = -0.5 - sqrt(0.25^2 - 0.1^2), normal (x + 0.5, 0.1) / 0.25, never inside."""
+    w = phys2d.World()
+    w.add_capsule((0.0, 0.0), half_length=0.5, radius=0.25)
+    (hit,) = w.ray_cast((-length, 0.1), (length, 0.1))
+    x = -0.5 - math.sqrt(0.25**2 - 0.1**2)
+    error = float(np.linalg.norm(hit.point - [x, 0.1]))
+    assert error <= 16 * EPS * length and error <= 1e-3
+    np.testing.assert_allclose(hit.normal, [(x + 0.5) / 0.25, 0.1 / 0.25], atol=1e-9)
+    assert math.hypot(hit.point[0] + 0.5, hit.point[1]) >= 0.25 - 16 * EPS * length  # not inside the cap
+
+
+def test_a_ray_from_a_surface_does_not_hit_that_shape() -> None:
+    """Starting exactly on a box's face, a circle, a segment or a capsule's side, in or out or
+    along: no hit of that shape (Box2D's rule), while a ray from just outside does hit it."""
+    w = phys2d.World()
+    box = w.add_box((0.0, 0.0), half_extents=(1.0, 1.0))
+    ball = w.add_circle((5.0, 0.0), radius=0.5)
+    seg = w.add_segment((-1.0, 5.0), (1.0, 5.0))
+    pill = w.add_capsule((5.0, 5.0), half_length=1.0, radius=0.5)
+    on = {box: (1.0, 0.25), ball: (4.5, 0.0), seg: (0.25, 5.0), pill: (5.25, 5.5)}
+    for body, p in on.items():
+        for direction in [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0), (0.6, -0.8)]:
+            end = (p[0] + 0.3 * direction[0], p[1] + 0.3 * direction[1])
+            assert body not in [h.body for h in w.ray_cast(p, end)], (body.shape, direction)
+    (hit,) = w.ray_cast((1.5, 0.25), (0.5, 0.25))
+    assert hit.body == box and hit.fraction == 0.5
+
+
+def test_queries_take_any_finite_input() -> None:
+    """query_point and query_aabb answer for any finite point or box; ray_cast too, but for a
+    ray whose end - start overflows a float, a ValueError naming start and end."""
+    w = phys2d.World()
+    ball = w.add_circle((0.0, 0.0), radius=0.5)
+    w.add_chain([(5.0, -1.0), (0.0, -2.0), (-5.0, -1.0)])
+    big = np.finfo(float).max
+    for p in [(big, -big), (1e300, 1e-320), (-1e8, 0.0)]:
+        assert w.query_point(p) == []
+    assert w.query_aabb((-big, -big), (big, big)) == list(w.bodies)
+    assert w.query_aabb((1e300, 1e300), (big, big)) == []
+    hits = w.ray_cast((-1e300, 0.0), (1e300, 0.0))  # its points are known to 1e284 m: it may touch all
+    assert ball in [h.body for h in hits]
+    assert all(np.all(np.isfinite(h.point)) and math.hypot(*h.normal) == pytest.approx(1.0) for h in hits)
+    with pytest.raises(ValueError, match="start and end are too far apart"):
+        w.ray_cast((-big, 0.0), (big, 0.0))
+
+
 # -- query_point ---------------------------------------------------------------------------------
 
 
