@@ -24,6 +24,7 @@ from phys2d import scenes
 
 RESPONDERS: dict[str, Callable[[], phys2d.Responder]] = {
     "pgs": lambda: phys2d.PGS(iterations=10),
+    "pgs-lecture": lambda: phys2d.PGS(iterations=10, split=False),  # the lecture's push, in xi
     "block": lambda: phys2d.PGS(iterations=10, block=True),
     "soft": lambda: phys2d.SoftStep(),
 }

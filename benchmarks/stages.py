@@ -9,13 +9,16 @@ three worlds start equal and take the same steps (the script checks they end bit
 
 - **one-call**: ``World.step`` as users run it: ``Pipeline`` (phys2d/pipeline/step.py) runs the tick in
   one compiled call (``pipeline.tick.tick``);
-- **staged**: ``one_call_tick = False``: ``Pipeline._in_stages`` calls the stages one by one from Python;
-- **timed staged**: staged, with the names ``Pipeline._in_stages`` looks up in ``phys2d.pipeline.step``
-  (``begin``, ``collide_recycling_on``, ``contact_rows``, ...), the ``Pipeline`` methods it calls (``_sweep``,
-  ``_make_room``, ``_context``, ``_commit``, ...) and the responder class's ``respond`` replaced by timing
-  wrappers while it steps. A call inside a timed call (``state`` inside ``_sweep``) counts in the outer
-  one. Each stage: its calls' time less the timer's own (a timed empty call); the step: its time less
-  what the wrappers add (calibrated on an empty function); the Python between the stages: the rest.
+- **staged**: ``one_call_tick = False``: ``Pipeline._in_stages`` calls ``before_solve``, the responder's
+  ``respond`` and ``after_solve`` from Python;
+- **timed staged**: staged, with ``before_solve`` and ``after_solve`` replaced by ``timed_before_solve`` and
+  ``timed_after_solve`` below, which call their stage kernels (``begin``, ``pairs``, ``collide``, ``rows``;
+  ``limits``, ``cache``) one by one from Python in the order the two kernels do, and with the ``Pipeline``
+  methods around them (``_room``, ``context``, ``_step_context``, ``_commit``) and the responder class's
+  ``respond`` replaced by timing wrappers while it steps. A step that stops for room takes the kernel
+  itself (timed as one). Each stage: its calls' time less the timer's own (a timed empty call); the step:
+  its time less what the wrappers add (calibrated on an empty function); the Python between the stages:
+  the rest.
 - **pymunk** on the same scene (``engines.PymunkAdapter``) when engines.py has it; ratios are taken
   within each repeat.
 
@@ -48,6 +51,7 @@ sys.path.insert(0, str(REPO))  # the phys2d of this checkout
 import engines  # noqa: E402  (benchmarks/engines.py, next to this script)
 
 import phys2d  # noqa: E402
+import phys2d.pipeline.stages as stage_kernels  # noqa: E402
 import phys2d.pipeline.step as step_module  # noqa: E402
 from phys2d.pipeline.step import Pipeline  # noqa: E402
 
@@ -61,16 +65,45 @@ SCENES: dict[str, Callable[[phys2d.Responder], phys2d.World]] = {
     "many_pyramids": lambda r: phys2d.scenes.many_pyramids(responder=r),
 }
 RESPONDERS: dict[str, Callable[[], phys2d.Responder]] = {"PGS": phys2d.PGS, "SoftStep": phys2d.SoftStep}
-# the stages in the order Pipeline._in_stages calls them: (owner, name); "respond" is the responder's
+# the stages in the order a staged step calls them: (owner, name); "respond" is the responder's
 STAGES: list[tuple[Any, str]] = [
-    (Pipeline, "_room"), (Pipeline, "state"), (step_module, "begin"), (Pipeline, "_sweep"),
-    (Pipeline, "_make_room"), (Pipeline, "_order"), (step_module, "collide_recycling_on"),
-    (step_module, "order_contacts"), (step_module, "head_of_rows"), (step_module, "contact_rows"),
-    (step_module, "start_joint_rows"), (Pipeline, "_context"), (None, "respond"),
-    (step_module, "bounce_after_moving"), (step_module, "first_too_fast"),
-    (step_module, "impulses_to_contacts_and_cache"), (Pipeline, "_commit"),
+    (Pipeline, "_room"), (Pipeline, "context"), (stage_kernels, "first_bad_body"), (stage_kernels, "begin"),
+    (stage_kernels, "pairs"), (stage_kernels, "in_visit_order"), (stage_kernels, "collide"), (stage_kernels, "rows"),
+    (stage_kernels, "before_solve"), (Pipeline, "_step_context"), (None, "respond"),
+    (step_module, "bounce_after_moving"), (stage_kernels, "limits"), (stage_kernels, "cache"), (Pipeline, "_commit"),
 ]  # fmt: skip
 LABELS = [("Pipeline." if owner is Pipeline else "") + name for owner, name in STAGES]
+
+
+def timed_before_solve(ctx: Any, settings: Any, counts: Any) -> Any:
+    """``stages.before_solve``'s stages called one by one from Python (each a kernel, looked up in
+    ``stages`` so that the clock's wrappers time them); a step that must stop for room, or that
+    resumes, goes to the kernel itself."""
+    s = stage_kernels
+    if counts.resume != s.START or s.first_bad_body(ctx) >= 0:
+        return s.before_solve(ctx, settings, counts)
+    fits = s.begin(ctx, settings)
+    n_pairs, ordered = counts.n_pairs, counts.ordered
+    if counts.sweep_again or not fits:
+        n_pairs, ordered = s.pairs(ctx, counts.visit)
+    room = 0 <= n_pairs <= ctx.shapes.pair_order.shape[0] and s.store_has_room(ctx, counts, n_pairs)
+    if not room:  # the kernel stops for it, and Python resumes after making room
+        return s.before_solve(ctx, settings, counts._replace(resume=s.SWEEP if n_pairs < 0 else s.COLLIDE))
+    if ordered != counts.visit:
+        ordered = s.in_visit_order(ctx, n_pairs, counts.visit)
+    k, n_new, recycled, rows_used, points_used = s.collide(ctx, settings, counts, n_pairs)
+    deepest, hits = s.rows(ctx, settings, counts, k)
+    side = 1 - counts.side
+    return s.TickResult(s.OK, side, n_pairs, ordered, k, n_new, recycled, rows_used, points_used, hits, deepest, 0)
+
+
+def timed_after_solve(ctx: Any, settings: Any, before: Any, count: int) -> Any:
+    """``stages.after_solve``'s stages called one by one from Python."""
+    s = stage_kernels
+    status = s.limits(ctx, settings, before.contacts, count)
+    if status == s.OK:
+        s.cache(ctx, before)
+    return before._replace(status=status, solved=count)
 
 
 class Clock:
@@ -97,11 +130,15 @@ class Clock:
 
 @contextmanager
 def timed_stages(clock: Clock, responder_class: type) -> Iterator[None]:
-    """The stages' names replaced by ``clock``'s wrappers while inside, put back after."""
+    """The stages' names replaced by ``clock``'s wrappers while inside (and the staged step's two
+    kernels by their stages one by one), put back after."""
     owners = [responder_class if owner is None else owner for owner, _ in STAGES]
     saved = [(owner, name, vars(owner)[name]) for owner, (_, name) in zip(owners, STAGES)]
+    saved += [(step_module, "before_solve", step_module.before_solve)]
+    saved += [(step_module, "after_solve", step_module.after_solve)]
     for (owner, name, original), label in zip(saved, LABELS):
         setattr(owner, name, clock.wrap(label, original))
+    step_module.before_solve, step_module.after_solve = timed_before_solve, timed_after_solve  # type: ignore[assignment]
     try:
         yield
     finally:

@@ -37,12 +37,18 @@ import numba
 import numpy as np
 
 import phys2d
-from phys2d.constraints.rows import unsigned_rows
+from phys2d.constraints.rows import contact_rows, unsigned_rows
 from phys2d.pipeline import records
-from phys2d.pipeline import step as stages
+from phys2d.pipeline import stages as stage_kernels
 from phys2d.pipeline.parallel import manifold_groups, soft_sweep_in_groups, using_threads, warm_start_in_groups
 from phys2d.responders.block import inverse_diagonal
-from phys2d.responders.soft_contacts import prepare_manifolds, soft_constants, soft_sweep, warm_start
+from phys2d.responders.soft_contacts import (
+    prepare_manifolds,
+    soft_constants,
+    soft_friction_rows,
+    soft_normal_rows,
+    warm_start_manifolds,
+)
 from phys2d.responders.soft_points import prepare_points
 
 REPO = Path(__file__).resolve().parent.parent
@@ -105,17 +111,18 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
         w.step(DT)
     w.one_call_tick = False  # the staged path hands the responder its context: keep it
     caught: list[Any] = []
-    respond, rows_of = soft.respond, stages.contact_rows
+    respond = soft.respond
     soft.respond = lambda ctx: (caught.append(ctx), respond(ctx))[1]  # type: ignore[method-assign]
-    stages.contact_rows = lambda *a: (caught.append(a), rows_of(*a))[1]  # its arguments, to replay
-    try:
-        w.step(DT)
-    finally:
-        stages.contact_rows = rows_of
-    del soft.respond
-    soft.__dict__.pop("_tick_spec", None)  # (what the world read of it: respond was its own)
+    p = w._pipeline
+    old_side, kc = p.side, p.cached  # the cache the step reads
+    w.step(DT)
     w.one_call_tick = True
-    row_args, ctx = caught
+    (ctx,) = caught
+    old = p.buffers.sides[old_side]
+    cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
+    found, k = p.side_records[p.side], len(w.contacts)
+    row_args = (p.bodies_record, p.shapes_record, cache, found, stage_kernels.rows_of(p.context(), k), p.settings.rows)
+    soft = phys2d.SoftStep(4)  # (its respond was the spy's)
     # the world's contact buffers are two sides it swaps and refills each tick: the world that is
     # timed whole is a second one, so this one's buffers stay as the replayed step left them
     timed = phys2d.scenes.pyramid(SCENES[scene], responder=phys2d.SoftStep(4))
@@ -131,16 +138,19 @@ def replay_share(scene: str, args: argparse.Namespace) -> dict[str, Any]:
     groups = manifold_groups(manifolds[0], rows, ctx.M_inv, ctx.part)  # (``groups_for``)
     V = ctx.V.copy()
 
+    n = manifolds[0].shape[0] - 1
+
     def serial() -> None:
-        rows_of(*row_args[:-1], None)
+        contact_rows(*row_args, None)
         for _ in range(soft.substeps):
-            warm_start(manifolds, rows, ctx.M_inv, V)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, True, springs, True)
-            soft_sweep(rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, False, springs, True)
+            warm_start_manifolds(0, n, manifolds[0], rows, ctx.M_inv, V)
+            for bias in (True, False):  # the sweep with the push, then the relax sweep
+                soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, bias, springs, True)
+                soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h)
 
     def parallel() -> None:
         with using_threads(2):
-            rows_of(*row_args[:-1], 2)
+            contact_rows(*row_args, 2)
             for _ in range(soft.substeps):
                 warm_start_in_groups(groups, manifolds, rows, ctx.M_inv, V)
                 soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, ctx.M_inv, V, h, (True, True), springs)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, NamedTuple, TypedDict
+from typing import Any, NamedTuple, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -40,9 +40,6 @@ from .validation import (
     positive_float,
     vec2,
 )
-
-if TYPE_CHECKING:
-    from .world import World
 
 MAX_BODY_UID = (1 << 23) - 1  # contact keys pack two uids in 46 bits
 # densities a body may have (kg/m^2, 2D): water 1 m deep is 1000, steel 1 m deep 7800; the range
@@ -385,7 +382,7 @@ class Body:
 
     __slots__ = ("_world", "_index", "_uid", "__weakref__")
 
-    def __init__(self, world: World, index: int, uid: int) -> None:
+    def __init__(self, world: Any, index: int, uid: int) -> None:  # (its World: this module is below world.py)
         self._world = world
         self._index = index
         self._uid = uid
@@ -402,7 +399,7 @@ class Body:
         return self._index
 
     @property
-    def world(self) -> World:
+    def world(self) -> Any:
         """The world the body belongs (or belonged) to."""
         return self._world
 

@@ -158,16 +158,6 @@ def look_up_in_slices(threads, cache_keys, cache_pushed, keys, cached):
 
 
 @njit(cache=True)
-def rows_to_contacts(order, normal_row, friction_row, lam, row_impact, lambda_n, lambda_t, impact):
-    """Contact c = order[q]'s lambda_n, lambda_t (N s) and impact flag, read off its rows."""
-    for q in range(order.shape[0]):
-        c = order[q]
-        lambda_n[c] = lam[normal_row[q]]
-        lambda_t[c] = lam[friction_row[q]]
-        impact[c] = row_impact[normal_row[q]]
-
-
-@njit(cache=True)
 def impulses_to_contacts_and_cache(rows, found, k, threads):
     """The K contacts' lambda_n, lambda_t (N s) read off their rows, and what the cache keeps of
     them, into ``found`` (a ContactRecord): ``impulses_of`` every row pair, on one thread

@@ -2,7 +2,7 @@
 
 numba stamps a cached kernel with its own source file only, so a kernel that calls a kernel
 of another module keeps running the old machine code after that module is edited (numba's
-documented limit). The one-call tick (``pipeline.stages.tick``) calls into nearly every module: edit
+documented limit). The one-call tick (``pipeline.tick.tick``) calls into nearly every module: edit
 ``responders/pgs.py``'s sweep and ``World.step`` would go on running the old one, with no
 sign of it. Here a phys2d kernel's stamp is the contents of its own module and of every
 phys2d module that module imports, directly or through others, so an edit recompiles

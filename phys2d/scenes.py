@@ -9,29 +9,10 @@ from __future__ import annotations
 import math
 
 from .responders.base import Responder
+from .scene_parts import check_count as _check_count
+from .scene_parts import ground
 from .validation import finite_float, positive_float
 from .world import World
-
-GROUND_HALF_WIDTH = 100.0  # m
-GROUND_HALF_HEIGHT = 0.5  # m
-
-
-def _check_count(value, name: str, low: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
-    if value < low:
-        raise ValueError(f"{name} must be >= {low}, got {value}")
-    return value
-
-
-def ground(w: World, friction: float = 0.6):
-    """The static ground box: 200 m wide, top at y = 0."""
-    return w.add_box(
-        position=(0.0, -GROUND_HALF_HEIGHT),
-        half_extents=(GROUND_HALF_WIDTH, GROUND_HALF_HEIGHT),
-        static=True,
-        friction=friction,
-    )
 
 
 def pyramid(rows: int = 20, responder: Responder | None = None, size: float = 1.0) -> World:

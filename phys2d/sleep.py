@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from .bodies import should_collide
-from .collision.queries import tight_aabbs
+from .collision.queries import geometry, tight_aabbs
 
 LINEAR_SLEEP = 0.05  # m/s: a body slower than this may sleep
 ANGULAR_SLEEP = math.radians(2.0)  # rad/s: and turning slower than this
@@ -101,54 +101,56 @@ def grown_by_travel(aabb: np.ndarray, bodies, gravity: np.ndarray, dt: float, ma
 class Islands:
     """A world's sleeping islands: which bodies sleep (``BodyArrays.island``, -1 awake), each
     island's contact cache while it sleeps, and the rules that put islands to sleep and wake
-    them. ``World`` calls it around each step and on every event that wakes; ``world`` is
-    that World (its bodies, contacts, joints, pipeline and settings are read here)."""
+    them. ``World`` calls it around each step (with its settings, ``WorldSettings``) and on
+    every event that wakes; it reads the world's bodies, joints and last contacts, and tells
+    the pipeline which bodies sleep."""
 
-    def __init__(self) -> None:
+    def __init__(self, bodies: Any, joints: Any, pipeline: Any) -> None:
+        self.bodies, self.joints, self.pipeline = bodies, joints, pipeline  # the world's
         self.some_asleep = False  # a body sleeps (then the pipeline steps it as immovable)
         self.next_island = 0  # the id the next island to fall asleep gets
         self.kept: dict[int, tuple] = {}  # a sleeping island's contact cache (``Pipeline.cache_of``)
 
     # -- around a step ---------------------------------------------------------------------
-    def before_step(self, world: Any, dt: float) -> None:
+    def before_step(self, settings: Any, dt: float) -> None:
         """Wake the sleeping islands an awake body could touch within the step or pulls on
         through a joint, then tell the pipeline which bodies sleep (it steps them as immovable)."""
-        b = world._bodies
+        b = self.bodies
         movers = (~b.static | (b.kinematic & np.any(b.V != 0.0, axis=1))) & (b.island < 0)
         if self.some_asleep and movers.any():  # (a world all asleep skips this)
             aabb = np.empty((b.n, 4))
-            tight_aabbs(world._geometry(), aabb)
-            reach = grown_by_travel(aabb, b, world._gravity, dt, world._contact_margin)
+            tight_aabbs(geometry(b), aabb)
+            reach = grown_by_travel(aabb, b, settings.gravity, dt, settings.contact_margin)
             while self.some_asleep and movers.any():
-                movers = self.wake_reached(world, movers, reach, aabb)  # the woken may reach further (rarely)
-        world._pipeline.sleepers(b.island >= 0 if self.some_asleep else None, b)
+                movers = self.wake_reached(movers, reach, aabb)  # the woken may reach further (rarely)
+        self.pipeline.sleepers(b.island >= 0 if self.some_asleep else None)
 
-    def wake_reached(self, world: Any, movers: np.ndarray, reach: np.ndarray, aabb: np.ndarray) -> np.ndarray:
+    def wake_reached(self, movers: np.ndarray, reach: np.ndarray, aabb: np.ndarray) -> np.ndarray:
         """Wake the islands of the sleeping bodies whose box (``aabb``) a mover's ``reach`` overlaps
         (when the filter lets the two touch), or that a mover is joined to; returns the woken."""
-        b = world._bodies
+        b = self.bodies
         asleep, moving = np.flatnonzero(b.island >= 0), np.flatnonzero(movers)
         m, s = np.nonzero(overlapping(reach[moving], aabb[asleep]))
         reached = [
             int(j) for i, j in zip(moving[m], asleep[s], strict=True) if should_collide(*_filter(b, i), *_filter(b, j))
         ]
-        if world._joints:  # a moving kinematic body's joint partners (dynamic ones share its islands)
-            ja = world._joint_arrays
+        if self.joints:  # a moving kinematic body's joint partners (dynamic ones share its islands)
+            ja = self.joints.arrays
             for one, other in ((ja.body_a, ja.body_b), (ja.body_b, ja.body_a)):
                 reached += [int(j) for j in other[movers[one] & (b.island[other] >= 0)]]
         woken = np.zeros(b.n, np.bool_)
         for j in reached:
             if not woken[j]:
                 woken |= b.island == b.island[j]
-                self.wake_island_of(world, j)
+                self.wake_island_of(j)
         return woken
 
-    def after_step(self, world: Any, dt: float) -> None:
+    def after_step(self, settings: Any, dt: float) -> None:
         """Each awake dynamic body's rest time, then the islands that rested long enough sleep."""
-        b = world._bodies
+        b = self.bodies
         dynamic = ~b.static & (b.island < 0)
         b.sleep_time[:] = np.where(dynamic & rests(b.V), b.sleep_time + dt, 0.0)
-        links = touching(world)
+        links = self.touching(settings.contact_margin)
         if b.kinematic.any() and links.shape[0]:  # a moving kinematic body keeps what it touches awake
             pushing = b.kinematic & np.any(b.V != 0.0, axis=1)
             b.sleep_time[links[pushing[links[:, 0]], 1]] = 0.0
@@ -157,85 +159,78 @@ class Islands:
             return
         island = find_islands(links, dynamic)
         for root in islands_falling_asleep(island, b.sleep_time):
-            self.fall_asleep(world, island == root)
+            self.fall_asleep(island == root)
 
     # -- falling asleep ----------------------------------------------------------------------
-    def fall_asleep(self, world: Any, members: np.ndarray) -> None:
+    def fall_asleep(self, members: np.ndarray) -> None:
         """The bodies ``members`` (an island) sleep: V = 0, the island's id, and their cache kept."""
-        b = world._bodies
+        b = self.bodies
         b.V[members] = 0.0
         b.island[members] = self.next_island
-        self.kept[self.next_island] = world._pipeline.cache_of(np.sort(b.uid[members]))
+        self.kept[self.next_island] = self.pipeline.cache_of(np.sort(b.uid[members]))
         self.next_island += 1
         self.some_asleep = True
-        world._pipeline.bodies_changed()  # their pairs with static and sleeping bodies go
+        self.pipeline.bodies_changed()  # their pairs with static and sleeping bodies go
 
-    def put_to_sleep(self, world: Any, i: int) -> None:
-        """Body i's island (as the last step's contacts and the joints link it) sleeps now."""
-        b = world._bodies
+    def put_to_sleep(self, i: int, margin: float) -> None:
+        """Body i's island (as the last step's contacts within ``margin`` (m) and the joints
+        link it) sleeps now."""
+        b = self.bodies
         if b.island[i] < 0:
-            island = find_islands(touching(world), ~b.static & (b.island < 0))
-            self.fall_asleep(world, island == island[i])
+            island = find_islands(self.touching(margin), ~b.static & (b.island < 0))
+            self.fall_asleep(island == island[i])
 
     # -- waking ------------------------------------------------------------------------------
-    def wake_island_of(self, world: Any, i: int) -> None:
+    def wake_island_of(self, i: int) -> None:
         """Wake body i's island, if it sleeps: its bodies rest from 0 s again, its cache is back."""
-        b = world._bodies
+        b = self.bodies
         if b.island[i] < 0:
             return
         island = int(b.island[i])
         members = b.island == island
         b.island[members] = -1
         b.sleep_time[members] = 0.0
-        self.warm(world, island)
+        self.warm(island)
         self.some_asleep = bool(np.any(b.island >= 0))
-        world._pipeline.bodies_changed()
+        self.pipeline.bodies_changed()
 
-    def wake_near(self, world: Any, i: int) -> None:
-        """Wake body i's island and the sleeping islands within contact_margin of its shape (a
-        static body moved or removed, say, leaves nothing asleep in the air)."""
-        self.wake_island_of(world, i)
-        b = world._bodies
+    def wake_near(self, i: int, margin: float) -> None:
+        """Wake body i's island and the sleeping islands within ``margin`` (m, the contact margin)
+        of its shape (a static body moved or removed, say, leaves nothing asleep in the air)."""
+        self.wake_island_of(i)
+        b = self.bodies
         aabb = np.empty((b.n, 4))
-        tight_aabbs(world._geometry(), aabb)
-        grow = world._contact_margin
-        near = overlapping(aabb[i : i + 1] + (-grow, -grow, grow, grow), aabb)[0] & (b.island >= 0)
+        tight_aabbs(geometry(b), aabb)
+        near = overlapping(aabb[i : i + 1] + (-margin, -margin, margin, margin), aabb)[0] & (b.island >= 0)
         for j in np.flatnonzero(near):
-            self.wake_island_of(world, int(j))
+            self.wake_island_of(int(j))
 
-    def warm(self, world: Any, island: int) -> None:
+    def warm(self, island: int) -> None:
         """Put a woken island's contact cache back: its first step warm starts, as if awake."""
         kept = self.kept.pop(island, None)
         if kept is not None and kept[0].size:
-            world.contacts  # noqa: B018  (copied out now: the cache shares their keys)
-            world._pipeline.warm(*kept)
+            self.pipeline.warm(*kept)
 
-    def wake_all(self, world: Any) -> None:
+    def wake_all(self) -> None:
         """Every body awake (sleep switched off)."""
-        b = world._bodies
+        b = self.bodies
         if self.some_asleep:
             for island in np.unique(b.island[b.island >= 0]):
-                self.warm(world, int(island))
+                self.warm(int(island))
             b.island[:] = -1
             b.sleep_time[:] = 0.0
             self.some_asleep = False
-            world._pipeline.bodies_changed()
+            self.pipeline.bodies_changed()
 
-
-def touching(world: Any) -> np.ndarray:
-    """(L, 2) the body pairs an island holds together: the last step's touching contacts
-    (separation <= contact_margin) and the joints."""
-    if world._pending_contacts is not None:  # (read from the buffers: no copy of every contact)
-        buffers, k = world._pending_contacts
-        a, b, separation = buffers.body_a[:k], buffers.body_b[:k], buffers.separation[:k]
-    else:
-        c = world._contacts
-        a, b, separation = c.body_a, c.body_b, c.separation
-    near = separation <= world._contact_margin
-    pairs = [np.stack([a[near], b[near]], axis=1).astype(np.int64)]
-    if world._joints:
-        pairs.append(np.array([(q.body_a._index, q.body_b._index) for q in world._joints], np.int64))
-    return np.concatenate(pairs) if len(pairs) > 1 else pairs[0]
+    def touching(self, margin: float) -> np.ndarray:
+        """(L, 2) the body pairs an island holds together: the last step's touching contacts
+        (separation <= margin, m) and the joints."""
+        a, b, separation = self.pipeline.touching()
+        near = separation <= margin
+        pairs = [np.stack([a[near], b[near]], axis=1).astype(np.int64)]
+        if self.joints:
+            pairs.append(self.joints.pairs())
+        return np.concatenate(pairs) if len(pairs) > 1 else pairs[0]
 
 
 def _filter(b: Any, i: int) -> tuple[int, int, int]:

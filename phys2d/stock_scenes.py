@@ -26,10 +26,11 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import shapes
+from . import shapes, verdict
 from .bodies import ALL_CATEGORIES, Body
 from .responders.base import Responder, StepReport
-from .scenes import _check_count, ground
+from .scene_parts import check_count as _check_count
+from .scene_parts import ground
 from .validation import non_negative_float, positive_float
 from .verdict import (
     HELD,
@@ -721,3 +722,4 @@ WATCHES: dict[str, Callable[[World], Watch]] = {
     # held: no pin opened more than 5 cm as the ragdolls fell and crumpled
     "ragdoll": _joint_watch(0.05),
 }
+verdict.WATCHES.update(WATCHES)  # ``verdict.watch_for`` judges each by its own claim

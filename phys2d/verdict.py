@@ -36,8 +36,9 @@ from ``phys2d.stock_scenes.WATCHES``), each a Watch with its own outcomes:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -234,7 +235,7 @@ class Watch:
 
 class SettleWatch(Watch):
     """A Watch for a scene that drops bodies first: the ``dropped`` ones (indices of
-    ``world.bodies``) are judged from ``settle`` s on, from where they are then; the rest
+    ``World.bodies``) are judged from ``settle`` s on, from where they are then; the rest
     from the start. Its passing outcome is ``passes_as`` (``held`` for a heavy box held
     up by light ones); a run shorter than ``settle`` is ``unsettled``. With ``overlap_limit``
     (m), a last step whose deepest overlap is deeper is ``crushed``."""
@@ -313,7 +314,7 @@ def joint_gaps(world) -> np.ndarray:
     | |p_b - p_a| - L | for a distance joint, with p the anchors in world coordinates."""
     from .constraints.joints import JOINT_DISTANCE, JOINT_PIN
 
-    ja = world._joint_arrays
+    ja = world._joints.arrays
     x, theta = world.x, world.theta
 
     def anchor(body: np.ndarray, local: np.ndarray) -> np.ndarray:
@@ -493,11 +494,14 @@ class DriveWatch(Watch):
         return DROVE, f"{speed:.2f} m/s on average, tilted {math.degrees(self.max_tilt):.0f} deg at most"
 
 
-def watch_for(scene: str, world) -> Watch:
-    """The watch that judges ``scene`` by its own claim (``phys2d.stock_scenes.WATCHES``);
-    a plain :class:`Watch` (stood, fell or restless) for every other scene."""
-    from .stock_scenes import WATCHES
+# each scene's own watch, by the scene's name: ``phys2d.stock_scenes`` (which imports this module)
+# adds its scenes' when imported, as ``import phys2d`` does
+WATCHES: dict[str, Callable[[Any], Watch]] = {}
 
+
+def watch_for(scene: str, world) -> Watch:
+    """The watch that judges ``scene`` by its own claim (``WATCHES``, the stock scenes' own);
+    a plain :class:`Watch` (stood, fell or restless) for every other scene."""
     make = WATCHES.get(scene)
     return Watch(world) if make is None else make(world)
 

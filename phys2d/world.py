@@ -6,8 +6,13 @@ the buffers a step fills and runs its stages:
     external forces -> collision -> contacts and cache -> constraint rows
                     -> responder -> integration
 
-in one numba call for PGS and SoftStep (``pipeline.stages.tick``), or one stage at a time
-from Python for every other responder (and for any with ``one_call_tick = False``).
+in one numba call for PGS and SoftStep (``pipeline.tick.tick``), or with the responder's
+``respond`` called from Python between the stages before its solve and those after it, for
+every other responder (and for any with ``one_call_tick = False``).
+
+What the world offers its pipeline and its islands (``phys2d.sleep``), on purpose: its body
+arrays (``BodyArrays``), its joints (``JointSet``) and the bodies' handles, given once; its
+settings (``WorldSettings``) and responder with each step.
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from .constraints.joints import (
     AngleJoint,
     DistanceJoint,
     Joint,
-    JointArrays,
+    JointSet,
     MouseJoint,
     PinJoint,
     SliderJoint,
@@ -38,8 +43,9 @@ from .constraints.joints import (
     optional_limit,
 )
 from .contacts import Contacts
+from .pipeline.context import WorldSettings
 from .pipeline.step import Pipeline, SimulationError
-from .responders.base import Responder, StepReport
+from .responders.base import Responder, StepReport, check_joints_supported
 from .responders.pgs import PGS
 from .validation import check_bool, check_int, non_negative_float, positive_float, vec2
 
@@ -125,31 +131,23 @@ class World:
         sleep: bool = False,
         threads: int = 1,
     ) -> None:
+        self._bodies = BodyArrays()
+        self._handles: list[Body] = []
+        self._joints = JointSet()
+        # the buffers of a step, and the step that fills them; then which bodies sleep, and what their islands keep
+        self._pipeline = Pipeline(self._bodies, self._joints, self._handles)
+        self._islands = sleeping.Islands(self._bodies, self._joints, self._pipeline)
+        self._settings = WorldSettings(vec2(gravity, "gravity"), 0.02, 0.05, 1e4, 1)
         self.gravity = gravity
         self._responder = self._check_responder(PGS() if responder is None else responder)
         self.contact_margin = contact_margin
         self.max_speed = max_speed
-        self._pipeline = Pipeline()  # the buffers of a step, and the step that fills them
         heap.keep_freed_pages()  # a tick's scratch reuses the last tick's pages (phys2d.heap)
         self.contact_recycle_distance = contact_recycle_distance
-        self._bodies = BodyArrays()
-        self._handles: list[Body] = []
-        self._joints: list[Joint] = []
-        self._joints_packed = True  # _joint_arrays, _joint_lam and _excluded hold the joints as they are
-        self._packed_excluded = np.zeros(0, np.int64)  # sorted pair keys that must not collide
-        self._packed_joint_arrays = JointArrays(self._joints)  # packed joints, rebuilt after changes
-        self._mice = 0  # how many of them are mouse joints
-        self._contacts = Contacts().read_only()
-        self._contacts_sealed = True
-        self._pending_contacts: tuple | None = None  # (buffers, K) of the last step's contacts, read lazily
-        self._packed_joint_lam = np.zeros(0)  # the joints' last reactions, in joint order: each step's warm start
-        self._joint_rows_first = 0  # the first joint row of the last step
-        self._joints_placed = True  # every joint knows where its rows stood in the last step
         self._one_call_tick = True
         self._last_step = StepReport().read_only()
         self._sleep = check_bool(sleep, "sleep")
-        self._threads = check_int(threads, "threads", 1)
-        self._islands = sleeping.Islands()  # which bodies sleep, and what their islands keep
+        self.threads = threads
         self.tick = 0
         self.time = 0.0
 
@@ -171,53 +169,40 @@ class World:
         self._responder = value
 
     def _check_joints_supported(self, responder: Responder, adding: bool = False, mouse: bool = False) -> None:
-        if (self._joints or adding) and not responder.handles_joints:
-            raise ValueError(
-                f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
-                "(as the lecture's naive takes do); use phys2d.PGS() or phys2d.SoftStep() in a world with joints"
-            )
-        if (mouse or self._mice) and not responder.solves_mouse_joints:
-            raise ValueError(
-                f"responder {responder.name!r} cannot solve mouse joints: their soft pull has a solve of its own "
-                "(phys2d.responders.mouse); use phys2d.PGS() or phys2d.SoftStep()"
-            )
+        check_joints_supported(responder, bool(self._joints) or adding, mouse or self._joints.mice > 0)
 
     @property
     def gravity(self) -> np.ndarray:
         """Gravity g (m/s^2), a copy."""
-        return self._gravity.copy()
+        return self._settings.gravity.copy()
 
     @gravity.setter
     def gravity(self, value: ArrayLike) -> None:
-        self._gravity = vec2(value, "gravity")
-        self._gravity_norm = float(math.hypot(*self._gravity))  # |g|, m/s^2
-        self._settings_changed()
+        self._settings = self._settings._replace(gravity=vec2(value, "gravity"))
 
     @property
     def contact_margin(self) -> float:
         """Surfaces closer than this (m) make speculative contact points."""
-        return self._contact_margin
+        return self._settings.contact_margin
 
     @contact_margin.setter
     def contact_margin(self, value: float) -> None:
-        self._contact_margin = non_negative_float(value, "contact_margin")
-        self._settings_changed()
-        if hasattr(self, "_pipeline"):  # the points were found with the old margin, the fat boxes grown by it
-            self._pipeline.forget_manifolds()
+        self._settings = self._settings._replace(contact_margin=non_negative_float(value, "contact_margin"))
+        self._pipeline.forget_manifolds()  # the points were found with the old margin, the fat boxes grown by it
 
     @property
     def contact_recycle_distance(self) -> float:
         """A pair that moved less than this (m) relative to itself keeps its contact points."""
-        return self._contact_recycle_distance
+        return self._settings.recycle_distance
 
     @contact_recycle_distance.setter
     def contact_recycle_distance(self, value: float) -> None:
-        self._contact_recycle_distance = non_negative_float(value, "contact_recycle_distance")
-        self._settings_changed()
+        distance = non_negative_float(value, "contact_recycle_distance")
+        self._settings = self._settings._replace(recycle_distance=distance)
 
     @property
     def one_call_tick(self) -> bool:
-        """Step PGS (impulse form) and SoftStep in one kernel call (``pipeline.stages.tick``); False: stage by
+        """Step PGS (impulse form) and SoftStep in one kernel call (``pipeline.tick.tick``); False: stage by
         stage."""
         return self._one_call_tick
 
@@ -228,12 +213,11 @@ class World:
     @property
     def max_speed(self) -> float:
         """A step leaving any body faster than this (m/s, or rad/s for spin) is undone."""
-        return self._max_speed
+        return self._settings.max_speed
 
     @max_speed.setter
     def max_speed(self, value: float) -> None:
-        self._max_speed = positive_float(value, "max_speed")
-        self._settings_changed()
+        self._settings = self._settings._replace(max_speed=positive_float(value, "max_speed"))
 
     @property
     def sleep(self) -> bool:
@@ -244,7 +228,7 @@ class World:
     def sleep(self, value: bool) -> None:
         self._sleep = check_bool(value, "sleep")
         if not self._sleep:
-            self._islands.wake_all(self)
+            self._islands.wake_all()
 
     @property
     def threads(self) -> int:
@@ -253,17 +237,11 @@ class World:
         most the NUMBA_NUM_THREADS numba started with), with bit-identical results
         (``pipeline.parallel``). They pay on scenes of several thousand contacts and up: below,
         one thread is faster."""
-        return self._threads
+        return self._settings.threads
 
     @threads.setter
     def threads(self, value: int) -> None:
-        self._threads = check_int(value, "threads", 1)
-        self._settings_changed()  # the step reads its count with its settings
-
-    def _settings_changed(self) -> None:
-        """The next step reads the world's settings and joints anew."""
-        if "_pipeline" in self.__dict__:
-            self._pipeline.settings_changed()
+        self._settings = self._settings._replace(threads=check_int(value, "threads", 1))
 
     # -- the lecture's arrays (views: the first N rows) ------------------------
     # Each is the world's own array, writable, as the lessons use them. A held array goes stale
@@ -412,23 +390,23 @@ class World:
             raise TypeError(f"item must be a phys2d Body or Joint, got {type(item).__name__}")
         i = self._own(item)
         self._wake(i)  # its island, and the sleeping islands it touches
-        for joint in [q for q in self._joints if i in (q.body_a._index, q.body_b._index)]:
+        for joint in [q for q in self._joints.handles if i in (q.body_a._index, q.body_b._index)]:
             self._remove_joint(joint)
         self._bodies.delete(i)
         self._handles.pop(i)
         for h in self._handles[i:]:
             h._index -= 1
         item._index = -1
-        self._contacts = Contacts().read_only()  # its indices no longer match w.bodies
-        self._contacts_sealed, self._pending_contacts = True, None
+        self._pipeline.forget_contacts()  # their indices no longer match w.bodies
         self._last_step = StepReport().read_only()  # nor does the last step's report
-        self._joints_changed()
+        self._joints.changed()  # the joints name bodies by index
+        self._pipeline.bodies_changed()
 
     # -- joints --------------------------------------------------------------------
     @property
     def joints(self) -> tuple[Joint, ...]:
         """Handles of the joints, in creation order (their rows follow the contact rows)."""
-        return tuple(self._joints)
+        return tuple(self._joints.handles)
 
     def _joint_bodies(self, a: Body, b: Body) -> tuple[Body, Body]:
         """The world's handles of a and b, after checking they can be joined."""
@@ -605,9 +583,8 @@ class World:
     def _add_joint(self, joint: _J) -> _J:
         self._wake_island_of(joint.body_a._index)
         self._wake_island_of(joint.body_b._index)
-        self._joints.append(joint)
-        self._mice += isinstance(joint, MouseJoint)
-        self._joints_changed()
+        self._joints.add(joint)
+        self._pipeline.bodies_changed()  # the pairs it keeps from colliding go
         return joint
 
     def _remove_joint(self, joint: Joint) -> None:
@@ -617,13 +594,8 @@ class World:
             raise ValueError("joint was removed from this world")
         self._wake_island_of(joint.body_a._index)
         self._wake_island_of(joint.body_b._index)
-        joint._impulse = joint.impulse  # its last reactions, kept by the handle from now on
-        joint._offset = None
         self._joints.remove(joint)
-        self._mice -= isinstance(joint, MouseJoint)
-        joint.alive = False
-        joint._has_rows = False
-        self._joints_changed()
+        self._pipeline.bodies_changed()
 
     def _joint_changed(self, joint: Joint, rows_changed: bool) -> None:
         """A joint's setting changed (``joint.motor_speed = ...``, limits, target, max force): its
@@ -632,60 +604,9 @@ class World:
         from lambda = 0."""
         if rows_changed:
             joint._impulse, joint._offset, joint._has_rows = np.zeros(joint.row_count), None, False
-            self._joints_changed(pairs=False)
+            self._joints.changed()
             return
-        values = joint._params()
-        self._joint_arrays.params[self._joints.index(joint), : len(values)] = values
-
-    def _joints_changed(self, pairs: bool = True) -> None:
-        """Joints were added, removed or changed: the next step (or the next read of the packed
-        joints) repacks them, once however many changed, so a scene of n joints builds in O(n)
-        (``pairs``: bodies' pairs may have changed, so the broadphase sweeps again)."""
-        self._joints_packed = False
-        if pairs:
-            self._pipeline.bodies_changed()
-        self._settings_changed()
-
-    @property
-    def _joint_arrays(self) -> JointArrays:
-        """The joints packed into flat arrays, in creation order."""
-        if not self._joints_packed:
-            self._pack_joints()
-        return self._packed_joint_arrays
-
-    @property
-    def _joint_lam(self) -> np.ndarray:
-        """The joints' last reactions, in joint order (each step's warm start)."""
-        if not self._joints_packed:
-            self._pack_joints()
-        return self._packed_joint_lam
-
-    @property
-    def _excluded(self) -> np.ndarray:
-        """The sorted keys of the pairs of bodies that must not collide (joined, not collide_connected)."""
-        if not self._joints_packed:
-            self._pack_joints()
-        return self._packed_excluded
-
-    def _pack_joints(self) -> None:
-        """Repack the joints (each keeps its last reactions) and rebuild the sorted keys of pairs
-        that must not collide."""
-        self._packed_joint_arrays = ja = JointArrays(self._joints)
-        lam, old = np.zeros(ja.n_rows), self._packed_joint_lam
-        for q, joint in enumerate(self._joints):
-            offset = int(ja.row_offset[q])
-            if joint._offset is not None:  # its reactions in the old packing (``Joint.impulse``)
-                lam[offset : offset + joint.row_count] = old[joint._offset : joint._offset + joint.row_count]
-            joint._offset = offset
-        self._packed_joint_lam = lam
-        self._joints_placed = False
-        keys = [
-            (min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
-            for q in self._joints
-            if not q.collide_connected
-        ]
-        self._packed_excluded = np.unique(np.asarray(keys, np.int64))
-        self._joints_packed = True
+        self._joints.params_changed(joint)
 
     # -- one tick ----------------------------------------------------------------
     def clear_forces(self) -> None:
@@ -702,10 +623,10 @@ class World:
         if type(dt) is not float or not 0.0 < dt < math.inf:  # (a plain positive float passes at once)
             dt = positive_float(dt, "dt")
         if self._islands.some_asleep or self._pipeline.sleep_masks is not None:
-            self._islands.before_step(self, dt)
-        report = self._pipeline.step(self, dt, self._one_call_tick)
+            self._islands.before_step(self._settings, dt)
+        report = self._pipeline.step(self._settings, self._responder, dt, self._one_call_tick)
         if self._sleep:
-            self._islands.after_step(self, dt)
+            self._islands.after_step(self._settings, dt)
         self._last_step = report
         self.tick += 1
         self.time += dt
@@ -714,53 +635,30 @@ class World:
     @property
     def contacts(self) -> Contacts:
         """The contact points of the last step (read-only arrays)."""
-        if not self._contacts_sealed:
-            if self._pending_contacts is not None:  # copied out of the pipeline's buffers now
-                buffers, k = self._pending_contacts
-                self._contacts = buffers.contacts(k)
-                self._pending_contacts = None
-            self._contacts.read_only()
-            self._contacts_sealed = True
-        return self._contacts
+        return self._pipeline.contacts()
 
     @property
     def last_step(self) -> StepReport:
         """What the last step did (``StepReport``; read-only arrays)."""
         return self._last_step
 
-    def _store_joint_impulses(self, first_joint_row: int, lam: np.ndarray, joint_lam: np.ndarray) -> None:
-        """Keep the joints' reactions (``lam`` of the step's rows, from first_joint_row) of the step
-        just taken in ``joint_lam`` (``_joint_lam``): one copy, which every joint's ``impulse`` reads."""
-        joint_lam[:] = lam[first_joint_row : first_joint_row + joint_lam.shape[0]]
-        self._joint_rows_first = first_joint_row
-        if not self._joints_placed:  # joints were added or removed since: each learns its rows' place
-            for joint in self._joints:
-                assert joint._offset is not None  # placed by _joints_changed
-                joint._rows_offset, joint._has_rows = joint._offset, True
-            self._joints_placed = True
-
     # -- sleeping (``phys2d.sleep``: the islands, their rest and their waking) ---------------
     def _wake_island_of(self, i: int) -> None:
         """Wake body i's island, if it sleeps."""
         if self._islands.some_asleep:
-            self._islands.wake_island_of(self, i)
+            self._islands.wake_island_of(i)
 
     def _wake(self, i: int) -> None:
         """Wake body i's island and the sleeping islands within contact_margin of its shape."""
         if self._islands.some_asleep:
-            self._islands.wake_near(self, i)
+            self._islands.wake_near(i, self._settings.contact_margin)
 
     def _put_to_sleep(self, i: int) -> None:
         """Body i's island sleeps now (``Body.awake = False``)."""
-        self._islands.put_to_sleep(self, i)
+        self._islands.put_to_sleep(i, self._settings.contact_margin)
 
     # -- queries -------------------------------------------------------------------------
     # Each reads the bodies where they are now (between steps: where the last step left them).
-    def _geometry(self) -> tuple:
-        """The arrays the query kernels read (``collision.queries``)."""
-        b = self._bodies
-        return (b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v)
-
     def ray_cast(self, start: ArrayLike, end: ArrayLike) -> list[RayHit]:
         """The bodies the segment from ``start`` to ``end`` (m) enters, nearest first: one
         ``RayHit`` per body (where the ray first enters its shape: ``point``, the unit outward
@@ -773,7 +671,7 @@ class World:
         p_start, p_end = vec2(start, "start"), vec2(end, "end")
         n = self._bodies.n
         fraction, normal = np.empty(n), np.empty((n, 2))
-        queries.ray_cast_bodies(self._geometry(), p_start, p_end, fraction, normal)
+        queries.ray_cast_bodies(queries.geometry(self._bodies), p_start, p_end, fraction, normal)
         hit = np.flatnonzero(fraction <= 1.0)
         hit = hit[np.argsort(fraction[hit], kind="stable")]
         d = p_end - p_start
@@ -783,7 +681,7 @@ class World:
         """The bodies whose shape holds ``point`` (m), its surface included, in creation order."""
         p = vec2(point, "point")
         inside = np.zeros(self._bodies.n, np.bool_)
-        queries.bodies_containing(self._geometry(), p, inside)
+        queries.bodies_containing(queries.geometry(self._bodies), p, inside)
         return [self._handles[i] for i in np.flatnonzero(inside)]
 
     def query_aabb(self, lower: ArrayLike, upper: ArrayLike) -> list[Body]:
@@ -796,7 +694,7 @@ class World:
         if np.any(lo > hi):
             raise ValueError(f"lower must be <= upper in x and in y, got lower={lo.tolist()}, upper={hi.tolist()}")
         aabb = np.empty((self._bodies.n, 4))
-        queries.tight_aabbs(self._geometry(), aabb)
+        queries.tight_aabbs(queries.geometry(self._bodies), aabb)
         overlap = (aabb[:, 0] <= hi[0]) & (aabb[:, 1] <= hi[1]) & (aabb[:, 2] >= lo[0]) & (aabb[:, 3] >= lo[1])
         return [self._handles[i] for i in np.flatnonzero(overlap)]
 
@@ -812,7 +710,7 @@ class World:
         """Sum of -m g . x over dynamic bodies (J), zero at the origin."""
         b = self._bodies
         dyn = ~b.static
-        return float(-np.sum(b.mass[dyn] * (b.x[dyn] @ self._gravity)))
+        return float(-np.sum(b.mass[dyn] * (b.x[dyn] @ self._settings.gravity)))
 
     def linear_momentum(self) -> np.ndarray:
         """Sum of m v over dynamic bodies (kg m/s)."""
@@ -871,8 +769,8 @@ class World:
         n = self._bodies.n
         n_static = int(self._bodies.static.sum())
         return (
-            f"<World: {n} bodies ({n_static} static), gravity=({self._gravity[0]:g}, "
-            f"{self._gravity[1]:g}) m/s^2, responder={self._responder!r}, t={self.time:.4g} s>"
+            f"<World: {n} bodies ({n_static} static), gravity=({self._settings.gravity[0]:g}, "
+            f"{self._settings.gravity[1]:g}) m/s^2, responder={self._responder!r}, t={self.time:.4g} s>"
         )
 
 

@@ -6,11 +6,9 @@ import numpy as np
 
 import phys2d
 from phys2d import shapes as shapes_module
-from phys2d.collision.broadphase import update_geometry
+from phys2d.collision.broadphase import find_pairs, update_geometry
 from phys2d.collision.narrowphase import collide_pairs
-from phys2d.constraints.order import PAIR_ORDER
 from phys2d.pipeline import records
-from phys2d.pipeline.stages import sweep
 from phys2d.pipeline.step import ContactBuffers
 
 
@@ -24,7 +22,7 @@ def records_now(w: phys2d.World, V: np.ndarray, pairs: np.ndarray, dt: float = 1
     geometry = (rotation, np.empty((nv, 2)), np.empty((nv, 2)), np.empty((n, 4)), np.zeros((n, 4)), np.empty(n))
     shapes = records.new_shapes(
         (b.static, b.uid, b.friction, b.restitution, b.kind, b.radius, b.vstart, b.vcount, b.local_v, b.local_n,
-         *geometry, pairs, np.zeros(pairs.shape[0], np.int32), w._excluded, b.category, b.mask, b.group,
+         *geometry, pairs, np.zeros(pairs.shape[0], np.int32), w._joints.excluded, b.category, b.mask, b.group,
          np.zeros(n, np.int32))
     )  # fmt: skip
     bodies = records.new_bodies((b.x, b.theta, V, b.M_inv, V))
@@ -42,10 +40,10 @@ def manifolds_of(w: phys2d.World, bodies, shapes, n_pairs: int) -> phys2d.Contac
 
 
 def contacts_now(w: phys2d.World) -> phys2d.Contacts:
-    """The contacts of w at its current positions, nothing moved: the broadphase (``sweep``) and
+    """The contacts of w at its current positions, nothing moved: the broadphase (``find_pairs``) and
     the narrowphase, with no travel (dt = 0)."""
     n = len(w.bodies)
     pairs = np.zeros((max(1, n * (n - 1) // 2), 2), np.int32)
     bodies, shapes, _, _ = records_now(w, w.V, pairs, dt=0.0)
-    n_pairs = sweep(shapes, w.x, PAIR_ORDER)
+    n_pairs = find_pairs(shapes)
     return manifolds_of(w, bodies, shapes, n_pairs)

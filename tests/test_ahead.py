@@ -20,34 +20,21 @@ from phys2d.constraints.rows import contact_rows
 from phys2d.contacts import impulses_to_contacts_and_cache
 from phys2d.integrate import first_too_fast
 from phys2d.pipeline import ahead
-from phys2d.pipeline.stages import head_of_rows, order_contacts
-from phys2d.pipeline.step import spec_of
+from phys2d.pipeline.context import Solver
+from phys2d.pipeline.stages import START
 from phys2d.pipeline.tick import tick
 from phys2d.responders.pgs import pgs_step
 from phys2d.responders.soft_step import soft_step_solve
 
 STAGES = (
     collide_recycling, start_joint_rows, contact_rows, impulses_to_contacts_and_cache, first_too_fast, pgs_step,
-    soft_step_solve, head_of_rows, order_contacts,
+    soft_step_solve,
 )  # fmt: skip
 
 
 def _tick_args(w: phys2d.World) -> tuple:
     p = w._pipeline
-    spec = spec_of(w.responder)
-    step, row_settings, joints = p._ready.step, p._ready.rows, p._ready.joints
-    return (
-        p.state(w),
-        joints,
-        0,
-        p._counts(spec.visit),
-        step,
-        row_settings,
-        spec.pgs,
-        spec.soft,
-        p.rounded,
-        None,
-    )
+    return (p.context(), p.settings, p.solver, p._counts(w.responder.visit_order, START))
 
 
 SAME_TYPES = """
@@ -55,7 +42,7 @@ import os, sys
 from numba.core import event
 from phys2d import scenes, PGS, SoftStep
 from phys2d.pipeline import ahead
-from phys2d.pipeline.step import spec_of
+from phys2d.pipeline.stages import START
 
 compiled = []
 class Listener(event.Listener):
@@ -66,10 +53,8 @@ class Listener(event.Listener):
 event.register("numba:compile", Listener())
 for w in (scenes.pyramid(3, responder=PGS()), scenes.heavy_chain(responder=SoftStep())):
     w.step(1 / 60)  # a cold cache: the tick and every stage it calls compile here, for the tick's types
-    p, spec = w._pipeline, spec_of(w.responder)
-    step, row_settings, joints = p._ready.step, p._ready.rows, p._ready.joints
-    counts = p._counts(spec.visit)
-    args = (p.state(w), joints, 0, counts, step, row_settings, spec.pgs, spec.soft, p.rounded, None)
+    p = w._pipeline
+    args = (p.context(), p.settings, p.solver, p._counts(w.responder.visit_order, START))
     compiled.clear()
     ahead.compile_from_the_end(p, args)
     if compiled:
@@ -92,13 +77,13 @@ def test_a_warm_cache_is_not_cold_and_an_unknown_type_is():
     w.step(1 / 60)
     args = _tick_args(w)
     assert not ahead.cold(tick, args)
-    assert ahead.cold(tick, (*args[:-4], None, None, *args[-2:]))  # a tick with no solve was never compiled
+    assert ahead.cold(tick, (*args[:2], Solver(None, None), args[3]))  # a tick with no solve was never compiled
 
 
 @pytest.mark.parametrize("joints", [False, True])
 def test_the_child_steps_a_small_world_of_the_responder(joints):
     child = subprocess.run(
-        [sys.executable, "-c", "import phys2d.pipeline.ahead as a; a._child(); print('stepped')"],
+        [sys.executable, "-c", "import phys2d.pipeline.compile_child as c; c.main(); print('stepped')"],
         input=pickle.dumps((phys2d.SoftStep(substeps=2), joints, False, 1)),
         capture_output=True,
         timeout=600,
@@ -128,9 +113,9 @@ ref.one_call_tick = False
 w.step(1 / 60)
 ref.step(1 / 60)
 assert ahead.last_plan == "behind", ahead.last_plan
-assert w._pipeline._compiled[2] is None, "the first step went in one call"
+assert not w._pipeline._machine, "the first step went in one call"
 start = time.time()
-while w._pipeline._compiled[2] is None:  # until the child has cached the tick
+while not w._pipeline._machine:  # until the child has cached the tick
     assert time.time() - start < 900, "the child never finished"
     w.step(1 / 60)
     ref.step(1 / 60)

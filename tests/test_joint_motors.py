@@ -326,7 +326,7 @@ def test_removing_new_joints_frees_the_bodies():
 
 
 def snapshot(w: phys2d.World):
-    return (len(w.joints), w._joint_arrays.params.copy(), w._joint_lam.copy())
+    return (len(w.joints), w._joints.arrays.params.copy(), w._joints.lam.copy())
 
 
 @pytest.mark.parametrize(

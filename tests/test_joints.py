@@ -214,7 +214,7 @@ def test_removing_bodies_and_joints():
     ab = w.add_pin_joint(a, b, anchor=(0.3, 0.0))
     cd = w.add_pin_joint(c, d, anchor=(1.5, 0.0))
     bc = w.add_distance_joint(b, c)
-    assert w._excluded.tolist() == [(0 << 32) | 1, (1 << 32) | 2, (2 << 32) | 3]
+    assert w._joints.excluded.tolist() == [(0 << 32) | 1, (1 << 32) | 2, (2 << 32) | 3]
     w.remove(bc)
     assert not bc.alive and w.joints == (ab, cd)
     with pytest.raises(ValueError, match="removed"):
@@ -225,7 +225,7 @@ def test_removing_bodies_and_joints():
         phys2d.World().remove(ab)
     w.remove(a)  # takes ab with it; b, c, d become 0, 1, 2
     assert not ab.alive and w.joints == (cd,)
-    assert w._excluded.tolist() == [(1 << 32) | 2]
+    assert w._joints.excluded.tolist() == [(1 << 32) | 2]
     w.step(1 / 60)  # c and d overlap but stay excluded under their new indices
     pairs = set(zip(w.contacts.body_a.tolist(), w.contacts.body_b.tolist(), strict=True))
     assert (1, 2) not in pairs and (0, 1) in pairs
@@ -286,7 +286,7 @@ def test_bad_joints_raise_and_leave_the_world_unchanged():
     for error, make in cases:
         with pytest.raises(error):
             make()
-    assert w.joints == () and w._excluded.size == 0
+    assert w.joints == () and w._joints.excluded.size == 0
     with pytest.raises(ValueError, match="anchor"):
         w.add_distance_joint(ground, box, anchor_a=(0, 1), anchor_b=(0, 1))
     with pytest.raises(ValueError, match="lower"):

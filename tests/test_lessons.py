@@ -68,7 +68,7 @@ def test_lesson_files_are_indexed_and_documented():
         text = (LESSONS / f"{n}.py").read_text()
         assert text.startswith('"""Lesson '), n
         assert "In the viewer" in text.split('"""')[1], n
-        assert f"python lessons/{n}.py" in index and f"rerun recordings/{n}.rrd" in index, n
+        assert f"python lessons/{n}.py" in index and f"phys2d view recordings/{n}.rrd" in index, n
 
 
 def test_01_naive_impulse(tmp_path):

@@ -287,7 +287,7 @@ def test_twenty_thousand_pins_are_packed_once_when_next_read():
     bodies = [w.add_circle(position=(float(k), 0.0), radius=0.4, static=k == 0) for k in range(20_001)]
     for k in range(20_000):
         w.add_pin_joint(bodies[k], bodies[k + 1], anchor=(k + 0.5, 0.0))
-    assert len(w.joints) == 20_000 and w._joint_arrays.n_rows == 40_000
+    assert len(w.joints) == 20_000 and w._joints.arrays.n_rows == 40_000
     assert w.joints[-1].impulse.tolist() == [0.0, 0.0]
 
 

@@ -143,7 +143,7 @@ def test_threads_can_change_between_steps() -> None:
         many.threads = 1 + i % 3
         one.step(1 / 60)
         many.step(1 / 60)
-        assert many._pipeline._ready.threads == (None if i % 3 == 0 else 1 + i % 3)
+        assert many._pipeline._over[3] == (None if i % 3 == 0 else 1 + i % 3)  # the context's threads
     assert fingerprint(many) == fingerprint(one)
 
 

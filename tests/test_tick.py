@@ -1,9 +1,9 @@
-"""The one-call tick (phys2d.pipeline.stages.tick) against the staged step: a second method of the same pipeline.
+"""The one-call tick (phys2d.pipeline.tick.tick) against the staged step: a second method of the same pipeline.
 
 ``World.step`` runs PGS (impulse form) and SoftStep in one kernel call; with
-``one_call_tick = False`` it calls each stage's kernel from Python instead. Both paths
-call the same stage functions in the same order, so every state, contact, cache and
-report must agree bit for bit, and a failed step must leave either world as it was.
+``one_call_tick = False`` it calls ``before_solve`` and ``after_solve`` from Python around the
+responder's ``respond``. Both paths run the same stage kernels in the same order, so every state,
+contact, cache and report must agree bit for bit, and a failed step must leave either world as it was.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from numba import config
 import phys2d
 from phys2d import scenes
 from phys2d.pipeline import step as step_module
-from phys2d.pipeline.step import compiled_for, tick_for
+from phys2d.pipeline.context import solver_of
+from phys2d.pipeline.step import compiled_for
 from phys2d.pipeline.tick import tick
 from tests.strategies import build, dts, fingerprint, responders, violent_scenes
 
@@ -54,7 +55,7 @@ def twins(make_world, make_responder):
 @pytest.mark.parametrize("scene", SCENES)
 def test_one_call_tick_is_the_staged_step(scene, responder):
     one, staged = twins(SCENES[scene], RESPONDERS[responder])
-    assert tick_for(one.responder) is not None  # the path under test is taken
+    assert solver_of(one.responder) is not None  # the path under test is taken
     touched = 0
     for _ in range(90):
         a, b = one.step(1 / 60), staged.step(1 / 60)
@@ -151,8 +152,8 @@ def test_switching_between_one_call_and_staged_steps_keeps_the_caches():
 
 
 def test_responders_without_a_one_call_tick_run_in_stages():
-    assert tick_for(phys2d.PGS(form="matrix")) is None
-    assert tick_for(phys2d.NaiveImpulse()) is None
+    assert solver_of(phys2d.PGS(form="matrix")) is None
+    assert solver_of(phys2d.NaiveImpulse()) is None
 
     class Logged(phys2d.PGS):
         def respond(self, ctx):
@@ -185,23 +186,22 @@ def test_later_steps_call_the_compiled_tick_without_dispatch():
     """From the second step the world calls the tick's machine code for its argument types
     directly (``compiled_for``): the twin tests above then compare that path with the staged one."""
     w = scenes.pyramid(3)
-    spec = tick_for(w.responder)
+    assert solver_of(w.responder) is not None
     w.step(1 / 60)
-    kernel = w._pipeline._compiled[2]
-    assert spec is not None
+    (kernel,) = w._pipeline._machine.values()
     if config.DISABLE_JIT:
         assert kernel is tick
     else:
         assert any(kernel is compiled.entry_point for compiled in tick.overloads.values())
     before = fingerprint(w)
     w.step(1 / 60)
-    assert w._pipeline._compiled[2] is kernel and fingerprint(w) != before  # it ran, and moved the pile
+    assert list(w._pipeline._machine.values()) == [kernel] and fingerprint(w) != before  # it ran, moved the pile
 
 
 def test_the_compiled_tick_is_looked_up_once_though_the_broadphase_sweeps(monkeypatch):
-    """A swinging chain leaves its fat boxes, and the world sweeps, step after step: each sweep
-    makes the world look its buffers and state over, but the tick's compiled code is kept for
-    the spec and the arguments' types (looking it up types every argument: ~0.3 ms a step)."""
+    """A swinging chain leaves its fat boxes, and the world sweeps, step after step (and the bodies
+    or joints changed before each: it sweeps whether or not they left them): the tick's compiled
+    code is kept for the arguments' types (looking it up types every argument: ~0.3 ms a step)."""
     looked_up = []
 
     def counting(kernel, args):
@@ -210,43 +210,35 @@ def test_the_compiled_tick_is_looked_up_once_though_the_broadphase_sweeps(monkey
 
     monkeypatch.setattr(step_module, "compiled_for", counting)
     w = scenes.heavy_chain(responder=phys2d.PGS())
-    swept = []
-    sweep = w._pipeline._sweep
-    monkeypatch.setattr(w._pipeline, "_sweep", lambda world: swept.append(1) or sweep(world))
     for _ in range(60):
-        w._pipeline.sweep_again = True  # as when bodies or joints change: the world sweeps between the tick's calls
+        w._pipeline.sweep_again = True  # as when bodies or joints change
         w.step(1 / 60)
-    assert len(swept) == 60  # the path under test
+        assert not w._pipeline.sweep_again  # the tick swept
     assert len(looked_up) == 1
 
 
-def test_the_tick_sweeps_for_the_pairs_itself_when_a_body_leaves_its_fat_box(monkeypatch):
+def test_the_tick_sweeps_for_the_pairs_itself_when_a_body_leaves_its_fat_box():
     """A swinging chain leaves its fat boxes nearly every step: the kernel sweeps (no call back
     to Python), and its pairs are those a brute-force test of every two fat boxes finds."""
     w = scenes.heavy_chain(responder=phys2d.SoftStep())
-    swept, in_kernel = [], 0
-    pipeline = w._pipeline
-    sweep = pipeline._sweep
-    monkeypatch.setattr(pipeline, "_sweep", lambda world: swept.append(1) or sweep(world))
+    pipeline, swept = w._pipeline, 0
     for _ in range(60):
         fat_before = pipeline.geometry[5].copy() if pipeline.geometry else None
-        python_sweeps = len(swept)
         w.step(1 / 60)
-        aabb, fat, static = pipeline.geometry[2], pipeline.geometry[5], w._bodies.static
-        in_kernel += len(swept) == python_sweeps and (
-            fat_before is None or not np.array_equal(fat, fat_before)
-        )  # fat boxes anew
+        aabb, fat, static = pipeline.geometry[2], pipeline.geometry[5], w.body_static
+        swept += fat_before is None or not np.array_equal(fat, fat_before)  # fat boxes anew: a sweep
         assert np.all(fat[:, :2] <= aabb[:, :2]) and np.all(fat[:, 2:] >= aabb[:, 2:])  # the pairs hold
+        excluded = set(w._joints.excluded.tolist())
         want = [
             (a, b)
-            for a in range(w._bodies.n)
-            for b in range(a + 1, w._bodies.n)
+            for a in range(len(w))
+            for b in range(a + 1, len(w))
             if not (static[a] and static[b])
-            and ((a << 32) | b) not in set(w._excluded.tolist())
+            and ((a << 32) | b) not in excluded
             and fat[a, 0] <= fat[b, 2] and fat[b, 0] <= fat[a, 2] and fat[a, 1] <= fat[b, 3] and fat[b, 1] <= fat[a, 3]
         ]  # fmt: skip
         assert [tuple(p) for p in pipeline.pairs[: pipeline.n_pairs].tolist()] == want
-    assert in_kernel >= 30 and len(swept) <= 10  # (the world sweeps when the pairs outgrow its buffers)
+    assert swept >= 30
 
 
 def test_compiled_for_falls_back_to_the_dispatcher_for_types_it_has_no_code_for():

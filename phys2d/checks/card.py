@@ -308,15 +308,20 @@ def check(
     )
     card = Card(responder.name, results)
     if echo is not None:
-        hints_ = card.hints()
-        if hints_:
-            echo("hints, from what the card measured:")
-            for h in hints_:
-                echo(textwrap.fill(h, 110, initial_indent="  ", subsequent_indent="      ", break_on_hyphens=False))
-        echo(card.summary())
-        if kept:
-            echo(f"the failing scenes (runs {', '.join(card.runs)}): phys2d view {kept}")
+        _summarise(card, kept, echo)
     return card
+
+
+def _summarise(card: Card, kept: str, echo: Callable[[str], Any]) -> None:
+    """The failing claims' hints, the summary, and where the failing scenes' recording is."""
+    hints_ = card.hints()
+    if hints_:
+        echo("hints, from what the card measured:")
+        for h in hints_:
+            echo(textwrap.fill(h, 110, initial_indent="  ", subsequent_indent="      ", break_on_hyphens=False))
+    echo(card.summary())
+    if kept:
+        echo(f"the failing scenes (runs {', '.join(card.runs)}): phys2d view {kept}")
 
 
 def _result(claim: Claim, o: Outcome, responder: Responder, hint: str, recording: str) -> Result:

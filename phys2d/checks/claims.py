@@ -364,7 +364,7 @@ def circles(make: Make) -> World:
 
 
 def dense_system(rows: Any, n_bodies: int, V: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A = J M^-1 J^T and b = target - J V of the normal rows (``rows.normal_row``), dense."""
+    """A = J M^-1 J^T and b = target - J V of the normal rows (``Rows.normal_row``), dense."""
     k = np.asarray(rows.normal_row)
     J, JM = dense_rows(rows, k, n_bodies)
     return J @ JM.T, target[k] - J @ V.reshape(-1)

@@ -141,7 +141,7 @@ def _excluded(excluded, a, b):
 @njit(cache=True)
 def find_pairs(shapes):
     """The broadphase anew: ``fatten`` the tight boxes into the fat ones, then ``sweep_and_prune``
-    them into ``shapes.pairs`` (their count, or minus the room needed when it is too small)."""
+    them into ``ShapeRecord.pairs`` (their count, or minus the room needed when it is too small)."""
     fatten(shapes.aabb, shapes.fat)
     filters = (shapes.category, shapes.mask, shapes.group)
     return sweep_and_prune(shapes.fat, shapes.static, shapes.excluded, shapes.pairs, filters)
@@ -170,14 +170,15 @@ def strips_of(aabb):
     lowest, highest, heights, counted = np.inf, -np.inf, 0.0, 0
     for b in range(n):
         y0, y1 = aabb[b, 1], aabb[b, 3]
-        if np.isfinite(y0) and np.isfinite(y1):
+        if np.isfinite(y1 - y0):  # (finite ends whose height overflows count as not finite)
             lowest, highest = min(lowest, y0), max(highest, y1)
             heights += y1 - y0
             counted += 1
-    if counted == 0 or not highest > lowest:
+    span = highest - lowest
+    if counted == 0 or not 0.0 < span < np.inf:
         return 0.0, 1.0, 1  # one strip: the plain sweep on x
-    height = max(STRIP_HEIGHTS * heights / counted, (highest - lowest) / max(n, 1))
-    return lowest, height, int((highest - lowest) / height) + 1
+    height = max(STRIP_HEIGHTS * heights / counted, span / max(n, 1))
+    return lowest, height, min(int(span / height), n) + 1  # (at most one strip per box, as said)
 
 
 @njit(cache=True, inline="always")

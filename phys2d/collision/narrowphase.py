@@ -406,7 +406,7 @@ def pair_friction(friction, restitution, a, b):
 
 @njit(cache=True)
 def collide_pairs(bodies, shapes, n_pairs, contact_margin, out, rounded):
-    """Manifolds of the first n_pairs candidate pairs (``shapes.pairs``) into ``out``; returns
+    """Manifolds of the first n_pairs candidate pairs (``ShapeRecord.pairs``) into ``out``; returns
     the number of points K.
 
     Points up to contact_margin + travel[a] + travel[b] apart (m) are kept as

@@ -320,6 +320,13 @@ def to_body_frame(x, theta, b, point):
     return np.array([c * p_x + s * p_y, -s * p_x + c * p_y])
 
 
+def geometry(bodies) -> tuple:
+    """The arrays the query kernels read of a world's ``BodyArrays``: (x, theta, kind, radius,
+    vstart, vcount, local_v), as they are now."""
+    b = bodies
+    return (b.x, b.theta, b.kind, b.radius, b.vstart, b.vcount, b.local_v)
+
+
 @njit(cache=True)
 def ray_shape(geometry, b, start, d):
     """The ray (start, d in body b's frame) against body b's shape, by its kind: (t, n_x, n_y),

@@ -112,7 +112,7 @@ class Joint:
         self.local_a = local_a  # anchor in body a's frame, m
         self.local_b = local_b
         self.collide_connected = collide_connected
-        # while in its world, its reactions are the world's (``World._joint_lam``, in joint order)
+        # while in its world, its reactions are the world's (``JointSet.lam``, in joint order)
         # from _offset on; once removed, the last of them, kept here
         self._impulse = np.zeros(self.row_count)
         self._offset: int | None = None
@@ -128,7 +128,7 @@ class Joint:
     def row_range(self) -> range:
         if not self._has_rows:
             return range(0)
-        start = self._world._joint_rows_first + self._rows_offset
+        start = self._world._joints.rows_first + self._rows_offset
         return range(start, start + self.row_count)
 
     @property
@@ -136,7 +136,7 @@ class Joint:
         """The reaction impulses of the joint's rows in the last step (a copy)."""
         if self._offset is None:
             return self._impulse.copy()
-        return self._world._joint_lam[self._offset : self._offset + self.row_count].copy()
+        return self._world._joints.lam[self._offset : self._offset + self.row_count].copy()
 
     def _params(self) -> tuple[float, float, float, float, float]:
         """The joint's row of the packed joint arrays' params (columns P_*; the rest are 0)."""
@@ -610,6 +610,111 @@ class JointArrays:
         self.n_rows = offset
 
 
+class JointSet:
+    """A world's joints: the handles in creation order, the same packed into flat arrays for the
+    step (``arrays``, repacked once after any number of changes, so a scene of n joints builds in
+    O(n)), their last reactions (``lam``, each step's warm start) and the pairs of bodies they
+    keep from colliding (``excluded``). What the world offers its pipeline and its islands of
+    the joints."""
+
+    def __init__(self) -> None:
+        self.handles: list[Joint] = []
+        self.mice = 0  # how many are mouse joints
+        self.rows_first = 0  # the first joint row of the last step
+        self.version = 0  # counts the changes: the pipeline reads the packed joints anew when it moves
+        self._packed = True  # arrays, lam and excluded hold the joints as they are
+        self._placed = True  # every joint knows where its rows stood in the last step
+        self._arrays = JointArrays([])
+        self._lam = np.zeros(0)
+        self._excluded = np.zeros(0, np.int64)
+
+    def __len__(self) -> int:
+        return len(self.handles)
+
+    def __bool__(self) -> bool:
+        return bool(self.handles)
+
+    def add(self, joint: Joint) -> None:
+        self.handles.append(joint)
+        self.mice += isinstance(joint, MouseJoint)
+        self.changed()
+
+    def remove(self, joint: Joint) -> None:
+        """Take ``joint`` out; its handle keeps its last reactions."""
+        joint._impulse = joint.impulse
+        joint._offset = None
+        self.handles.remove(joint)
+        self.mice -= isinstance(joint, MouseJoint)
+        joint.alive = False
+        joint._has_rows = False
+        self.changed()
+
+    def changed(self) -> None:
+        """Joints were added, removed or had their rows changed: pack them anew when next read."""
+        self._packed = False
+        self.version += 1
+
+    def params_changed(self, joint: Joint) -> None:
+        """``joint``'s parameters changed, not its rows: written into the packed arrays in place."""
+        values = joint._params()
+        self.arrays.params[self.handles.index(joint), : len(values)] = values
+
+    @property
+    def arrays(self) -> JointArrays:
+        """The joints packed into flat arrays, in creation order."""
+        if not self._packed:
+            self._pack()
+        return self._arrays
+
+    @property
+    def lam(self) -> np.ndarray:
+        """The joints' last reactions, in joint order (N s): each step's warm start."""
+        if not self._packed:
+            self._pack()
+        return self._lam
+
+    @property
+    def excluded(self) -> np.ndarray:
+        """The sorted keys (a << 32 | b, a < b) of the pairs of bodies that must not collide."""
+        if not self._packed:
+            self._pack()
+        return self._excluded
+
+    def pairs(self) -> np.ndarray:
+        """(L, 2) int64 the bodies each joint holds together."""
+        return np.array([(q.body_a._index, q.body_b._index) for q in self.handles], np.int64).reshape(-1, 2)
+
+    def _pack(self) -> None:
+        """Pack the joints (each keeps its last reactions) and the keys of the pairs they exclude."""
+        self._arrays = ja = JointArrays(self.handles)
+        lam, old = np.zeros(ja.n_rows), self._lam
+        for q, joint in enumerate(self.handles):
+            offset = int(ja.row_offset[q])
+            if joint._offset is not None:  # its reactions in the old packing (``Joint.impulse``)
+                lam[offset : offset + joint.row_count] = old[joint._offset : joint._offset + joint.row_count]
+            joint._offset = offset
+        self._lam = lam
+        self._placed = False
+        keys = [
+            (min(q.body_a._index, q.body_b._index) << 32) | max(q.body_a._index, q.body_b._index)
+            for q in self.handles
+            if not q.collide_connected
+        ]
+        self._excluded = np.unique(np.asarray(keys, np.int64))
+        self._packed = True
+
+    def store_impulses(self, first_row: int, lam: np.ndarray) -> None:
+        """Keep the reactions of the step just taken: the rows' ``lam`` from first_row on, in
+        joint order (one copy, which every joint's ``impulse`` reads)."""
+        self._lam[:] = lam[first_row : first_row + self._lam.shape[0]]
+        self.rows_first = first_row
+        if not self._placed:  # joints were added or removed since: each learns its rows' place
+            for joint in self.handles:
+                assert joint._offset is not None  # placed by _pack
+                joint._rows_offset, joint._has_rows = joint._offset, True
+            self._placed = True
+
+
 @njit(cache=True)
 def _fill_angular_row(k, a, b, sign, M_inv, rows):
     """Row k = sign * [0, 0, -1 | 0, 0, 1]: the rate of theta_b - theta_a."""
@@ -791,7 +896,7 @@ def joint_rows(joints, first_row, bodies, dt, beta, rows):
 @njit(cache=True)
 def start_joint_rows(joints, first_row, bodies, dt, beta, warm_start, rows):
     """The joints' rows (``joint_rows``, from first_row on) as a step starts them: no bounce, no
-    impact, and lambda from the joints' last reactions (``joints.lam``, in joint order) when
+    impact, and lambda from the joints' last reactions (``JointRecord.lam``, in joint order) when
     warm starting, since joints keep their identity; else from 0."""
     joint_rows(joints, first_row, bodies, dt, beta, rows)
     for r in range(first_row, first_row + joints.lam.shape[0]):

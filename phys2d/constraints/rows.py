@@ -35,8 +35,8 @@ and the row map, the one place that says which rows belong to which contact:
 Rows are stored in the order the responders visit them (``Responder.visit_order``, see
 ``constraints.order``): contact by contact in pair order (the lecture's loop), part by part
 (PGS: pair order within each part), or pair by pair in colour order (the soft step); the
-joint rows come last. ``contact_impulses()`` gives lambda_n and lambda_t back in contact
-order.
+joint rows come last. After a step, ``contacts.impulses_to_contacts_and_cache`` gives each
+contact its lambda_n and lambda_t back in contact order.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from ..contacts import find_in_cache, rows_to_contacts
+from ..contacts import find_in_cache
 from ..pipeline.records import RowRecord
 
 FRICTION_COULOMB = 0
@@ -148,15 +148,6 @@ class Rows:
         self.normal_row, self.friction_row = row_map[0][:k], row_map[1][:k]
         self.first_joint_row = contact_row_count(k)
 
-    def contact_impulses(self) -> tuple[np.ndarray, np.ndarray]:
-        """(lambda_n, lambda_t) of every contact, in contact order (N s)."""
-        k = self.n_contacts
-        lambda_n, lambda_t, impact = np.empty(k), np.empty(k), np.empty(k, np.bool_)
-        rows_to_contacts(
-            self.order, self.normal_row, self.friction_row, self.lam, self.impact, lambda_n, lambda_t, impact
-        )
-        return lambda_n, lambda_t
-
     def joint_impulses(self) -> np.ndarray:
         """lambda of the joint rows, in joint order (a copy)."""
         return self.lam[self.first_joint_row :].copy()
@@ -211,6 +202,17 @@ def row_velocity(k, a, b, J, V):
         + (J[k, 2] * V[a, 2] + J[k, 5] * V[b, 2])
         + (J[k, 3] * V[b, 0] + J[k, 4] * V[b, 1])
     )
+
+
+@njit(cache=True, inline="always")
+def clamp_accumulated(lam, k, delta, low, high):
+    """The lecture's projection: lambda_k += delta with the accumulated impulse clamped into
+    [low, high], not delta. Returns the change applied (N s), what M^-1 J_k^T acts on. Every
+    sweep's update, PGS's and the soft step's, is this one."""
+    new = min(max(lam[k] + delta, low), high)
+    applied = new - lam[k]
+    lam[k] = new
+    return applied
 
 
 @njit(cache=True, inline="always")

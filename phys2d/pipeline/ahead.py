@@ -1,7 +1,8 @@
 """Compiling on two cores: the first step of a cold numba cache, about half as long.
 
 numba compiles one function at a time, on one core. The one-call tick (``pipeline.tick``)
-calls a dozen stage kernels, each compiled once and cached on disk. On a cold cache with a
+calls ``before_solve``, the solve and ``after_solve``, and through them a dozen stage kernels,
+each compiled once and cached on disk. On a cold cache with a
 second core, ``start`` splits the work:
 
     a child process   steps a small world of the same responder: numba compiles the tick
@@ -71,7 +72,7 @@ def start(responder: Any, joints: bool, rounded: bool = False, threads: int = 1)
     first stage down; None if it cannot start."""
     try:
         child = subprocess.Popen(
-            [sys.executable, "-m", "phys2d.pipeline.ahead"],
+            [sys.executable, "-m", "phys2d.pipeline.compile_child"],
             stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -97,15 +98,14 @@ def plan(pipeline: Any, tick: Any, args: tuple) -> str:
 
 def compile_from_the_end(pipeline: Any, args: tuple) -> None:
     """Compile the stages ``pipeline.tick.tick`` calls, from the last one up, for the types the
-    tick calls them with: ``args`` are the tick's own (state, joints, stage, counts, step,
-    row_settings, pgs, soft, rounded, threads)."""
+    tick calls them with: ``args`` are the tick's own (context, settings, solver, counts)."""
     for kernel, sig in stage_jobs(pipeline, args):
         kernel.compile(sig)
 
 
 def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
-    """The stages ``pipeline.tick.tick`` calls, from the last one up, each with the argument
-    types the tick calls it with (``args`` are the tick's own)."""
+    """The heavy stage kernels ``pipeline.tick.tick`` calls, from the last one up, each with the
+    argument types the tick calls it with (``args`` are the tick's own)."""
     from ..collision.recycle import collide_recycling
     from ..constraints.joints import start_joint_rows
     from ..constraints.rows import contact_rows
@@ -113,38 +113,37 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     from ..integrate import first_too_fast
     from ..responders.pgs import pgs_step
     from ..responders.soft_step import soft_step_solve
-    from .stages import head_of_rows, order_contacts
 
-    _, joints, _, counts, step, row_settings, pgs, soft, rounded, threads = args
+    ctx, settings, solver, _ = args
     bodies, shapes, store, sides, rows = (typeof(r) for r in pipeline._records)
     found = typeof(pipeline._records[3][0])
-    i64, f64, i32 = typeof(0), typeof(0.0), typeof(np.zeros(0, np.int32))
+    i64, f64 = typeof(0), typeof(0.0)
     floats, residuals = typeof(np.zeros(0)), typeof(pipeline.residuals)
-    solve_threads = typeof(None if threads is None else (threads, np.zeros(0, np.int32)))  # (count, each body's part)
+    context = typeof(ctx)
+    joints, threads, rounded = (context.field_dict[name] for name in ("joints", "threads", "rounded"))
+    solve_threads = typeof(None if pipeline._threads == 1 else (pipeline._threads, np.zeros(0, np.int32)))
     jobs: list[tuple[Any, tuple]] = [
-        (impulses_to_contacts_and_cache, (rows, found, i64, typeof(threads))),
+        (impulses_to_contacts_and_cache, (rows, found, i64, threads)),
         (first_too_fast, (bodies.field_dict["V"], bodies.field_dict["x"], floats, f64)),
     ]
-    if pgs is not None:
-        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(pgs), residuals, typeof(joints), solve_threads)))
-    if soft is not None:
+    if solver.pgs is not None:
+        jobs.append((pgs_step, (bodies, rows, floats, f64, typeof(solver.pgs), residuals, joints, solve_threads)))
+    if solver.soft is not None:
         found_of = typeof((np.zeros(0, np.int32), np.zeros(0), np.zeros(0)))  # (order, separation, e)
         jobs.append(
-            (soft_step_solve, (bodies, rows, found_of, typeof(joints), f64, typeof(soft), residuals, solve_threads))
+            (soft_step_solve, (bodies, rows, found_of, joints, f64, typeof(solver.soft), residuals, solve_threads))
         )
-    if joints is not None:
-        jobs.append((start_joint_rows, (typeof(joints), i64, bodies, f64, f64, typeof(True), rows)))
+    if joints != typeof(None):
+        jobs.append((start_joint_rows, (joints, i64, bodies, f64, f64, typeof(True), rows)))
     cache = typeof((np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.bool_)))
     jobs += [
-        (contact_rows, (bodies, shapes, cache, found, rows, typeof(row_settings), typeof(threads))),
-        (head_of_rows, (rows, i64, i64)),
-        (order_contacts, (shapes, found, i64, typeof((0, 0, True)), i64)),
+        (contact_rows, (bodies, shapes, cache, found, rows, typeof(settings.rows), threads)),
         (
             collide_recycling,
-            (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0, 0.0)), typeof(rounded)),
+            (bodies, shapes, store, found, found, typeof((0, 0, 0, 0)), typeof((0.0, 0.0, 0.0)), rounded),
         ),
     ]
-    del sides, counts, step, i32
+    del sides
     return jobs
 
 
@@ -167,29 +166,3 @@ def one_child_per_cache() -> Iterator[None]:
     with lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the child exits
         yield
-
-
-def _child() -> None:
-    """Step a small world under the responder read from stdin (one step: every kernel it needs)."""
-    responder, joints, rounded, threads = pickle.loads(sys.stdin.buffer.read())
-    with one_child_per_cache():
-        _step_a_small_world(responder, joints, rounded, threads)
-
-
-def _step_a_small_world(responder: Any, joints: bool, rounded: bool, threads: int) -> None:
-    """One step of a small world with a box, a circle and (as asked) a capsule and a joint."""
-    from ..world import World
-
-    w = World(responder=responder, threads=threads)
-    w.add_box(position=(0.0, -0.5), half_extents=(5.0, 0.5), static=True)
-    a = w.add_box(position=(0.0, 0.5), half_extents=(0.5, 0.5))
-    b = w.add_circle(position=(2.0, 0.5), radius=0.5)
-    if rounded:
-        w.add_capsule(position=(-2.0, 0.25), half_length=0.5, radius=0.25)
-    if joints:
-        w.add_distance_joint(a, b)
-    w.step(1 / 60)
-
-
-if __name__ == "__main__":
-    _child()

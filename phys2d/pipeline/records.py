@@ -164,24 +164,31 @@ def record_of_joints(joints: object, lam: object) -> Any:
     return new_joints((*arrays_of(joints, JOINT_FIELDS[:-1]), lam))
 
 
-STATE_FIELDS = ("bodies", "shapes", "store", "sides", "rows", "undo_x", "undo_theta", "residuals", "forces")
-StepState = _record(
-    "StepState",
-    STATE_FIELDS,
-    """Everything a tick's stages read and write, as one argument: the bodies, shapes and manifold
-    store, both sides of the contact buffers (a tuple of two ContactRecords), the row buffers
-    (a RowRecord at capacity), the positions to undo a failed step with, the residual of
-    each sweep, and the forces on the bodies besides contacts: (gravity_scale (N,), damping
-    (N, 2) 1/s, force (N, 3) N and N m applied for this step).""",
+CONTEXT_FIELDS = (
+    "bodies", "shapes", "store", "sides", "rows", "undo_x", "undo_theta", "residuals", "forces", "joints", "threads",
+    "rounded",
+)  # fmt: skip
+TickContext = _record(
+    "TickContext",
+    CONTEXT_FIELDS,
+    """One step's context, handed to every stage (Box2D v3's ``b2StepContext``): the bodies, shapes
+    and manifold store, both sides of the contact buffers (a tuple of two ContactRecords), the
+    row buffers (a RowRecord at capacity), the positions to undo a failed step with, the residual
+    of each sweep, the forces on the bodies besides contacts (gravity_scale (N,), damping (N, 2)
+    1/s, force (N, 3) N and N m applied for this step), the joints (a JointRecord, or None in a
+    world without joints), the threads (a count, or None on one thread) and rounded (True in a
+    world with capsules, segments or chains, else None). The None forms let numba compile the
+    code of what is absent away (``pipeline.context``).""",
 )
 
 
 @njit(cache=True)
-def new_state(bodies, shapes, store, sides, rest):
-    """A StepState over the arrays of each record (tuples in the order of their ``*_FIELDS``;
-    sides: one per side; rest: the rows' arrays, then undo_x, undo_theta, residuals and forces),
-    and the records it holds: (state, bodies, shapes, store, (side 0, side 1), rows)."""
-    row_arrays, undo_x, undo_theta, residuals, forces = rest
+def new_context(bodies, shapes, store, sides, rest):
+    """A TickContext over the arrays of each record (tuples in the order of their ``*_FIELDS``;
+    sides: one per side; rest: the rows' arrays, undo_x, undo_theta, residuals, forces, then
+    joints, threads and rounded as they are), and the records it holds: (context, bodies,
+    shapes, store, (side 0, side 1), rows)."""
+    row_arrays, undo_x, undo_theta, residuals, forces, joints, threads, rounded = rest
     records = (
         BodyRecord(*bodies),
         ShapeRecord(*shapes),
@@ -189,4 +196,4 @@ def new_state(bodies, shapes, store, sides, rest):
         (ContactRecord(*sides[0]), ContactRecord(*sides[1])),
         RowRecord(*row_arrays),
     )
-    return (StepState(*records, undo_x, undo_theta, residuals, forces), *records)
+    return (TickContext(*records, undo_x, undo_theta, residuals, forces, joints, threads, rounded), *records)

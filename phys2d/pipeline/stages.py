@@ -1,18 +1,26 @@
-"""The stages of one tick that belong to no other module, and what they share.
+"""The stages of one tick, written once: ``before_solve`` and ``after_solve``, each one kernel.
 
-A tick, as ``pipeline.step.tick`` runs it (and ``Pipeline`` stage by stage, calling the
-same functions with the same records):
+    before_solve   begin      keep what an undo needs, V += dt M^-1 F_ext (damped), the geometry now
+                   pairs      the broadphase's pairs anew when a body left its fat box, in the
+                              responder's visit order (``constraints.order``)
+                   collide    manifolds recycled or found (``collision.recycle``), sorted by key,
+                              and the order the responder visits the contacts in
+                   rows       the contact rows J, A_kk, xi, bounds, warm started from the cache
+                              (``constraints.rows``), then the joints' rows
+    the solve      the responder's: a kernel in the one-call tick (``pipeline.tick``), or a
+                   Python ``respond`` stage by stage (``pipeline.step``)
+    after_solve    limits     no body past max_speed, no impulse or residual not finite
+                   cache      lambda per contact, and the cache the next step starts from
 
-    begin                 keep what an undo needs, V += dt M^-1 F_ext (damped), the geometry now
-    sweep                 the broadphase's pairs anew, when a body left its fat box
-    collide_recycling     manifolds recycled or found (``collision.recycle``)
-    order_contacts        the manifolds sorted for the next look-up, the solve order
-    contact_rows          the rows J, A_kk, xi, bounds, warm started (``constraints.rows``)
-    start_joint_rows      the joints' rows (``constraints.joints``)
-    the responder         PGS (``pgs_step``), the soft step, or a ``respond`` in Python
-    impulses_to_contacts_and_cache   lambda per contact, and the cache (``contacts``)
+Every stage takes the step's context (``records.TickContext``) and the step's settings
+(``StepSettings``); the two kernels also take what Python keeps between steps (``Counts``)
+and hand back what the step did (``TickResult``), both with named fields.
 
-Double buffers: the contacts come in two sides (``StepState.sides``). A step reads the side
+When a buffer is short (the pairs, the contact buffers, the manifold store) ``before_solve``
+stops and says so; Python grows it and calls again, resuming where it stopped
+(``Counts.resume``): the forces are not applied twice.
+
+Double buffers: the contacts come in two sides (``TickContext.sides``). A step reads the side
 the last good step wrote (its cache, its manifolds' keys) and writes the other; only a step
 that succeeds makes its side current, so one that fails leaves the last good step as it was.
 """
@@ -25,32 +33,42 @@ import numpy as np
 from numba import njit
 
 from ..collision.broadphase import find_pairs, update_geometry_on
+from ..collision.recycle import collide_recycling_on, has_room
 from ..collision.sort import stable_argsort
+from ..constraints.joints import start_joint_rows
 from ..constraints.order import PAIR_ORDER, order_pairs, solve_order
-from ..integrate import apply_external_forces
+from ..constraints.rows import RowSettings, contact_rows
+from ..contacts import impulses_to_contacts_and_cache
+from ..integrate import apply_external_forces, first_too_fast
 from .records import RowRecord
 
+# TickResult.status
 OK = 0
-NEED_SWEEP = 1  # a body left its fat box (or the bodies changed): sweep, then go on at stage 1
+NEED_PAIRS = 1  # the pair buffer is short: Python grows it (to TickResult.n_pairs) and resumes at SWEEP
 TOO_FAST = 2  # a body ended the step past max_speed or not finite: undo and raise
-NEED_ROOM = 3  # the manifold store has no room for this step's new manifolds: make it, then go on at stage 1
-BAD_STATE = 4  # a body's x, theta, V or M^-1, as written between steps, cannot be stepped: refuse, nothing changed
-NOT_FINITE = 5  # the responder left a non-finite impulse or residual: undo and refuse
+NEED_ROOM = 3  # the manifold store or the contact buffers are short: Python makes room, resumes at COLLIDE
+BAD_STATE = 4  # a body's x, theta, V or M^-1, as written between steps, cannot be stepped: refused, nothing changed
+NOT_FINITE = 5  # the solve left a non-finite impulse or residual: undo and refuse
+
+# Counts.resume: where before_solve starts
+START = 0  # a new step: begin
+SWEEP = 1  # begun: the pairs anew
+COLLIDE = 2  # begun, the pairs found: collide
 
 
 class StepSettings(NamedTuple):
-    """What the world sets for a step."""
+    """What the world and the responder set for a step, as the stages read it."""
 
     gravity: np.ndarray  # (2,) m/s^2
-    g: float  # |gravity|, m/s^2 (the lecture's friction bound)
     dt: float  # s
     contact_margin: float  # m
     recycle_distance: float  # m
     max_speed: float  # m/s or rad/s
+    rows: RowSettings  # how the contact rows are built (``constraints.rows``)
 
 
 class Counts(NamedTuple):
-    """What Python keeps of the last good step (side ``side``), and the pairs now."""
+    """What Python keeps of the last good step (on side ``side``), the pairs now, and where to start."""
 
     side: int  # the side of the buffers the last good step wrote
     n_pairs: int  # the broadphase's pairs
@@ -59,24 +77,91 @@ class Counts(NamedTuple):
     rows_used: int  # the manifold store's rows taken
     points_used: int  # and its points
     visit: int  # the order the responder visits the pairs in (``constraints.order``)
-    sweep_again: bool  # the bodies or joints changed: Python sweeps
+    ordered: int  # the order the pair buffer holds them in now
+    sweep_again: bool  # the bodies or joints changed: sweep whether or not a body left its fat box
+    resume: int  # START, SWEEP or COLLIDE
+
+
+class TickResult(NamedTuple):
+    """What a step did (``before_solve``, ``after_solve``, ``tick``)."""
+
+    status: int  # OK or why it stopped
+    side: int  # the side of the contact buffers the step writes
+    n_pairs: int  # the broadphase's pairs (with NEED_PAIRS: the room they need)
+    ordered: int  # the order the pair buffer holds them in
+    contacts: int  # K, the step's contact points
+    manifolds: int  # the manifolds found or recycled
+    recycled: int  # of which recycled
+    rows_used: int  # the manifold store's rows taken after the step
+    points_used: int  # and its points
+    hits: int  # contacts warm started from the cache
+    deepest: float  # the deepest overlap at collision time, m
+    solved: int  # the solve's sweeps or sub-steps
 
 
 @njit(cache=True)
-def head_of_rows(rows, k, n):
-    """The first n rows (and K contacts' row map) of the row buffers: the step's rows."""
-    return RowRecord(
-        rows.normal_row[:k], rows.friction_row[:k], rows.body_a[:n], rows.body_b[:n], rows.J[:n], rows.JM[:n],
-        rows.A_kk[:n], rows.xi[:n], rows.push[:n], rows.bounce[:n], rows.impact[:n], rows.lo[:n], rows.hi[:n],
-        rows.bound_row[:n], rows.mu[:n], rows.lam[:n],
+def result(status, counts, n_pairs, ordered):
+    """A TickResult that stopped before the contacts (status), the pairs as they are."""
+    return TickResult(
+        status, 1 - counts.side, n_pairs, ordered, 0, 0, 0, counts.rows_used, counts.points_used, 0, 0.0, 0
+    )
+
+
+@njit(cache=True)
+def flat(r):
+    """``r``'s fields as a plain tuple, in TickResult's order: what the one-call tick hands back to
+    Python (a tuple crosses into Python for a fifth of what a named tuple costs;
+    ``TickResult._make`` names its fields again)."""
+    return (
+        r.status, r.side, r.n_pairs, r.ordered, r.contacts, r.manifolds, r.recycled, r.rows_used, r.points_used,
+        r.hits, r.deepest, r.solved,
     )  # fmt: skip
 
 
 @njit(cache=True)
-def first_bad_body(x, theta, V, M_inv, static):
+def with_status(r, status, count):
+    """``r`` with another status and the solve's count."""
+    return TickResult(
+        status, r.side, r.n_pairs, r.ordered, r.contacts, r.manifolds, r.recycled, r.rows_used, r.points_used, r.hits,
+        r.deepest, count,
+    )  # fmt: skip
+
+
+# -- before the solve ----------------------------------------------------------------------------
+@njit(cache=True)
+def before_solve(ctx, settings, counts):
+    """The stages before the solve: begin, the pairs, collide, the rows. Stops (TickResult.status)
+    when the state written between steps cannot be stepped (BAD_STATE, nothing changed), or
+    when a buffer is short (NEED_PAIRS, NEED_ROOM): Python makes room and calls again with
+    ``counts.resume`` where it stopped."""
+    n_pairs, ordered = counts.n_pairs, counts.ordered
+    if counts.resume == START:
+        if first_bad_body(ctx) >= 0:
+            return result(BAD_STATE, counts, n_pairs, ordered)
+        fits = begin(ctx, settings)
+        if counts.sweep_again or not fits:
+            n_pairs, ordered = -1, PAIR_ORDER  # (swept below)
+    if n_pairs < 0 or counts.resume == SWEEP:
+        n_pairs, ordered = pairs(ctx, counts.visit)
+        if n_pairs < 0:
+            return result(NEED_PAIRS, counts, -n_pairs, PAIR_ORDER)
+    if n_pairs > ctx.shapes.pair_order.shape[0] or not store_has_room(ctx, counts, n_pairs):
+        return result(NEED_ROOM, counts, n_pairs, ordered)
+    if ordered != counts.visit:
+        ordered = in_visit_order(ctx, n_pairs, counts.visit)
+    k, n_new, recycled, rows_used, points_used = collide(ctx, settings, counts, n_pairs)
+    deepest, hits = rows(ctx, settings, counts, k)
+    return TickResult(
+        OK, 1 - counts.side, n_pairs, ordered, k, n_new, recycled, rows_used, points_used, hits, deepest, 0
+    )
+
+
+@njit(cache=True)
+def first_bad_body(ctx):
     """The first body whose state, as written between steps (``w.x``, ``w.theta``, ``w.V``,
     ``w.M_inv``), a step cannot take: not finite, M^-1 < 0, or M^-1 > 0 on a body of infinite
-    mass (``static``: static, kinematic or asleep); -1 when every body is fine."""
+    mass (static, kinematic or asleep); -1 when every body is fine."""
+    x, theta, V, M_inv, static = ctx.bodies.x, ctx.bodies.theta, ctx.bodies.V, ctx.bodies.M_inv, ctx.shapes.static
     for i in range(x.shape[0]):
         if not (np.isfinite(x[i, 0]) and np.isfinite(x[i, 1]) and np.isfinite(theta[i])):
             return i
@@ -88,67 +173,152 @@ def first_bad_body(x, theta, V, M_inv, static):
 
 
 @njit(cache=True)
-def all_finite(values, n):
-    """Whether values[:n] are all finite (a responder's impulses lambda, its residuals)."""
-    for k in range(n):
-        if not np.isfinite(values[k]):
+def begin(ctx, settings):
+    """Keep x and theta to undo (and V as V1, the velocity the tick began with), add the
+    external forces to V, and update the geometry (on the context's threads); returns whether
+    last step's pairs still hold (every tight box inside its fat box)."""
+    b = ctx.bodies
+    for i in range(b.x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
+        ctx.undo_x[i, 0], ctx.undo_x[i, 1], ctx.undo_theta[i] = b.x[i, 0], b.x[i, 1], b.theta[i]
+        b.V1[i, 0], b.V1[i, 1], b.V1[i, 2] = b.V[i, 0], b.V[i, 1], b.V[i, 2]
+    apply_external_forces(b.V, b.M_inv, ctx.forces, settings.gravity, settings.dt)
+    return update_geometry_on(ctx.threads, b, ctx.shapes, settings.dt, settings.contact_margin)
+
+
+@njit(cache=True)
+def pairs(ctx, visit):
+    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), in the order the
+    responder visits them (``in_visit_order``). Returns (their count, the order they are in), or
+    (minus the room needed, PAIR_ORDER) when they would not fit the pair buffer."""
+    n_pairs = find_pairs(ctx.shapes)
+    if n_pairs < 0 or n_pairs > ctx.shapes.pair_order.shape[0]:
+        return n_pairs, PAIR_ORDER
+    return n_pairs, in_visit_order(ctx, n_pairs, visit)
+
+
+@njit(cache=True)
+def in_visit_order(ctx, n_pairs, visit):
+    """The pairs' visit order (``pair_order``, and each body's ``part``, from the centres x:
+    ``constraints.order.order_pairs``); in pair order, none. Returns the order they are in."""
+    shapes = ctx.shapes
+    if visit != PAIR_ORDER:
+        ordered = order_pairs(shapes.pairs, n_pairs, shapes.static, ctx.bodies.x, shapes.part, visit)
+        for p in range(n_pairs):
+            shapes.pair_order[p] = ordered[p]
+    return visit
+
+
+@njit(cache=True)
+def store_has_room(ctx, counts, n_pairs):
+    """Whether the manifold store has room for a new manifold per pair (Python makes it if not)."""
+    store = ctx.store
+    return has_room(store.found_pose.shape[0], counts.rows_used, store.anchor.shape[0], counts.points_used, n_pairs)
+
+
+@njit(cache=True)
+def collide(ctx, settings, counts, n_pairs):
+    """Collision -> contacts: each pair's manifold recycled or found, into the side the last step
+    did not write; then the manifolds sorted by key for the next step's look-up, and the order
+    the responder visits the contacts in. Returns (K contacts, manifolds, recycled, the store's
+    rows and points used)."""
+    old, new = ctx.sides[counts.side], ctx.sides[1 - counts.side]
+    now = (n_pairs, counts.manifolds, counts.rows_used, counts.points_used)
+    margins = (settings.contact_margin, settings.recycle_distance, settings.dt)
+    k, n_new, recycled, rows_used, points_used, ascends = collide_recycling_on(
+        ctx.threads, ctx.bodies, ctx.shapes, ctx.store, old, new, now, margins, ctx.rounded
+    )
+    if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
+        by_key = stable_argsort(new.manifold_key[:n_new])
+        keys, store_rows = new.manifold_key[:n_new].copy(), new.manifold_row[:n_new].copy()
+        for i in range(n_new):
+            new.manifold_key[i], new.manifold_row[i] = keys[by_key[i]], store_rows[by_key[i]]
+    if counts.visit != PAIR_ORDER:  # the pairs' order, point by point
+        in_order = solve_order(ctx.shapes.pair_order[:n_pairs], new.pair_start[: n_pairs + 1])
+        for q in range(k):
+            new.order[q] = in_order[q]
+    else:
+        for q in range(k):
+            new.order[q] = q
+    return k, n_new, recycled, rows_used, points_used
+
+
+@njit(cache=True)
+def rows(ctx, settings, counts, k):
+    """Contacts and cache -> constraint rows: the K contacts' rows, warm started from the cache the
+    last step left (``constraints.rows.contact_rows``), then the joints' rows. Returns (the
+    deepest overlap m, the contacts warm started)."""
+    old, new = ctx.sides[counts.side], ctx.sides[1 - counts.side]
+    step_rows = rows_of(ctx, k)
+    kc = counts.contacts
+    cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
+    deepest, hits = contact_rows(ctx.bodies, ctx.shapes, cache, new, step_rows, settings.rows, ctx.threads)
+    joint_rows(ctx.joints, ctx, settings, k, step_rows)
+    return deepest, hits
+
+
+@njit(cache=True)
+def joint_rows(joints, ctx, settings, k, step_rows):
+    """The joints' rows after the K contacts' (none in a world without joints: ``joints`` None)."""
+    if joints is not None:
+        r = settings.rows
+        start_joint_rows(joints, 2 * k, ctx.bodies, settings.dt, r.beta, r.warm_start, step_rows)
+
+
+@njit(cache=True)
+def rows_of(ctx, k):
+    """The step's rows: the first 2 K + joint rows of the row buffers, and the K contacts' row map."""
+    n = 2 * k + n_joint_rows(ctx.joints)
+    r = ctx.rows
+    return RowRecord(
+        r.normal_row[:k], r.friction_row[:k], r.body_a[:n], r.body_b[:n], r.J[:n], r.JM[:n], r.A_kk[:n], r.xi[:n],
+        r.push[:n], r.bounce[:n], r.impact[:n], r.lo[:n], r.hi[:n], r.bound_row[:n], r.mu[:n], r.lam[:n],
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def n_joint_rows(joints):
+    """The joints' rows (0 without joints)."""
+    if joints is None:
+        return 0
+    return joints.lam.shape[0]
+
+
+# -- after the solve ------------------------------------------------------------------------------
+@njit(cache=True)
+def after_solve(ctx, settings, before, count):
+    """The stages after the solve of ``count`` sweeps or sub-steps: the limits (TOO_FAST: a body
+    past max_speed or not finite; NOT_FINITE: an impulse, or one of the ``count`` residuals, not
+    finite; Python undoes the step), then lambda per contact and the cache the next step starts
+    from. Returns ``before`` with the status and the count."""
+    status = limits(ctx, settings, before.contacts, count)
+    if status == OK:
+        cache(ctx, before)
+    return with_status(before, status, count)
+
+
+@njit(cache=True)
+def limits(ctx, settings, k, count):
+    """OK, TOO_FAST or NOT_FINITE (``after_solve``) for a step of K contacts and ``count`` residuals."""
+    b = ctx.bodies
+    if first_too_fast(b.V, b.x, b.theta, settings.max_speed) >= 0:
+        return TOO_FAST
+    if not (all_finite(ctx.rows.lam[: 2 * k + n_joint_rows(ctx.joints)]) and all_finite(ctx.residuals[:count])):
+        return NOT_FINITE
+    return OK
+
+
+@njit(cache=True)
+def all_finite(values):
+    """Whether every value is finite (a responder's impulses lambda, its residuals)."""
+    for v in values:
+        if not np.isfinite(v):
             return False
     return True
 
 
 @njit(cache=True)
-def begin(s, gravity, dt, margin, threads):
-    """Keep x and theta to undo (and V as V1, the velocity the tick began with), add the
-    external forces to V, and update the geometry (on ``threads``, or one thread when None);
-    returns whether last step's pairs still hold (every tight box inside its fat box)."""
-    b = s.bodies
-    for i in range(b.x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
-        s.undo_x[i, 0], s.undo_x[i, 1], s.undo_theta[i] = b.x[i, 0], b.x[i, 1], b.theta[i]
-        b.V1[i, 0], b.V1[i, 1], b.V1[i, 2] = b.V[i, 0], b.V[i, 1], b.V[i, 2]
-    apply_external_forces(b.V, b.M_inv, s.forces, gravity, dt)
-    return update_geometry_on(threads, b, s.shapes, dt, margin)
-
-
-@njit(cache=True)
-def sweep(shapes, x, visit):
-    """The broadphase's pairs anew (``collision.broadphase.find_pairs``), put in the order the
-    responder visits them in (``pair_order``, and the bodies' ``part``, from their centres x:
-    ``constraints.order.order_pairs``) unless that is pair order. Returns their count, or minus
-    the room needed when they would not fit the pair buffer: then Python grows it."""
-    n_pairs = find_pairs(shapes)
-    if visit != PAIR_ORDER and 0 <= n_pairs <= shapes.pair_order.shape[0]:
-        ordered = order_pairs(shapes.pairs, n_pairs, shapes.static, x, shapes.part, visit)
-        for p in range(n_pairs):
-            shapes.pair_order[p] = ordered[p]
-    return n_pairs
-
-
-@njit(cache=True)
-def in_row_order(values, order, k):
-    """values[order[q]] for q < k: a per-contact array gathered into row order (row pair q is
-    contact order[q])."""
-    out = np.empty(k)
-    for q in range(k):
-        out[q] = values[order[q]]
-    return out
-
-
-@njit(cache=True)
-def order_contacts(shapes, found, n_pairs, counts, visit):
-    """After ``collide_recycling``: the step's manifolds sorted by key for the next step's look-up
-    (when they do not ascend already), and the order the responder visits the contacts in: its
-    pairs' (``pair_order``: by part, then colour) or pair order (``constraints.order``). counts =
-    (K contacts, manifolds, whether their keys ascend)."""
-    k, n_new, ascends = counts
-    if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
-        by_key = stable_argsort(found.manifold_key[:n_new])
-        keys, rows = found.manifold_key[:n_new].copy(), found.manifold_row[:n_new].copy()
-        for i in range(n_new):
-            found.manifold_key[i], found.manifold_row[i] = keys[by_key[i]], rows[by_key[i]]
-    if visit != PAIR_ORDER:
-        in_order = solve_order(shapes.pair_order[:n_pairs], found.pair_start[: n_pairs + 1])
-        for q in range(k):
-            found.order[q] = in_order[q]
-    else:
-        for q in range(k):
-            found.order[q] = q
+def cache(ctx, before):
+    """Each contact's lambda_n, lambda_t read off its rows, and what the cache keeps of them, on
+    the side this step wrote (``contacts.impulses_to_contacts_and_cache``)."""
+    k = before.contacts
+    impulses_to_contacts_and_cache(ctx.rows, ctx.sides[before.side], k, ctx.threads)  # (rows at capacity: K read)

@@ -207,7 +207,7 @@ class Run:
 
         quantity  'lambda' (values (n, 2): lambda_n, lambda_t in N s), 'penetration' ((n,),
                   -separation in mm: ``schema.PENETRATION_UNIT``) or 'reaction' (joint rows, (n,) N s)
-        key       a contact key from ``contacts.key`` or an entity name from ``series_keys``
+        key       a contact key from ``Contacts.key`` or an entity name from ``series_keys``
         """
         family = self._family(quantity)
         if isinstance(key, (int, np.integer)) and not isinstance(key, bool):

@@ -287,7 +287,7 @@ class Recorder:
         self._finalizer = weakref.finalize(self, _State.close, self._state)
 
     def log(self, world, *, run: str | None = None) -> None:
-        """Buffer the world's current state as tick ``world.tick`` (of run ``run``)."""
+        """Buffer the world's current state as tick ``World.tick`` (of run ``run``)."""
         from ..world import World
 
         if self._state.closed:

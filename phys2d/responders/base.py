@@ -4,8 +4,8 @@ A responder turns the constraint rows of a step into impulses: it changes the
 velocities V in place, and may move positions itself (push-apart, split push,
 sub-steps, the restitution pass after the move). The world builds the rows with
 the responder's own Baumgarte factor, slop, push cap, bounce threshold and friction
-model, fills ``rows.lam`` with the cached impulses when the responder asks for warm
-starting, calls ``respond`` and reads the impulses back from ``rows.lam``.
+model, fills ``ctx.rows.lam`` with the cached impulses when the responder asks for warm
+starting, calls ``respond`` and reads the impulses back from ``ctx.rows.lam``.
 """
 
 from __future__ import annotations
@@ -89,6 +89,21 @@ class SolveResult:
         if not isinstance(self.integrated, (bool, np.bool_)):
             raise TypeError(f"SolveResult: integrated must be True or False, got {self.integrated!r}")
         self.integrated = bool(self.integrated)
+
+
+def check_joints_supported(responder: Responder, joints: bool, mice: bool) -> None:
+    """Refuse a responder that cannot solve the joints of a world with ``joints`` (and mouse joints,
+    ``mice``): ValueError saying which responders can."""
+    if joints and not responder.handles_joints:
+        raise ValueError(
+            f"responder {responder.name!r} cannot solve joints: it handles contact pairs only "
+            "(as the lecture's naive takes do); use phys2d.PGS() or phys2d.SoftStep() in a world with joints"
+        )
+    if mice and not responder.solves_mouse_joints:
+        raise ValueError(
+            f"responder {responder.name!r} cannot solve mouse joints: their soft pull has a solve of its own "
+            "(phys2d.responders.mouse); use phys2d.PGS() or phys2d.SoftStep()"
+        )
 
 
 EMPTY = np.zeros(0)
@@ -231,7 +246,7 @@ class Responder:
                     a large scene's sweeps can then share the work among threads; a scene
                     of fewer than ``PARTS_FROM`` moving bodies keeps pair order exactly
     contacts_in_row_order  whether StepContext's contact arrays come gathered into row order;
-                    False: the world's own, in contact order (``rows.order`` maps), for a
+                    False: the world's own, in contact order (``ctx.rows.order`` maps), for a
                     responder that gathers the few fields it reads in a kernel of its own
     lecture_take  (optional, a subclass's) which of the lecture's naive takes it is, 'naive' or
                     'iterative': the report card then notes the failures the lecture predicts
@@ -243,6 +258,14 @@ class Responder:
                     bounce, lo, hi, bound_row) and their JM. False (the soft step: its push
                     comes from C, its cone from mu) lets the world skip them in the
                     responder's own one-call tick; ``respond`` is always given them all
+    kernel          the name of the compiled solve that does what its ``respond`` does
+                    (``pipeline.context.KERNELS``: "pgs", "soft-step"), which the world then
+                    runs inside its one-call tick with ``settings``; None (the default): the
+                    world calls ``respond`` from Python, stage by stage. A class that writes its
+                    own ``respond`` solves with it (kernel None) unless it names a kernel too
+    respond_replaced  True once an instance is given a ``respond`` of its own (a test's spy,
+                    say): the world then calls it, stage by stage, whatever ``kernel`` says
+    version         counts the changes to its settings: the world reads them again when it moves
     """
 
     counts = "iterations"  # what StepReport.count counts for this responder
@@ -258,6 +281,15 @@ class Responder:
     contacts_in_row_order = True
     found_lever_arms = False
     reads_targets = True
+    kernel: str | None = None
+    respond_replaced = False
+    version = 0
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        """A class that writes its own ``respond`` solves with it, unless it names its kernel too."""
+        super().__init_subclass__(**kwargs)
+        if "respond" in vars(cls) and "kernel" not in vars(cls):
+            cls.kernel = None
 
     @property
     def visit_order(self) -> int:
@@ -265,15 +297,16 @@ class Responder:
         COLOUR_ORDER with ``colour_order``, else PART_ORDER with ``part_order``, else PAIR_ORDER."""
         return COLOUR_ORDER if self.colour_order else PART_ORDER if self.part_order else PAIR_ORDER
 
-    def __getstate__(self) -> dict:
-        """A copy (pickle, deepcopy) leaves out the world's note of its settings (``pipeline.step.spec_of``)."""
-        state = self.__dict__.copy()
-        state.pop("_tick_spec", None)
-        return state
-
     def __setattr__(self, name: str, value: object) -> None:
         super().__setattr__(name, value)  # a Setting checks the value here
-        self.__dict__.pop("_tick_spec", None)  # the world reads its settings again for the next step
+        if name == "respond":  # a respond of the instance's own (a test's spy, say): it solves with it
+            object.__setattr__(self, "respond_replaced", True)
+        object.__setattr__(self, "version", self.version + 1)  # the world reads its settings again
+
+    @property
+    def settings(self) -> object:
+        """Its settings as its solve kernel reads them, plain values (``kernel``); None without one."""
+        return None
 
     def _take(self, arguments: dict[str, object]) -> None:
         """Assign a constructor's arguments (its ``locals()``) in the signature's order, each
@@ -314,14 +347,14 @@ class Responder:
 
         To do: apply the warm start, V += M^-1 J^T lambda (``JM[k] * lam[k]`` on bodies a, b);
         sweep the rows, clamping each accumulated lambda_k into its bounds; leave each row's
-        impulse in ``rows.lam`` (N s); return ``SolveResult(iterations, residuals)``, the
+        impulse in ``ctx.rows.lam`` (N s); return ``SolveResult(iterations, residuals)``, the
         work done (counted in ``counts``) and each one's residual (m/s).
 
         After it, unless ``SolveResult.integrated`` says the responder moved ``ctx.x`` and
         ``ctx.theta`` itself, the world moves them (x += dt v, theta += dt omega) and bounces
-        the contacts that met their partner within the step (``rows.bounce``). It refuses a
+        the contacts that met their partner within the step (``ctx.rows.bounce``). It refuses a
         non-finite or too fast state (``SimulationError``), and a step that fails, or whose
         ``respond`` raises, leaves the world as before it. Then it reports and caches
-        ``rows.lam``.
+        ``ctx.rows.lam``.
         """
         raise NotImplementedError

@@ -41,6 +41,7 @@ from ..constraints.rows import (
     FRICTION_COULOMB,
     FRICTION_LECTURE,
     apply_row_impulse,
+    clamp_accumulated,
     pair_row_impulse,
     pair_row_velocity,
     pair_velocity,
@@ -50,6 +51,7 @@ from ..constraints.rows import (
     unsigned_indices,
 )
 from ..integrate import integrate_positions
+from ..pipeline.context import pgs_kernel
 from ..pipeline.parallel import largest, manifold_groups
 from ..pipeline.records import RowRecord, new_bodies, record_of_joints, record_of_rows
 from ..validation import (
@@ -115,9 +117,7 @@ def sweep(rows, V, visit):
             store_pair_velocity(a_held, b_held, V_ab, V)
             a_held, b_held, V_ab = a, b, pair_velocity(a, b, V)
         delta = xi_hat[k] - pair_row_velocity(k, J_hat, V_ab)  # (xi_k - J_k V) / A_kk
-        new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
-        delta = new - lam[k]
-        lam[k] = new
+        delta = clamp_accumulated(lam, k, delta, low, high)  # clamp the accumulated impulse, not delta
         V_ab = pair_row_impulse(k, JM, delta, V_ab)  # V += M^-1 J_k^T delta
         worst = max(worst, abs(delta) * A_kk[k])
     store_pair_velocity(a_held, b_held, V_ab, V)
@@ -170,9 +170,7 @@ def solve_row(k, a, b, bounds, J_hat, JM, A_kk, xi_hat, lam, V):
     if A_kk[k] <= 0.0 or (high == 0.0 and lam[k] == 0.0):
         return 0.0  # both bodies static, or friction of a point that does not push: nothing to do
     delta = xi_hat[k] - row_velocity(k, a, b, J_hat, V)  # (xi_k - J_k V) / A_kk
-    new = min(max(lam[k] + delta, low), high)  # clamp the accumulated impulse, not delta
-    delta = new - lam[k]
-    lam[k] = new
+    delta = clamp_accumulated(lam, k, delta, low, high)  # clamp the accumulated impulse, not delta
     apply_row_impulse(k, a, b, JM, delta, V)  # V += M^-1 J_k^T delta
     return abs(delta) * A_kk[k]
 
@@ -183,7 +181,7 @@ def block_sweep(rows, rows_hat, V, joint_rows):
     rows together (``solve_normal_pair``, on ``rows``), then its friction rows; other contacts
     row by row (``solve_row``, on ``rows_hat``, the same rows per unit A_kk), and the joint
     rows ``joint_rows`` in a ``sweep``. Returns the largest |delta lambda_k| A_kk (m/s). With no
-    friction rows (``rows.friction_row`` empty) only the normal rows are swept."""
+    friction rows (``RowRecord.friction_row`` empty) only the normal rows are swept."""
     worst = block_sweep_of(0, rows_hat.normal_row.shape[0], rows, rows_hat, V)
     return max(worst, sweep(rows_hat, V, joint_rows))
 
@@ -439,15 +437,14 @@ def keep_joint_push(rows, lam_push, V):
 
 class PGSSettings(NamedTuple):
     """What ``pgs_step`` is told besides the rows: sweeps at most; the residual (m/s) that
-    stops them (-1.0: never); ``block``, True for Box2D's block sweep (``block_sweep``) or
-    None for the lecture's row-by-row sweep, not False: numba compiles a function once per
-    type of its arguments and settles ``block is None`` when it compiles, so a PGS compiles
-    only the sweep it uses (the block sweep takes seconds to compile); and ``split``, whether
-    the push goes through pseudo-velocities of its own (``push_out``) or into xi."""
+    stops them (None: never); ``block``, Box2D's block sweep (``block_sweep``) or the lecture's
+    row-by-row sweep; and ``split``, whether the push goes through pseudo-velocities of its own
+    (``push_out``) or into xi. ``pipeline.context.pgs_kernel`` gives them in the kernel's forms:
+    tolerance -1.0 for None, block True or None (numba then compiles only the sweep used)."""
 
     iterations: int
-    tolerance: float
-    block: bool | None
+    tolerance: float | None
+    block: bool
     split: bool
 
 
@@ -456,8 +453,9 @@ def pgs_step(bodies, rows, separation, dt, settings, residuals, joints, threads)
     """``PGS.respond`` in one call on the bodies' record and the step's rows: warm start and
     sweeps on V, the push pass (split) or the push inside xi (not split), positions moved,
     then the restitution pass. ``separation``: (K,) each contact's C (m) in row order;
-    ``residuals``: each sweep's; ``joints``: the JointRecord (for its mouse joints), or None
-    in a world without joints; threads: None on one thread (no parallel code is compiled), else
+    ``settings``: ``pipeline.context.PGSKernel``; ``residuals``: each sweep's; ``joints``: the
+    JointRecord (for its mouse joints), or None in a world without joints; threads: None on one
+    thread (no parallel code is compiled), else
     (count, each body's part of the solve order): the sweeps run on several threads
     (``sweep_in_groups``), with the same results. Returns the sweeps made on A lambda = b."""
     iterations, tolerance, block, split = settings
@@ -599,16 +597,21 @@ class PGS(Responder):
         self._block = value
 
     @property
+    def kernel(self) -> str | None:  # type: ignore[override]  # (a property where the base has a name)
+        """'pgs': its solve is ``pgs_step``, in the world's one-call tick; None in matrix form."""
+        return "pgs" if self.form == "impulse" else None
+
+    @property
     def settings(self) -> PGSSettings:
-        """The settings ``pgs_step`` takes (tolerance -1.0 for None; block True or None)."""
-        tol = -1.0 if self.tolerance is None else self.tolerance
-        return PGSSettings(self.iterations, tol, True if self.block else None, self.split)
+        """The settings ``pgs_step`` reads, plain values."""
+        return PGSSettings(self.iterations, self.tolerance, self.block, self.split)
 
     def respond(self, ctx: StepContext) -> SolveResult:
         r = ctx.rows
         if self.form == "matrix":
             xi = r.xi if self.split else r.xi + r.push  # the lecture: the push is part of the target
-            return solve_matrix_form(ctx, xi, self.iterations, self.settings.tolerance, self.split)
+            tolerance = -1.0 if self.tolerance is None else self.tolerance
+            return solve_matrix_form(ctx, xi, self.iterations, tolerance, self.split)
         residuals = np.zeros(self.iterations)
         bodies = new_bodies((ctx.x, ctx.theta, ctx.V, ctx.M_inv, ctx.V1))
         joints = None  # a world without joints compiles none of their code
@@ -617,7 +620,8 @@ class PGS(Responder):
         threads = None  # one thread: no parallel code compiled
         if ctx.threads > 1:  # (without the parts every contact is in part 0: solved on one thread)
             threads = (ctx.threads, ctx.part if ctx.part is not None else np.zeros(ctx.x.shape[0], np.int32))
-        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, self.settings, residuals, joints, threads)
+        kernel = pgs_kernel(self.settings)
+        n = pgs_step(bodies, record_of_rows(r), ctx.separation, ctx.dt, kernel, residuals, joints, threads)
         return SolveResult(n, residuals[:n], integrated=True)
 
     def __repr__(self) -> str:

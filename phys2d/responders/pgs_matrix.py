@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from ..constraints.joints import JOINT_MOUSE, OWN_SOLVE, JointArrays
-from ..constraints.rows import Rows, coupling, push_rows
+from ..constraints.rows import Rows, clamp_accumulated, coupling, push_rows
 from ..pipeline.records import record_of_joints
 from .base import SolveResult, StepContext
 from .mouse import clamp_to_disk, has_mouse, mouse_springs
@@ -457,9 +457,8 @@ def pgs_matrix_sweep(A, A_kk, b, lo, hi, bound_row, mu, x, mass_scale):
         else:
             low = lo[k]
             top = hi[k]
-        new = min(max(x[k] + delta, low), top)
-        worst = max(worst, abs(new - x[k]) * A_kk[k])
-        x[k] = new
+        delta = clamp_accumulated(x, k, delta, low, top)  # clamp the accumulated impulse, not delta
+        worst = max(worst, abs(delta) * A_kk[k])
     k = 0
     while k < x.shape[0]:  # after the sweep, as the impulse form's solve_mice
         if bound_row[k] == OWN_SOLVE:
@@ -543,9 +542,8 @@ def push_matrix_solve(visit, A, A_kk, push, lo, hi, x_push, iterations, toleranc
         for k in visit:
             if A_kk[k] <= 0.0:
                 continue
-            new = min(max(x_push[k] + (push[k] - csr_row_dot(A, k, x_push)) / A_kk[k], lo[k]), hi[k])
-            worst = max(worst, abs(new - x_push[k]) * A_kk[k])
-            x_push[k] = new
+            delta = clamp_accumulated(x_push, k, (push[k] - csr_row_dot(A, k, x_push)) / A_kk[k], lo[k], hi[k])
+            worst = max(worst, abs(delta) * A_kk[k])
         if worst <= tolerance:
             return s + 1
     return iterations

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..constraints.rows import MET, apply_row_impulse, row_velocity
+from ..constraints.rows import MET, apply_row_impulse, clamp_accumulated, row_velocity
 from ..integrate import integrate_positions
 from ..pipeline.records import record_of_rows
 from .base import StepContext
@@ -64,9 +64,7 @@ def restitution_pass(rows, bouncing, V, iterations, tolerance):
                 continue
             k, kt = normal_row[q], friction_row[q]
             a, b = body_a[k], body_b[k]
-            new = max(lam[k] + (bounce[k] - row_velocity(k, a, b, J, V)) / A_kk[k], 0.0)
-            d = new - lam[k]
-            lam[k] = new
+            d = clamp_accumulated(lam, k, (bounce[k] - row_velocity(k, a, b, J, V)) / A_kk[k], 0.0, np.inf)
             apply_row_impulse(k, a, b, JM, d, V)
             worst = max(worst, abs(d) * A_kk[k])
             if bound_row[kt] >= 0:  # a smaller lambda_n shrinks the cone: pull friction back inside

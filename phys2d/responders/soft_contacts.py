@@ -20,6 +20,7 @@ from numba import njit
 from ..constraints.rows import (
     MET,
     apply_row_impulse,
+    clamp_accumulated,
     pair_inverse_mass,
     pair_row_impulse_of,
     pair_row_velocity,
@@ -124,9 +125,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
                 if A_kk[k] > 0.0 and (use_bias or s1 <= MET):
                     bias, mass_scale, impulse_scale = soft_push(s1, h, use_bias, soft)
                     d = -mass_scale * (pair_row_velocity(k, J, V_ab) + bias) * inv_A_kk[k] - impulse_scale * lam[k]
-                    new = max(lam[k] + d, 0.0)  # clamp the accumulated impulse, not the increment
-                    d = new - lam[k]
-                    lam[k] = new
+                    d = clamp_accumulated(lam, k, d, 0.0, np.inf)  # clamp the accumulated impulse, not d
                     V_ab = pair_row_impulse_of(k, J, M_ab, d, V_ab)
                     worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
@@ -158,9 +157,7 @@ def soft_friction_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V,
                 vn, vt = row_velocity(kn, a, b, J, V_sweep), row_velocity(k, a, b, J, V_sweep)
                 target = speculative_friction_target(C[c], vn, vt, h)
             d = -(pair_row_velocity(k, J, V_ab) - target) * inv_A_kk[k]
-            new = min(max(lam[k] + d, -top), top)
-            d = new - lam[k]
-            lam[k] = new
+            d = clamp_accumulated(lam, k, d, -top, top)  # Coulomb's cone on the accumulated impulse
             V_ab = pair_row_impulse_of(k, J, M_ab, d, V_ab)
             worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from ..constraints.joints import OWN_SOLVE, joint_rows
-from ..constraints.rows import MET, apply_row_impulse, coupling, row_velocity
+from ..constraints.rows import MET, apply_row_impulse, clamp_accumulated, coupling, row_velocity
 from .soft_contacts import soft_push
 
 DIRECT_JOINT_ROWS_MAX = 256  # more equality joint rows than this are swept, not factored
@@ -122,9 +122,7 @@ def solve_joints(rows, system, V, h, use_bias, soft_joint):
         a, b = body_a[k], body_b[k]
         if not unbounded and rows.hi[k] != np.inf:  # a motor: rigid, |lambda| <= max_motor h
             d = (rows.xi[k] - row_velocity(k, a, b, J, V)) / A_kk[k]  # xi: the motor's speed
-            new = min(max(lam[k] + d, lo[k] * h), rows.hi[k] * h)  # lo, hi: -+max_motor (rows of dt = 1)
-            d = new - lam[k]
-            lam[k] = new
+            d = clamp_accumulated(lam, k, d, lo[k] * h, rows.hi[k] * h)  # lo, hi: -+max_motor (rows of dt = 1)
         elif unbounded:  # the soft joint of Box2D v3
             mass_scale, impulse_scale = (soft_joint[1], soft_joint[2]) if use_bias else (1.0, 0.0)
             d = (
@@ -137,9 +135,7 @@ def solve_joints(rows, system, V, h, use_bias, soft_joint):
                 continue  # relax leaves a limit still short of its stop alone
             bias, mass_scale, impulse_scale = soft_push(C[k], h, use_bias, soft_joint)
             d = -mass_scale * (row_velocity(k, a, b, J, V) + bias) / A_kk[k] - impulse_scale * lam[k]
-            new = max(lam[k] + d, 0.0)  # a stop pushes, it never pulls
-            d = new - lam[k]
-            lam[k] = new
+            d = clamp_accumulated(lam, k, d, 0.0, np.inf)  # a stop pushes, it never pulls
         apply_row_impulse(k, a, b, JM, d, V)
         worst = max(worst, abs(d) * A_kk[k])
     if direct and eq.shape[0] > 0:

@@ -20,6 +20,7 @@ from ..constraints.rows import (
     MET,
     approach_at_impact,
     bounce_target,
+    clamp_accumulated,
     pair_inverse_mass,
     pair_row_impulse_of,
     pair_row_velocity,
@@ -42,6 +43,7 @@ if config.DISABLE_JIT:  # type: ignore[attr-defined]  # plain Python: a plain ob
 
     class Points:
         __doc__ = _POINTS_DOC
+        fields = POINT_FIELDS
 
         def __init__(self, *arrays: np.ndarray) -> None:
             for name, a in zip(POINT_FIELDS, arrays, strict=True):
@@ -56,6 +58,7 @@ else:
 
     class Points(structref.StructRefProxy):  # type: ignore[no-redef]
         __doc__ = _POINTS_DOC
+        fields = POINT_FIELDS
 
     structref.define_proxy(Points, PointsType, POINT_FIELDS)
 
@@ -210,9 +213,7 @@ def restitution(rows, points, threshold, total, V, M_inv):
         V_ab, M_ab = pair_velocity(a, b, V), pair_inverse_mass(a, b, M_inv)  # M^-1 J^T formed from J
         target = bounce_target(e[c], vn_impact[c], dvn_impact[c])
         d = (target - pair_row_velocity(k, J, V_ab)) / A_kk[k]
-        new = max(total[k] + d, 0.0)
-        d = new - total[k]
-        total[k] = new
+        d = clamp_accumulated(total, k, d, 0.0, np.inf)
         V_ab = pair_row_impulse_of(k, J, M_ab, d, V_ab)
         top = mu[kt] * total[k]  # a smaller push shrinks the cone
         d = min(max(total[kt], -top), top) - total[kt]

@@ -121,7 +121,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     JointRecord, or None for a world without joints (then no joint code is compiled: numba
     drops the ``joints is not None`` branches); settings: a ``SoftSettings``.
 
-    ``rows.lam`` holds the cached impulse per tick going in and the impulse over the whole tick
+    ``RowRecord.lam`` holds the cached impulse per tick going in and the impulse over the whole tick
     (N s) coming out; within the tick it is the impulse per sub-step (warm start in, last
     sub-step out). Joint rows are rebuilt at each sub-step's positions. Returns the number of
     sub-steps; residuals[s] (length ``substeps``, the caller's buffer) is the largest correction
@@ -214,6 +214,7 @@ class SoftStep(Responder):
     """
 
     name = "soft-step"
+    kernel = "soft-step"  # its solve is ``soft_step_solve``, in the world's one-call tick
     counts = "substeps"
     handles_joints = True
     solves_mouse_joints = True

@@ -124,6 +124,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
             "responders": " (default pgs)",
         }.get(axis, "")
         p.add_argument(*flags, dest=axis, type=kind, default=None, metavar="LIST", help=AXES[axis] + default)
+    _add_output_options(p)
+    p.set_defaults(func=cmd_sweep, sweep_parser=p)
+    return p
+
+
+def _add_output_options(p: argparse.ArgumentParser) -> None:
+    """``sweep``'s options of where the table and recordings go, and where the runs run."""
     p.add_argument(
         "--out", default=None, help="the Parquet table (default sweeps/GRID.parquet, or sweeps/sweep.parquet)"
     )
@@ -161,8 +168,6 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         default=None,
         help="progress bar on stderr (default: when stderr is a terminal)",
     )
-    p.set_defaults(func=cmd_sweep, sweep_parser=p)
-    return p
 
 
 def grids_of(args: argparse.Namespace) -> list[Grid]:

@@ -223,28 +223,83 @@ def sweep(
     on_row     called with each new row as it arrives
 
     The metrics of a row are the same, bit for bit, on the pool and on a cluster
-    (``task.METRIC_COLUMNS``); only the timings differ. Returns a ``SweepResult``.
-
-    The local pool starts fresh interpreters (multiprocessing's spawn), which import
-    the calling script again: in a script, call ``sweep`` under
-    ``if __name__ == "__main__":`` as with any process pool.
+    (``task.METRIC_COLUMNS``); only the timings differ. Returns a ``SweepResult``. The local
+    pool starts fresh interpreters (multiprocessing's spawn), which import the calling script
+    again: in a script, call ``sweep`` under ``if __name__ == "__main__":`` as with any pool.
     """
     t_start = time.perf_counter()
-    grids = as_grids(grid)
-    tasks = expand(grids)
+    tasks = expand(as_grids(grid))
+    path, csv_path = _table_paths(out, csv)
+    scheduler = _checked_options(scheduler, workers, resume, checkpoint)
+    record_dir = None if record is None else os.path.abspath(os.fspath(record))
+    tqdm = _ready(tasks, scheduler)
+    old = read_table(path) if resume else []
+    rows: dict[str, dict[str, Any]] = {r["run_id"]: r for r in old if r.get("run_id") is not None}
+    todo = [t for t in tasks if t.run_id not in {r.get("run_id") for r in old}]
+    skipped = len(tasks) - len(todo)
+    if record_dir is not None:
+        os.makedirs(record_dir, exist_ok=True)
+    source, where = _source(todo, record_dir, scheduler, workers)
+    show = sys.stderr.isatty() if progress is None else bool(progress)
+    desc = f"sweep ({where})" + (f", {skipped} already done" if skipped else "")
+    bar = tqdm(total=len(todo), disable=not show, file=sys.stderr, unit="run", dynamic_ncols=True, desc=desc)
+    new_rows: list[dict[str, Any]] = []
+    try:
+        _collect(source, rows, new_rows, bar, on_row, lambda: write_table(_ordered(tasks, rows, old), path), checkpoint)
+    finally:  # also on an interrupt or a failed task: keep the rows that finished
+        bar.close()
+        table = write_table(_ordered(tasks, rows, old), path, csv_path)
+    failed = sum(bool(row.get("error")) for row in new_rows)
+    seconds = time.perf_counter() - t_start
+    return SweepResult(table, path, csv_path, len(new_rows), skipped, failed, seconds, where, table.to_pylist())
+
+
+def _collect(
+    source: Any, rows: dict, new_rows: list, bar: Any, on_row: Callable | None, save: Callable, checkpoint: float
+) -> None:
+    """The rows of ``source``'s chunks into ``rows`` (by run id) and ``new_rows``, each told to
+    ``on_row``; ``save`` the table every ``checkpoint`` seconds."""
+    last = time.perf_counter()
+    for chunk in source:
+        for row in chunk:
+            rows[row["run_id"]] = row
+            new_rows.append(row)
+            if on_row is not None:
+                on_row(row)
+        bar.update(len(chunk))
+        if time.perf_counter() - last > checkpoint:
+            save()
+            last = time.perf_counter()
+
+
+def _ready(tasks: Sequence[Task], scheduler: str | None) -> Any:
+    """Check that every run builds and that what the sweep needs is installed; returns tqdm."""
+    _check_grid_builds(tasks)
+    tqdm = _require("tqdm", "the sweep's progress bar").tqdm
+    _require("pyarrow.parquet", "the sweep's table")
+    if scheduler is not None:
+        _require("dask.distributed", "--scheduler (a Dask cluster)")
+    return tqdm
+
+
+def _table_paths(out: Any, csv: Any) -> tuple[str, str | None]:
+    """The Parquet table's path and the CSV's (or None), checked."""
     if not isinstance(out, (str, os.PathLike)):
         raise TypeError(f"out must be a path, got {type(out).__name__}")
     path = os.fspath(out)
     if not path.endswith(".parquet"):
         raise ValueError(f"out must name a .parquet file, got {path!r}")
     if csv is True:
-        csv_path: str | None = path[: -len(".parquet")] + ".csv"
-    elif csv is None or csv is False:
-        csv_path = None
-    elif isinstance(csv, (str, os.PathLike)):
-        csv_path = os.fspath(csv)
-    else:
-        raise TypeError(f"csv must be a path, True or None, got {type(csv).__name__}")
+        return path, path[: -len(".parquet")] + ".csv"
+    if csv is None or csv is False:
+        return path, None
+    if isinstance(csv, (str, os.PathLike)):
+        return path, os.fspath(csv)
+    raise TypeError(f"csv must be a path, True or None, got {type(csv).__name__}")
+
+
+def _checked_options(scheduler: Any, workers: Any, resume: Any, checkpoint: Any) -> str | None:
+    """Check the sweep's options; returns the scheduler's address (or None: a local pool)."""
     if scheduler is not None:
         scheduler = check_scheduler(scheduler)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
@@ -253,67 +308,17 @@ def sweep(
         raise TypeError(f"resume must be True or False, got {resume!r}")
     if not (isinstance(checkpoint, (int, float)) and not isinstance(checkpoint, bool) and checkpoint > 0):
         raise ValueError(f"checkpoint must be a number of seconds > 0, got {checkpoint!r}")
-    record_dir = None if record is None else os.path.abspath(os.fspath(record))
-    _check_grid_builds(tasks)
-    tqdm = _require("tqdm", "the sweep's progress bar").tqdm
-    _require("pyarrow.parquet", "the sweep's table")
-    if scheduler is not None:
-        _require("dask.distributed", "--scheduler (a Dask cluster)")
+    return scheduler
 
-    old = read_table(path) if resume else []
-    have = {r.get("run_id") for r in old}
-    rows: dict[str, dict[str, Any]] = {r["run_id"]: r for r in old if r.get("run_id") is not None}
-    todo = [t for t in tasks if t.run_id not in have]
-    skipped = len(tasks) - len(todo)
-    if record_dir is not None:
-        os.makedirs(record_dir, exist_ok=True)
 
+def _source(todo: list[Task], record_dir: str | None, scheduler: str | None, workers: int | None) -> tuple[Any, str]:
+    """Where the runs go (a Dask cluster, a local pool, or this process) and its name: chunks of rows."""
     if scheduler is not None:
-        source = _dask(todo, record_dir, scheduler)
-        where = f"Dask at {scheduler}"
-    else:
-        n = min(workers or os.cpu_count() or 1, max(1, len(todo)))
-        source = _serial(todo, record_dir) if n == 1 else _pool(todo, record_dir, n)
-        where = "this process" if n == 1 else f"{n} local processes"
-    show = sys.stderr.isatty() if progress is None else bool(progress)
-    bar = tqdm(
-        total=len(todo),
-        disable=not show,
-        file=sys.stderr,
-        unit="run",
-        dynamic_ncols=True,
-        desc=f"sweep ({where})" + (f", {skipped} already done" if skipped else ""),
-    )
-    failed = 0
-    last = time.perf_counter()
-    new_rows: list[dict[str, Any]] = []
-    try:
-        for chunk in source:
-            for row in chunk:
-                rows[row["run_id"]] = row
-                new_rows.append(row)
-                failed += bool(row.get("error"))
-                if on_row is not None:
-                    on_row(row)
-            bar.update(len(chunk))
-            if time.perf_counter() - last > checkpoint:
-                write_table(_ordered(tasks, rows, old), path)
-                last = time.perf_counter()
-    finally:  # also on an interrupt or a failed task: keep the rows that finished
-        bar.close()
-        ordered = _ordered(tasks, rows, old)
-        table = write_table(ordered, path, csv_path)
-    return SweepResult(
-        table=table,
-        path=path,
-        csv=csv_path,
-        ran=len(new_rows),
-        skipped=skipped,
-        failed=failed,
-        seconds=time.perf_counter() - t_start,
-        where=where,
-        rows=table.to_pylist(),
-    )
+        return _dask(todo, record_dir, scheduler), f"Dask at {scheduler}"
+    n = min(workers or os.cpu_count() or 1, max(1, len(todo)))
+    if n == 1:
+        return _serial(todo, record_dir), "this process"
+    return _pool(todo, record_dir, n), f"{n} local processes"
 
 
 def _check_grid_builds(tasks: Sequence[Task]) -> None:

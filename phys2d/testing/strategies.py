@@ -319,7 +319,7 @@ def fingerprint(w: phys2d.World) -> tuple:
             (type(j).__name__, j.body_a._uid, j.body_b._uid, j.alive, j.impulse.tobytes())
             for j in getattr(w, "joints", ())
         ),
-        getattr(w, "_excluded", np.zeros(0)).tobytes(),
+        w._joints.excluded.tobytes(),
         w.contact_recycle_distance,
         tuple(np.asarray(a).tobytes() for a in w._pipeline.store.live(*w._pipeline.manifold_keys())),
     )
