@@ -196,6 +196,17 @@ HARNESS_API void harness_read(Harness* h, const int* index, int n, double* xy, d
 	}
 }
 
+/* Linear velocities (n, 2) in m/s of the n bodies listed in `index`. */
+HARNESS_API void harness_velocities(Harness* h, const int* index, int n, double* v)
+{
+	for (int k = 0; k < n; ++k)
+	{
+		b2Vec2 u = b2Body_GetLinearVelocity(h->bodies[index[k]]);
+		v[2 * k] = u.x;
+		v[2 * k + 1] = u.y;
+	}
+}
+
 /*
  * Manifold points of the touching contacts of the last step (each contact once),
  * and in *deepest the largest overlap among them (m, >= 0: minus the most negative

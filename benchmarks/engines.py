@@ -6,6 +6,8 @@ object with
 - ``step()``: advance one fixed step of ``DT``;
 - ``positions()``: (N, 2) centres of the dynamic boxes, in scene order;
 - ``angles()``: (N,) angles of the dynamic boxes, in scene order;
+- ``velocities()``: (N, 2) linear velocities of the dynamic boxes (m/s), in scene order
+  (phys2d and Box2D v3 only);
 - ``contact_count()``: contact points of the last step;
 - ``max_overlap()``: deepest overlap (>= 0, metres) among those contact points,
   read from the engine's own contact data;
@@ -385,6 +387,7 @@ def load_box2d_v3(path) -> ctypes.CDLL:
         "harness_add_pin": (i, [h, i, i, d, d]),
         "harness_step": (None, [h, d]),
         "harness_read": (None, [h, pi, i, pd, pd]),
+        "harness_velocities": (None, [h, pi, i, pd]),
         "harness_contacts": (i, [h, pd]),
         "harness_joint_gaps": (None, [h, pd]),
         "harness_set_recycle_distance": (None, [h, d]),
@@ -467,6 +470,14 @@ class Box2DV3Adapter:
     def angles(self) -> np.ndarray:
         self._read()
         return self._angle.copy()
+
+    def velocities(self) -> np.ndarray:
+        """(N, 2) linear velocities of the dynamic boxes, m/s."""
+        v = np.zeros((self._xy.shape[0], 2))
+        self._lib.harness_velocities(
+            self._h, self._args[0], self._args[1], v.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        )
+        return v
 
     def _contacts(self) -> tuple[int, float]:
         deepest = ctypes.c_double(0.0)
@@ -602,6 +613,10 @@ class Phys2DAdapter:
 
     def angles(self) -> np.ndarray:
         return np.asarray(self.world.theta, dtype=float)[self._index].copy()
+
+    def velocities(self) -> np.ndarray:
+        """(N, 2) linear velocities of the dynamic boxes, m/s."""
+        return np.asarray(self.world.V, dtype=float)[self._index, :2].copy()
 
     def contact_count(self) -> int:
         return len(self.world.contacts)

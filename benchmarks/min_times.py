@@ -8,14 +8,16 @@ Each scene (``phys2d.scenes``) under each responder (``PGS()``, ``PGS(block=True
 60 steps to settle (and compile), then the min over ``--repeats`` repeats of the CPU time per step
 (``time.process_time``, garbage collector off) of 300 steps (40 for the pyramids). A min, not a
 median: a step is a few microseconds on the small scenes, and on a shared 2-core machine their
-medians spread more than the differences between two checkouts. Run it in fresh processes,
-alternating the checkouts, and compare the mins over the rounds (benchmarks/RESULTS.md).
+medians spread more than the differences between two checkouts (``--median`` prints the
+median instead, for larger scenes). Run it in fresh processes, alternating the checkouts, and
+compare the mins over the rounds (benchmarks/RESULTS.md).
 """
 
 from __future__ import annotations
 
 import argparse
 import gc
+import statistics
 import time
 from collections.abc import Callable
 
@@ -38,19 +40,20 @@ SCENES: dict[str, Callable[[phys2d.Responder], phys2d.World]] = {
 }
 
 
-def min_time(world: phys2d.World, steps: int, repeats: int) -> float:
-    """The least CPU time per step (µs) over ``repeats`` runs of ``steps`` steps."""
-    best = float("inf")
+def min_time(world: phys2d.World, steps: int, repeats: int, median: bool = False) -> float:
+    """The least (or with ``median`` the median) CPU time per step (µs) over ``repeats`` runs of
+    ``steps`` steps."""
+    times = []
     gc.disable()
     try:
         for _ in range(repeats):
             t = time.process_time()
             for _ in range(steps):
                 world.step(1 / 60)
-            best = min(best, (time.process_time() - t) / steps * 1e6)
+            times.append((time.process_time() - t) / steps * 1e6)
     finally:
         gc.enable()
-    return best
+    return statistics.median(times) if median else min(times)
 
 
 def main() -> None:
@@ -58,6 +61,7 @@ def main() -> None:
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
     parser.add_argument("--responders", nargs="+", choices=list(RESPONDERS), default=list(RESPONDERS))
     parser.add_argument("--repeats", type=int, default=15)
+    parser.add_argument("--median", action="store_true", help="the median over the repeats, not the min")
     args = parser.parse_args()
     out = []
     for scene in args.scenes:
@@ -66,7 +70,7 @@ def main() -> None:
             for _ in range(60):
                 world.step(1 / 60)
             steps = 40 if scene.startswith("pyr") else 300
-            out.append(f"{scene}/{name}={min_time(world, steps, args.repeats):.1f}")
+            out.append(f"{scene}/{name}={min_time(world, steps, args.repeats, args.median):.1f}")
     print(" ".join(out))
 
 

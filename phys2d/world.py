@@ -113,7 +113,7 @@ class World:
     threads     how many cores a step may use (default 1, settable between steps): with more
                 than one, the pairs are collided and the contact rows built on several
                 threads, the sweeps of the soft step and of PGS solve the parts of the scene
-                (``constraints.order``; PGS's: from PARTS_FROM moving bodies) each on its own
+                (``constraints.order``: from PARTS_FROM moving bodies) each on its own
                 thread, and the per-point and per-body passes run a slice per thread
                 (``pipeline.parallel``); the results are bit-identical for every count.
                 Threads pay on scenes of several thousand contacts and up; on smaller ones

@@ -10,7 +10,9 @@ visits in (``Responder.visit_order``):
                   fewer than PARTS_FROM moving bodies is one part, so its order is pair
                   order exactly (every lesson's scene); a larger one's sweeps can share
                   the work among threads
-    COLOUR_ORDER  part by part, colour by colour within each: the soft step
+    COLOUR_ORDER  part by part, colour by colour within each: the soft step. A scene of
+                  fewer than PARTS_FROM moving bodies is one part here too, so its order is
+                  colour order exactly
 
 The lecture's PGS visits contacts in pair order, row by row (coloured, pyramid_40 toppled).
 A colour-ordered responder visits contact manifolds colour by colour: a greedy colouring
@@ -23,7 +25,13 @@ pyramid_40, and the lecture's PGS sweep gains nothing (benchmarks/SWEEP_ORDER.md
 most of a row's cost is the loop's own work, not the wait for the row before).
 This is Box2D v3's graph colouring, used here for order only.
 
-The parts are for threads (``pipeline.parallel``). The moving bodies are bisected
+The parts are for threads (``pipeline.parallel``), and only in scenes large enough for
+threads to pay: they change the Gauss-Seidel order, and a sweep carries a change only
+forward in its order. With the cut last, the contacts above a cut are swept before those
+below it, so the relax sweep takes the push out of the boxes below only after the boxes
+above were matched to them: six 1 m boxes 40 % into each other (Box2D's overlap recovery,
+base 3), cut into parts, launched the top box at 3.63 m/s under SoftStep(4), against 2.63 in
+colour order and push_max = 3 (benchmarks/SOFT_REGRESSIONS.md). The moving bodies are bisected
 ``PART_DEPTH`` times (``partition``): each half is cut again at the median of its pairs
 along x or y, whichever side leaves the halves least mixed in memory (a pyramid built row
 by row: into bottom and top). A pair whose moving bodies lie in one part belongs to that
@@ -152,7 +160,7 @@ def order_pairs(pairs, n_pairs, static, x, part, visit):
     """Pair indices in solve order: sorted by set (``set_of``: the parts, then the cuts between
     them), then, in COLOUR_ORDER, by greedy colour (ties in pair order; in PART_ORDER pair order
     within each set). Writes each body's part (``partition`` of the centres x, weighted by their
-    pairs; all 0 in PART_ORDER with fewer than PARTS_FROM moving bodies) into part."""
+    pairs; all 0 with fewer than PARTS_FROM moving bodies) into part."""
     n_bodies = x.shape[0]
     weight = np.zeros(n_bodies, np.int64)
     for p in range(n_pairs):
@@ -163,7 +171,7 @@ def order_pairs(pairs, n_pairs, static, x, part, visit):
     moving = 0
     for w in weight:
         moving += w > 0
-    if colours or moving >= PARTS_FROM:
+    if moving >= PARTS_FROM:
         part[:] = partition(x, weight, PART_DEPTH)
     else:
         part[:] = 0

@@ -8,9 +8,10 @@
 Gauss-Seidel visits its rows one after another: a row reads the velocities every row before
 it has written. Two rows whose bodies differ read and write different velocities, so they
 may run at the same time without changing a bit of what either computes. The soft step
-visits its manifolds in the order ``constraints.order`` gives: the bodies are cut into parts,
-and the manifolds come part by part, then cut by cut (the manifolds that straddle a cut),
-each colour by colour. Two parts share no moving body, nor do two cuts of one level of the
+visits its manifolds in the order ``constraints.order`` gives: the bodies of a scene of
+``PARTS_FROM`` moving bodies or more are cut into parts (a smaller one is one part, swept on
+the calling thread), and the manifolds come part by part, then cut by cut (the manifolds that
+straddle a cut), each colour by colour. Two parts share no moving body, nor do two cuts of one level of the
 bisection. ``manifold_groups`` cuts the solve order into *segments* (the manifolds of one part
 or one cut) and the segments into *groups* (consecutive segments that share no moving body),
 and a sweep is

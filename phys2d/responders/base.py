@@ -241,7 +241,8 @@ class Responder:
                     -2) are a soft pull with a solve of its own (``responders.mouse.solve_mice``)
     counts  the word for the work ``SolveResult.iterations`` counts: 'sweeps', 'passes', 'substeps'
     colour_order    visit contacts colour by colour (graph colouring, ``constraints.order``)
-                    instead of in pair order: faster sweeps, a different Gauss-Seidel order
+                    instead of in pair order: faster sweeps, a different Gauss-Seidel order;
+                    part by part from ``PARTS_FROM`` moving bodies, as in part order
     part_order      visit contacts part by part, pair order within each (``constraints.order``):
                     a large scene's sweeps can then share the work among threads; a scene
                     of fewer than ``PARTS_FROM`` moving bodies keeps pair order exactly
