@@ -147,44 +147,64 @@ def _note_handles(world: World, lineage: _Lineage) -> list[int]:
 
 
 # -- plain values: settings to JSON and back --------------------------------------------------------
-def _plain(value: Any, where: str) -> Any:
+_SCALARS = (type(None), bool, int, float, str)
+
+
+class _Unstorable(Exception):
+    """A value ``_plain`` cannot write: its type's name."""
+
+
+def _plain(value: Any) -> Any:
     """``value`` as JSON can hold it, exactly (floats by repr; tuples and arrays tagged)."""
-    if value is None or isinstance(value, (bool, str)):
+    t = type(value)
+    if t in _SCALARS:
         return value
-    if isinstance(value, (int, float)):
-        return value
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        return float(value)
     if isinstance(value, np.ndarray):
         if value.dtype.kind not in "biuf":
-            raise SnapshotError(f"{where}: an array of {value.dtype} cannot go into a snapshot (numbers only)")
+            raise _Unstorable(f"an array of {value.dtype}")
         return {"__array__": [value.dtype.str, list(value.shape), value.ravel().tolist()]}
-    if isinstance(value, tuple):
-        return {"__tuple__": [_plain(v, where) for v in value]}
-    if isinstance(value, list):
-        return [_plain(v, where) for v in value]
-    if isinstance(value, dict) and all(isinstance(k, str) for k in value):
-        return {k: _plain(v, f"{where}[{k!r}]") for k, v in value.items()}
-    raise SnapshotError(
-        f"{where} is a {type(value).__name__}: a snapshot keeps numbers, strings, booleans, None, and lists, "
-        "tuples, dicts and numpy arrays of them"
-    )
+    if isinstance(value, (np.bool_, np.integer, np.floating)):
+        return value.item()
+    for kind in (int, float, str):  # a subclass (an IntEnum, say): as its base
+        if isinstance(value, kind):
+            return kind(value)
+    if t is tuple:
+        return {"__tuple__": [_plain(v) for v in value]}
+    if t is list:
+        return [_plain(v) for v in value]
+    if t is dict and all(type(k) is str for k in value):
+        return {k: _plain(v) for k, v in value.items()}
+    raise _Unstorable(f"a {t.__name__}")
+
+
+def _plain_attributes(attributes: dict[str, Any], what: str, skip: tuple[str, ...] = ()) -> dict[str, Any]:
+    """An object's attributes (but ``skip``) as plain values: SnapshotError naming one that is not."""
+    out = {}
+    for key, value in attributes.items():
+        if key in skip:
+            continue
+        try:
+            out[key] = _plain(value)
+        except _Unstorable as e:
+            raise SnapshotError(
+                f"{what}'s {key} is {e}: a snapshot keeps numbers, strings, booleans, None, and lists, tuples, "
+                "dicts and numpy arrays of them"
+            ) from None
+    return out
 
 
 def _unplain(value: Any) -> Any:
     """The value ``_plain`` made ``value`` of."""
-    if isinstance(value, list):
+    t = type(value)
+    if t is list:
         return [_unplain(v) for v in value]
-    if isinstance(value, dict):
-        if "__array__" in value and len(value) == 1:
-            dtype, shape, items = value["__array__"]
-            return np.array(items, dtype=np.dtype(dtype)).reshape(shape)
-        if "__tuple__" in value and len(value) == 1:
-            return tuple(_unplain(v) for v in value["__tuple__"])
+    if t is dict:
+        if len(value) == 1:
+            if "__array__" in value:
+                dtype, shape, items = value["__array__"]
+                return np.array(items, dtype=np.dtype(dtype)).reshape(shape)
+            if "__tuple__" in value:
+                return tuple(_unplain(v) for v in value["__tuple__"])
         return {k: _unplain(v) for k, v in value.items()}
     return value
 
@@ -200,9 +220,7 @@ def responder_spec(responder: Responder) -> dict[str, Any]:
     it is one of phys2d's registered responders) and its settings (its attributes, as plain
     values: ``SnapshotError`` for one a snapshot cannot hold)."""
     cls = type(responder)
-    settings = {
-        k: _plain(v, f"responder {cls.__name__}'s {k}") for k, v in vars(responder).items() if k not in _RESPONDER_SKIP
-    }
+    settings = _plain_attributes(vars(responder), f"responder {cls.__name__}", _RESPONDER_SKIP)
     name = str(responder.name)
     from .responders import REGISTRY
 
@@ -337,11 +355,7 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
             "type": type(j).__name__,
             "a": int(j.body_a._uid),
             "b": int(j.body_b._uid),
-            "attrs": {
-                key: _plain(v, f"joint {q}'s {key}")
-                for key, v in vars(j).items()
-                if key not in _JOINT_LINKS and key not in skip
-            },
+            "attrs": _plain_attributes(vars(j), f"joint {q}", _JOINT_LINKS + skip),
         }
         for q, j in enumerate(world._joints)
     ]
@@ -647,9 +661,12 @@ def _prepare(world: World, image: _Image) -> _Plan:
     lineage = _LINEAGES.get(world)
     token = int(meta["lineage"])
     same = lineage is not None and lineage.token == token
-    current = {h._uid: h for h in world._handles} if same else {}
+    uid_list = uids.tolist()
     handles, made = [], []
-    for i, u in enumerate(uids.tolist()):
+    if same and [h._uid for h in world._handles] == uid_list:  # (a rollback: the same bodies)
+        handles, uid_list = list(world._handles), []
+    current = {h._uid: h for h in world._handles} if same else {}
+    for i, u in enumerate(uid_list):
         h = current.get(u)
         if h is None and same:
             ref = lineage.bodies.get(u)  # type: ignore[union-attr]
@@ -658,7 +675,7 @@ def _prepare(world: World, image: _Image) -> _Plan:
             h = Body(world, i, u)
             made.append(h)
         handles.append(h)
-    by_uid = dict(zip(uids.tolist(), handles, strict=True))
+    by_uid = {h._uid: h for h in handles}
     joints, attrs, jids = [], [], []
     for q, spec in enumerate(meta["joints"]):
         cls = _JOINT_CLASSES.get(spec.get("type"))
