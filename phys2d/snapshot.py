@@ -177,8 +177,11 @@ def _plain(value: Any) -> Any:
     raise _Unstorable(f"a {t.__name__}")
 
 
-def _plain_attributes(attributes: dict[str, Any], what: str, skip: tuple[str, ...] = ()) -> dict[str, Any]:
-    """An object's attributes (but ``skip``) as plain values: SnapshotError naming one that is not."""
+def _plain_attributes(
+    attributes: dict[str, Any], what: str, skip: tuple[str, ...] = (), lenient: bool = False
+) -> dict[str, Any]:
+    """An object's attributes (but ``skip``) as plain values: SnapshotError naming one that is not
+    (``lenient``: that one as its type's name, for the hash)."""
     out = {}
     for key, value in attributes.items():
         if key in skip:
@@ -186,6 +189,9 @@ def _plain_attributes(attributes: dict[str, Any], what: str, skip: tuple[str, ..
         try:
             out[key] = _plain(value)
         except _Unstorable as e:
+            if lenient:
+                out[key] = {"__unstorable__": type(value).__qualname__}
+                continue
             raise SnapshotError(
                 f"{what}'s {key} is {e}: a snapshot keeps numbers, strings, booleans, None, and lists, tuples, "
                 "dicts and numpy arrays of them"
@@ -215,12 +221,12 @@ def _canonical(value: Any) -> bytes:
 
 
 # -- responders by class and settings -----------------------------------------------------------------
-def responder_spec(responder: Responder) -> dict[str, Any]:
+def responder_spec(responder: Responder, lenient: bool = False) -> dict[str, Any]:
     """What rebuilds ``responder``: its class as ``module:Class``, its name (and the registry's, when
     it is one of phys2d's registered responders) and its settings (its attributes, as plain
-    values: ``SnapshotError`` for one a snapshot cannot hold)."""
+    values: ``SnapshotError`` for one a snapshot cannot hold; ``lenient``: its type's name instead)."""
     cls = type(responder)
-    settings = _plain_attributes(vars(responder), f"responder {cls.__name__}", _RESPONDER_SKIP)
+    settings = _plain_attributes(vars(responder), f"responder {cls.__name__}", _RESPONDER_SKIP, lenient)
     name = str(responder.name)
     from .responders import REGISTRY
 
@@ -369,7 +375,7 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
             "contact_recycle_distance": world._contact_recycle_distance,
             "sleep": world._sleep,
         },
-        "responder": responder_spec(world._responder),
+        "responder": responder_spec(world._responder, lenient=for_hash),
         "bodies": {"n": n, "n_verts": b.n_verts, "next_uid": b.next_uid, "forces_applied": b.forces_applied},
         "pipeline": {
             "n_pairs": n_pairs,

@@ -35,6 +35,9 @@ if TYPE_CHECKING:
     from ..world import World
 
 
+PART_DISTANCE = 1e-3  # m: two futures have parted once a body is this far from where it was
+
+
 class ReplayError(ValueError):
     """A tick a recording cannot give back (never logged, before its first keyframe, no keyframes),
     or a replay whose state hash parts from the recording's; one line."""
@@ -124,7 +127,8 @@ class Timeline:
             f"{self.ticks[at - 1]} and {self.ticks[at]}"
         )
 
-    def _no_keyframes(self) -> ReplayError:
+    def missing_keyframes(self) -> ReplayError:
+        """The error for a timeline without keyframes: what to do instead."""
         return ReplayError(
             f"{self.where} holds no keyframes (recorded with keyframe_every=0, or by a phys2d without "
             "snapshots), so no tick of it can be re-entered: record it again with phys2d.Recorder(..., "
@@ -138,7 +142,7 @@ class Timeline:
         ``on_tick(w)`` is called after every step of the replay."""
         at = self._index(tick)
         if not self.keyframes:
-            raise self._no_keyframes()
+            raise self.missing_keyframes()
         before = [k for k in self.keyframes if k <= tick]
         if not before:
             raise ReplayError(
@@ -189,7 +193,7 @@ class Timeline:
         """Every logged tick stepped again from the keyframe before it, its state hash checked;
         ``progress(ticks)`` after each stretch from one keyframe to the next."""
         if not self.keyframes:
-            raise self._no_keyframes()
+            raise self.missing_keyframes()
         keys = self.keyframe_ticks()
         bounds = [self.ticks.index(k) for k in keys] + [len(self.ticks)]
         matched = 0
@@ -211,6 +215,126 @@ class Timeline:
         if bounds[0] and not detail:  # ticks logged before the first keyframe cannot be replayed
             detail = f"ticks {self.first}-{self.ticks[bounds[0] - 1]} come before the first keyframe, at {keys[0]}"
         return CheckResult(matched, len(self.ticks), len(keys), first_bad, detail)
+
+    def dt_at(self, tick: int) -> float:
+        """The dt (s) of the step into ``tick``: the recorded one, or past the log the last one."""
+        at = int(np.searchsorted(self.ticks, tick))
+        if at < len(self.ticks) and self.ticks[at] == tick:
+            return self.dts[at]
+        return self.dts[-1] if self.dts and self.dts[-1] > 0.0 else 1 / 60
+
+    def branch(
+        self,
+        at: int,
+        responder: Any,
+        steps: int | None = None,
+        on_tick: Callable[[World, World], None] | None = None,
+        threshold: float = PART_DISTANCE,
+    ) -> Parting:
+        """The future from tick ``at`` under ``responder`` beside the recorded one: both worlds from
+        the tick's state (``world_at``), stepped ``steps`` ticks (default: to the end of the log)
+        with the recorded dts; the original with the recorded responders, its state hash checked
+        against the recording's as long as the log goes. ``on_tick(original, branch)`` after every
+        step (and once before the first). Returns where they part (``Parting``)."""
+        from ..world import SimulationError, World
+
+        if steps is None:
+            steps = self.last - int(at)
+            if steps <= 0:
+                raise ReplayError(f"tick {at} is the last of {self.where}: say how many steps to take")
+        original = self.world_at(at)
+        other = World.from_snapshot(original.snapshot())
+        other.responder = responder
+        parting = Parting(int(at), threshold=threshold)
+        if on_tick is not None:
+            on_tick(original, other)
+        logged = set(self.ticks)
+        for tick in range(int(at) + 1, int(at) + steps + 1):
+            dt = self.dt_at(tick)
+            spec = self.responders.get(tick)
+            if spec is not None:
+                from ..snapshot import responder_from_spec
+
+                original.responder = responder_from_spec(json.loads(spec))
+            try:
+                original.step(dt)
+            except SimulationError as e:
+                parting.note = f"the original refused the step into tick {tick}: {e}"
+                break
+            if tick in logged and original.state_hash() != self.hashes[self.ticks.index(tick)]:
+                parting.note = (
+                    f"from tick {tick} on the original's replay differs from the recording (changed from "
+                    "outside the step there): compared up to the tick before"
+                )
+                break
+            try:
+                other.step(dt)
+            except SimulationError as e:
+                parting.note = f"the branch refused the step into tick {tick}: {e}"
+                break
+            parting.observe(tick, original, other)
+            if on_tick is not None:
+                on_tick(original, other)
+        return parting
+
+
+@dataclass(eq=False)
+class Parting:
+    """Where two futures from one tick part: ``start`` the tick they share, ``ticks`` how many
+    steps were compared; the first tick (``first_tick``) where a body (uid ``first_uid``) is more
+    than ``threshold`` m from where it is in the original (``first_distance`` m), None while
+    none is; the largest distance by the end (``largest`` m, body ``largest_uid`` at tick
+    ``largest_tick``); ``distance`` the largest of each tick (m); ``note`` why it stopped early."""
+
+    start: int
+    ticks: int = 0
+    threshold: float = PART_DISTANCE
+    first_tick: int | None = None
+    first_uid: int | None = None
+    first_distance: float = 0.0
+    largest: float = 0.0
+    largest_uid: int | None = None
+    largest_tick: int | None = None
+    distance: list[float] = field(default_factory=list)
+    note: str = ""
+
+    def observe(self, tick: int, original: World, branch: World) -> None:
+        """Compare tick ``tick`` of the two worlds (the same bodies, row by row)."""
+        d = np.hypot(*(branch.x - original.x).T) if len(original) else np.zeros(0)
+        self.ticks += 1
+        worst = int(np.argmax(d)) if d.size else -1
+        far = float(d[worst]) if d.size else 0.0
+        self.distance.append(far)
+        uid = int(original.body_uids[worst]) if d.size else None
+        if self.first_tick is None and far > self.threshold:
+            self.first_tick, self.first_uid, self.first_distance = tick, uid, far
+        if far > self.largest:
+            self.largest, self.largest_uid, self.largest_tick = far, uid, tick
+
+    def lines(self) -> list[str]:
+        """The account, a line each: where they part, and how far by the end."""
+        end = self.start + self.ticks
+        if self.first_tick is None:
+            out = [
+                f"they do not part: no body is more than {1e3 * self.threshold:g} mm from where it was by tick {end}"
+            ]
+        else:
+            out = [
+                f"they part at tick {self.first_tick}: body b{self.first_uid} is {1e3 * self.first_distance:.3g} mm "
+                f"from where it was (the first more than {1e3 * self.threshold:g} mm away)"
+            ]
+        if self.largest_tick is not None:
+            out.append(
+                f"by tick {end} the largest distance is {_metres(self.largest)} (body b{self.largest_uid} at tick "
+                f"{self.largest_tick})"
+            )
+        if self.note:
+            out.append(f"note: {self.note}")
+        return out
+
+
+def _metres(d: float) -> str:
+    return f"{1e3 * d:.3g} mm" if d < 0.1 else f"{d:.3g} m"
 
 
 # -- from a recording file ------------------------------------------------------------------------------
@@ -311,4 +435,4 @@ def world_at(path: str | os.PathLike, tick: int, run: str | None = None) -> Worl
     return timeline(path, run).world_at(tick)
 
 
-__all__ = ["CheckResult", "ReplayError", "Timeline", "timeline", "timelines", "world_at"]
+__all__ = ["CheckResult", "PART_DISTANCE", "Parting", "ReplayError", "Timeline", "timeline", "timelines", "world_at"]
