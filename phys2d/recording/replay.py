@@ -165,11 +165,14 @@ class Timeline:
             )
         return w
 
-    def _replay(self, w: World, frm: int, to: int, on_tick: Callable[[World], None] | None = None) -> None:
-        """Step ``w`` (at logged tick index ``frm``) on to logged tick index ``to``, checking hashes."""
+    def _replay(
+        self, w: World, frm: int, to: int, on_tick: Callable[[World], None] | None = None, start: int | None = None
+    ) -> None:
+        """Step ``w`` (at logged tick index ``frm``) on to logged tick index ``to``, checking hashes
+        (``start``: the keyframe's tick the replay began at, for the message)."""
         from ..snapshot import responder_from_spec
 
-        start = self.ticks[frm]
+        start = self.ticks[frm] if start is None else start
         for i in range(frm + 1, to + 1):
             tick = self.ticks[i]
             spec = self.responders.get(tick)
@@ -185,8 +188,8 @@ class Timeline:
                     f"tick {tick} of {self.where} differs from its replay from the keyframe at tick {start}: its "
                     f"state hash is {got:#018x}, the recording's {self.hashes[i]:#018x}; code outside the step "
                     f"changed the world between ticks {self.ticks[i - 1]} and {tick} (a force, a mouse target, a "
-                    "body added or moved: log such a tick with Recorder.log(w, keyframe=True)), or another build "
-                    "of phys2d steps differently"
+                    "body added or moved: make such changes after a step and before its log, and log that tick with "
+                    "Recorder.log(w, keyframe=True)), or another build of phys2d steps differently"
                 )
 
     def check(self, progress: Callable[[int], None] | None = None) -> CheckResult:
@@ -205,7 +208,7 @@ class Timeline:
                 w = self._restored(keys[k])
                 matched += 1
                 for i in range(frm + 1, end):
-                    self._replay(w, i - 1, i)
+                    self._replay(w, i - 1, i, start=keys[k])
                     matched += 1
             except ReplayError as e:
                 if first_bad is None:
@@ -238,10 +241,11 @@ class Timeline:
         step (and once before the first). Returns where they part (``Parting``)."""
         from ..world import SimulationError, World
 
+        self._index(at)  # a tick the log holds
         if steps is None:
             steps = self.last - int(at)
             if steps <= 0:
-                raise ReplayError(f"tick {at} is the last of {self.where}: say how many steps to take")
+                raise ReplayError(f"tick {at} is the last of {self.where}: say how many steps to take from it")
         original = self.world_at(at)
         other = World.from_snapshot(original.snapshot())
         other.responder = responder
