@@ -239,6 +239,8 @@ class Recorder:
                   then every this many ticks (0: none), besides every tick's state hash, dt and
                   the responder (its class and settings, when they change). The default,
                   ``KEYFRAME_EVERY``, adds about 7 % to pyramid_20's 600-tick recording
+    recording     a ``rerun.RecordingStream`` to log into instead of a file of its own (its sinks stay
+                  its own: a notebook viewer's, say); closing the recorder flushes it and leaves it open
     background    write from a process of its own: this process only samples and hands windows
                   of ticks over, so loading rerun's native layer and the encoding run on another
                   core meanwhile (``phys2d run`` does this), and the file gets long chunks (the
@@ -270,12 +272,22 @@ class Recorder:
         stream_to: str | None = None,
         background: bool = False,
         keyframe_every: int = KEYFRAME_EVERY,
+        recording: Any = None,
     ) -> None:
         if stream_to is not None and (not isinstance(stream_to, str) or "://" not in stream_to):
             raise TypeError(
                 f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', got {stream_to!r}"
             )
-        p = None if path is None and stream_to is not None else _checked_path(path)
+        native = None
+        if recording is not None:
+            if not hasattr(recording, "to_native"):
+                raise TypeError(f"recording must be a rerun.RecordingStream, got {type(recording).__name__}")
+            if path is not None or stream_to is not None or background:
+                raise ValueError(
+                    "recording: a recorder logging into a given RecordingStream takes no path, stream_to or background"
+                )
+            native = recording.to_native()
+        p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
         for value, arg in ((name, "name"), (scene, "scene"), (recording_id, "recording_id")):
             if value is not None and not isinstance(value, str):
                 raise TypeError(f"{arg} must be a str or None, got {type(value).__name__}")
@@ -301,6 +313,7 @@ class Recorder:
             series_every=series_every,
             blueprint=bool(blueprint),
             stream_to=stream_to,
+            recording=native,
         )
         self._samplers: dict[str | None, Sampler] = {}
         forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
@@ -342,6 +355,15 @@ class Recorder:
             reason = f"recording {self.path}: no keyframes from tick {world.tick} on: {sampler.note}"
             warnings.warn(reason, stacklevel=2)
         self._state.backend.add(label, sample, info)
+
+    def flush(self) -> None:
+        """Write the ticks logged so far now, rather than at the next ``flush_every`` (a viewer fed
+        by ``recording`` shows them at once); in this process only (not with ``background``)."""
+        if self._state.closed:
+            raise ValueError(f"this recorder is closed ({self.path})")
+        backend = self._state.backend
+        if isinstance(backend, _Local):
+            backend.sink.flush()
 
     @property
     def runs(self) -> list[str | None]:

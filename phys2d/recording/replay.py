@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pyarrow as pa
 
 from . import schema
 
@@ -71,6 +72,8 @@ class Timeline:
     dts: list[float] = field(default_factory=list)
     keyframes: dict[int, bytes] = field(default_factory=dict)
     responders: dict[int, str] = field(default_factory=dict)
+    times: list[float] = field(default_factory=list)  # each tick's w.time, s (as the sim_time timeline)
+    sweeps: list[int] = field(default_factory=list)  # each tick's solver sweeps (rows of the sweep timeline)
     keyframe_every: int = 0  # ticks between keyframes for ``append`` (0: the first only)
     _spec: str | None = None  # the responder's spec as ``append`` last kept it
 
@@ -93,6 +96,8 @@ class Timeline:
         self.ticks.append(tick)
         self.hashes.append(snapshot.state_hash(world))
         self.dts.append(float(world.last_step.dt))
+        self.times.append(float(world.time))
+        self.sweeps.append(int(world.last_step.residuals.size))
 
     # -- read back --------------------------------------------------------------------------------
     @property
@@ -387,7 +392,7 @@ def timelines(path: str | os.PathLike) -> dict[str, Timeline]:
         run = _label_of(ep, schema.BODIES)
         if run is not None:
             labels.add(run)
-        for suffix in (schema.REPLAY_STATE, schema.REPLAY_KEYFRAMES, schema.REPLAY_RESPONDER):
+        for suffix in (schema.REPLAY_STATE, schema.REPLAY_KEYFRAMES, schema.REPLAY_RESPONDER, schema.SWEEPS):
             run = _label_of(ep, suffix)
             if run is not None:
                 labels.add(run)
@@ -399,13 +404,21 @@ def timelines(path: str | os.PathLike) -> dict[str, Timeline]:
         where = f"{p!r}" + (f" (run {run!r})" if run else "")
         t = Timeline(where)
         state = sorted(
-            (int(tick), int(h), float(dt))
+            (int(tick), int(h), float(dt), int(ns) / 1e9)
             for b in rows.get(run, {}).get(schema.REPLAY_STATE, [])
-            for tick, h, dt in zip(
-                b.column(schema.TICK).to_pylist(), _column(b, schema.STATE_HASH.name), _column(b, schema.DT.name)
+            for tick, h, dt, ns in zip(
+                b.column(schema.TICK).to_pylist(),
+                _column(b, schema.STATE_HASH.name),
+                _column(b, schema.DT.name),
+                b.column(schema.SIM_TIME).cast(pa.int64()).to_pylist(),
             )
         )
-        t.ticks, t.hashes, t.dts = [s[0] for s in state], [s[1] for s in state], [s[2] for s in state]
+        t.ticks, t.hashes = [s[0] for s in state], [s[1] for s in state]
+        t.dts, t.times = [s[2] for s in state], [s[3] for s in state]
+        swept = [np.asarray(b.column(schema.TICK).to_numpy()) for b in rows.get(run, {}).get(schema.SWEEPS, [])]
+        per_tick = np.concatenate(swept) if swept else np.zeros(0, np.int64)
+        t.sweeps = np.searchsorted(np.sort(per_tick), t.ticks, side="right").tolist()
+        t.sweeps = np.diff(np.concatenate([[0], t.sweeps])).astype(int).tolist() if t.ticks else []
         for suffix, name, into in (
             (schema.REPLAY_KEYFRAMES, schema.KEYFRAME.name, t.keyframes),
             (schema.REPLAY_RESPONDER, schema.RESPONDER_SPEC.name, t.responders),
