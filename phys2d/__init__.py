@@ -12,9 +12,9 @@ Recordings: ``phys2d.Recorder`` writes a world's ticks to a Rerun .rrd file and
 it: a live World at any logged tick); both are imported on first use, so the engine itself
 never loads rerun. ``w.snapshot()`` / ``w.restore(data)`` / ``World.from_snapshot(data)`` and
 ``w.state_hash()`` rewind a world (``phys2d.snapshot``); ``phys2d.Lab`` shows a world or a
-recording on Rerun's viewer in a notebook, to rewind, step and branch it (``phys2d.lab``). Likewise ``phys2d.sweep`` (a grid of runs to one
-Parquet table, on a process pool or a Dask cluster: ``phys2d.sweeps``) loads on
-first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.check``
+recording on Rerun's viewer in a notebook, to rewind, step and branch it (``phys2d.lab``).
+Likewise ``phys2d.sweep`` (a grid of runs to one Parquet table, on a process pool or a Dask
+cluster: ``phys2d.sweeps``) loads on first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.check``
 (a responder's report card on the lecture's claims: ``phys2d check FILE.py:CLASS``).
 """
 
