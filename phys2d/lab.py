@@ -36,6 +36,7 @@ import html
 import json
 import os
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -355,13 +356,18 @@ class Lab:
         return out
 
     def branch_here(
-        self, responder: str | Responder | None = None, count: int | None = None, steps: int | None = None
+        self,
+        responder: str | Responder | None = None,
+        count: int | None = None,
+        steps: int | None = None,
+        on_tick: Callable[[World, World], None] | None = None,
     ) -> Parting:
         """The future from the tick shown under ``responder`` (a registered name or a Responder;
         default ``responder_name``, with ``count`` sweeps, passes or sub-steps), beside the one the
         lab has, ``steps`` ticks on (default: to the line's end, or 120 from its last tick); shown
-        in a recording of its own (runs ``original`` and the responder's name). Returns where
-        they part."""
+        in a recording of its own (runs ``original`` and the responder's name); ``on_tick(original,
+        branch)`` after each tick (and once at the start), to record them elsewhere too. Returns
+        where they part."""
         name = self.responder_name if responder is None else responder
         count = self.count if count is None and responder is None else count
         if isinstance(name, Responder):
@@ -382,14 +388,16 @@ class Lab:
         other = Timeline(f"the branch under {label} from tick {at}", keyframe_every=self.keyframe_every)
         recorder, recording_id = self._branch_recorder(f"{key}", at)
 
-        def on_tick(a: World, b: World) -> None:
+        def each(a: World, b: World) -> None:
             original.append(a)
             other.append(b)
             if recorder is not None:
                 recorder.log(a, run="original")
                 recorder.log(b, run=label)
+            if on_tick is not None:
+                on_tick(a, b)
 
-        parting = line.branch(at, r, steps, on_tick)
+        parting = line.branch(at, r, steps, each)
         if recorder is not None:
             recorder.close()
         self.branches[key] = Branch(label, parting, original, other, recording_id)
