@@ -386,7 +386,7 @@ class Lab:
         key = f"branch-{at}-{label}"
         original = Timeline(f"the original from tick {at}", keyframe_every=self.keyframe_every)
         other = Timeline(f"the branch under {label} from tick {at}", keyframe_every=self.keyframe_every)
-        recorder, recording_id = self._branch_recorder(f"{key}", at)
+        recorder, recording_id = self._branch_recorder(key, label)
 
         def each(a: World, b: World) -> None:
             original.append(a)
@@ -405,7 +405,7 @@ class Lab:
         self._refresh()
         return parting
 
-    def _branch_recorder(self, name: str, at: int) -> tuple[Any, str]:
+    def _branch_recorder(self, name: str, label: str) -> tuple[Any, str]:
         recording_id = str(uuid.uuid4())
         if self.viewer is None:
             return None, recording_id
@@ -413,9 +413,13 @@ class Lab:
 
         from .recording import Recorder
 
-        stream = rr.RecordingStream("phys2d-compare", recording_id=recording_id)
+        application = f"phys2d-lab-{name}"  # (a layout is an application's: one per branch, with its runs)
+        stream = rr.RecordingStream(application, recording_id=recording_id)
         self.viewer.add_recording(stream)
-        rec = Recorder(None, recording=stream, name=name, contact_series=False, keyframe_every=self.keyframe_every)
+        self.viewer.set_application_blueprint(application, _layout(["original", label], _bounds(self.world)))
+        rec = Recorder(
+            None, recording=stream, name=name, contact_series=False, keyframe_every=self.keyframe_every, blueprint=False
+        )
         return rec, recording_id
 
     # -- following the viewer ------------------------------------------------------------------------
@@ -518,8 +522,7 @@ class Lab:
             raise ImportError(
                 f'the lab shows the Rerun viewer in a notebook: pip install -e ".[notebook]" ({e})'
             ) from None
-        from .recording import Recorder, blueprint
-        from .recording.native import Stream
+        from .recording import Recorder
 
         src = self._source
         if src.path is not None:  # a recording: its chunks, into a stream of its ids
@@ -532,17 +535,18 @@ class Lab:
         self._stream = rr.RecordingStream(src.application_id, recording_id=src.recording_id)
         self.viewer = Viewer(width=width, height=height, recording=self._stream)  # type: ignore[arg-type]
         self.viewer.on_event(self.on_event)
+        shown: list[str | None] = [src.run or None] if src.path is not None else [self._main]
+        framed = _bounds(self.line.world_at(self.line.first))
+        self.viewer.set_application_blueprint(src.application_id, _layout(shown, framed))
         if src.path is not None:
             self._stream.send_chunks(list(RrdReader(src.path).store().stream()))
-            views = [blueprint.RunView(src.run or None, None, False, False)]
-            Stream(src.application_id, None, None, None, recording=self._stream.to_native()).blueprint(
-                blueprint.build(views)
-            )
             self._recorder = Recorder(
                 None, recording=self._stream, keyframe_every=self.keyframe_every, flush_every=1, blueprint=False
             )
         else:
-            self._recorder = Recorder(None, recording=self._stream, name="lab", keyframe_every=self.keyframe_every)
+            self._recorder = Recorder(
+                None, recording=self._stream, name="lab", keyframe_every=self.keyframe_every, blueprint=False
+            )
             assert src.world is not None
             self._recorder.log(src.world, run=self._main)
             self._recorder.flush()
@@ -610,6 +614,52 @@ class Lab:
             f"<Lab of {src}: ticks {self.line.first}-{self.line.last}, at tick {self.tick} ({self.run}), "
             f"{len(self.branches)} branches, selected {'b' + str(self.selected) if self.selected is not None else '-'}>"
         )
+
+
+def _bounds(w: World) -> tuple[float, float, float, float]:
+    """(x min, x max, y min, y max) of a world's moving bodies, padded (m): what the world view frames."""
+    dynamic = ~np.asarray(w.body_static)
+    pts = w.x[dynamic] if dynamic.any() else w.x
+    if not len(pts):
+        return -5.0, 5.0, -1.0, 5.0
+    pad = 1.0 + 0.1 * float(np.ptp(pts, axis=0).max())
+    lo, hi = pts.min(axis=0) - pad, pts.max(axis=0) + pad
+    return float(lo[0]), float(hi[0]), min(float(lo[1]), -0.5), float(hi[1])
+
+
+def _layout(labels: list[str | None], bounds: tuple[float, float, float, float]) -> Any:
+    """The lab's layout for runs ``labels`` (None: a file's unnamed run): a world view per run beside
+    plots overlaying them (kinetic energy, deepest overlap, residual per sweep), the time panel's
+    tick timeline below. Built with ``rerun.blueprint`` and handed to the notebook viewer
+    (``Viewer.set_application_blueprint``: a viewer fed by a callback takes its layout so)."""
+    import rerun.blueprint as rrb
+
+    def prefix(label: str | None) -> str:
+        return "/" + schema.run_prefix(label)
+
+    x0, x1, y0, y1 = bounds
+    framed = rrb.VisualBounds2D(x_range=[x0, x1], y_range=[-y1, -y0])  # (the 2D view is y-down; physics is flipped)
+    worlds = [
+        rrb.Spatial2DView(
+            name=f"world {label or ''}".strip(), origin=f"{prefix(label)}{schema.WORLD}", visual_bounds=framed
+        )
+        for label in labels
+    ]
+    plots = [
+        rrb.TimeSeriesView(name=name, origin="/", contents=[f"+ {prefix(label)}{path}" for label in labels])
+        for name, path in (
+            ("kinetic energy (J)", f"{schema.STATS_ROOT}/energy/kinetic"),
+            (f"deepest overlap ({schema.PENETRATION_UNIT})", f"{schema.STATS_ROOT}/max_penetration"),
+            ("solver residual per sweep, log10 (m/s)", schema.RESIDUAL),
+        )
+    ]
+    left = worlds[0] if len(worlds) == 1 else rrb.Grid(*worlds)
+    return rrb.Blueprint(
+        rrb.Horizontal(left, rrb.Vertical(*plots), column_shares=[3, 2]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline=schema.TICK),
+    )
 
 
 def _run_of(entity: str) -> tuple[str | None, str]:
