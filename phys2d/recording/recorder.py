@@ -238,7 +238,7 @@ class Recorder:
                   a keyframe (the world's snapshot, zlib-compressed) on a run's first tick and
                   then every this many ticks (0: none), besides every tick's state hash, dt and
                   the responder (its class and settings, when they change). The default,
-                  ``KEYFRAME_EVERY``, adds about 7 % to pyramid_20's 600-tick recording
+                  ``KEYFRAME_EVERY``, adds about 6 % to pyramid_20's 600-tick recording
     recording     a ``rerun.RecordingStream`` to log into instead of a file of its own (its sinks stay
                   its own: a notebook viewer's, say); closing the recorder flushes it and leaves it open
     background    write from a process of its own: this process only samples and hands windows
