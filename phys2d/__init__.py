@@ -8,10 +8,13 @@
         w.step(1 / 60)
 
 Recordings: ``phys2d.Recorder`` writes a world's ticks to a Rerun .rrd file and
-``phys2d.playback.load`` reads one back; both are imported on first use, so the
-engine itself never loads rerun. Likewise ``phys2d.sweep`` (a grid of runs to one
-Parquet table, on a process pool or a Dask cluster: ``phys2d.sweeps``) loads on
-first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.check``
+``phys2d.playback.load`` reads one back (``phys2d.playback.world_at(path, tick)`` re-enters
+it: a live World at any logged tick); both are imported on first use, so the engine itself
+never loads rerun. ``w.snapshot()`` / ``w.restore(data)`` / ``World.from_snapshot(data)`` and
+``w.state_hash()`` rewind a world (``phys2d.snapshot``); ``phys2d.Lab`` shows a world or a
+recording on Rerun's viewer in a notebook, to rewind, step and branch it (``phys2d.lab``).
+Likewise ``phys2d.sweep`` (a grid of runs to one Parquet table, on a process pool or a Dask
+cluster: ``phys2d.sweeps``) loads on first use, so ``import phys2d`` never imports pyarrow or dask; and ``phys2d.check``
 (a responder's report card on the lecture's claims: ``phys2d check FILE.py:CLASS``).
 """
 
@@ -40,6 +43,7 @@ __all__ = [
     "DistanceJoint",
     "IterativeImpulse",
     "Joint",
+    "Lab",
     "MouseJoint",
     "NaiveImpulse",
     "PGS",
@@ -78,6 +82,10 @@ def __getattr__(name: str):
         from .recording import playback
 
         return playback
+    if name == "Lab":  # the notebook lab (rerun's reader and viewer load with it)
+        from .lab import Lab
+
+        return Lab
     if name == "check":  # the report card (the function; its package is phys2d.checks)
         from .checks import check
 

@@ -7,6 +7,9 @@
     phys2d compare SCENE [--size N] [--steps N] [--dt S] [--out PATH] [--no-series] [counts]
     phys2d inspect PATH                 a summary table of a recording
     phys2d view PATH [--web]            the Rerun viewer, or the web viewer on 127.0.0.1
+    phys2d replay PATH [--check] [--run LABEL]      a recording's keyframes; --check steps it again
+    phys2d branch PATH --at TICK --responder NAME [--steps N] [-o OUT] [counts] [--run LABEL]
+                                        the future from a tick under another responder, beside the original
     phys2d sweep [GRID.toml] [--scenes ...] ...    a grid of runs to one Parquet table (phys2d/sweeps/command.py)
     phys2d check FILE.py:CLASS [--quick] [--json] [--out DIR]   a responder's report card (phys2d/checks/)
     phys2d --version
@@ -28,6 +31,7 @@ import argparse
 import difflib
 import gc
 import inspect as pyinspect
+import json
 import os
 import signal
 import socket
@@ -751,6 +755,105 @@ def cmd_view(args: argparse.Namespace) -> int:
     return viewer.serve(f"web viewer: {viewer.url}   (127.0.0.1 only; Ctrl-C stops it)" if args.web else None)
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from .recording import replay
+
+    if not os.path.isfile(args.path):
+        raise CLIError(f"no such recording: {args.path}")
+    runs = replay.timelines(args.path)
+    if args.run is not None:
+        runs = {args.run: replay.timeline(args.path, args.run)}
+    failed = 0
+    for label, t in runs.items():
+        name = f"run {label!r}" if label else "the run"
+        if not t.ticks:
+            print(f"{args.path}, {name}: no replay data (recorded by a phys2d without keyframes: record it again)")
+            failed += 1
+            continue
+        keys = t.keyframe_ticks()
+        shown = ", ".join(str(k) for k in keys[:8]) + (", ..." if len(keys) > 8 else "")
+        responders = [json.loads(spec).get("name", "?") for spec in t.responders.values()]
+        print(
+            f"{args.path}, {name}: ticks {t.first}-{t.last} ({plural(len(t.ticks), 'ticks')} logged), "
+            f"{plural(len(keys), 'keyframes')}{f' (at {shown})' if keys else ''}, responder "
+            f"{' then '.join(responders) or '?'}"
+        )
+        if not args.check:
+            continue
+        if not keys:
+            raise CLIError(str(t.missing_keyframes()))
+        bar = progress(len(t.ticks), 0, _progress_enabled(args.progress, len(t.ticks)))
+        try:
+            result = t.check(bar.update)
+        finally:
+            bar.close()
+        if result.ok:
+            frames = plural(result.keyframes, "keyframes")
+            print(f"{result.matched}/{result.total} ticks match (stepped again from {frames})")
+        else:
+            failed += 1
+            first = f"; tick {result.first_bad} differs first" if result.first_bad is not None else ""
+            print(f"{result.matched}/{result.total} ticks match{first}: {result.detail}")
+    return 1 if failed else 0
+
+
+def cmd_branch(args: argparse.Namespace) -> int:
+    from .recording import Recorder, replay
+
+    if not os.path.isfile(args.path):
+        raise CLIError(f"no such recording: {args.path}")
+    count = requested_count(args)
+    responder = make_responder(args.responder, count)
+    t = replay.timeline(args.path, args.run)
+    if args.steps is None and t.ticks and args.at == t.last:
+        raise CLIError(f"--at {args.at} is the recording's last tick: give --steps N to go on from it")
+    stem = os.path.splitext(args.path)[0]
+    tag = _count_tag(count, args.responder)
+    out = args.out or f"{stem}-branch-{args.at}-{args.responder}{tag}.rrd"
+    label = f"{args.responder}{tag}"
+    rec = Recorder(
+        out,
+        name=f"{os.path.basename(args.path)} from tick {args.at}: original vs {label}",
+        application_id="phys2d-compare",  # a world per run, side by side (as phys2d compare)
+        contact_series=False,
+        background=True,
+    )
+    bar = None
+    original_name = "?"
+
+    def log(original: World, branch: World) -> None:
+        nonlocal bar, original_name
+        rec.log(original, run="original")
+        rec.log(branch, run=label)
+        if bar is None:
+            original_name = original.responder.name
+            bar = progress(args.steps or t.last - args.at, 0, _progress_enabled(args.progress, t.last - args.at))
+        else:
+            bar.update(1)
+
+    try:
+        parting = t.branch(args.at, responder, args.steps, log)
+    except BaseException:
+        rec.close()
+        if os.path.isfile(out):
+            os.unlink(out)
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+    rec.close()
+    end = parting.start + parting.ticks
+    print(
+        f"{args.path} at tick {args.at}: the original ({original_name}) and a branch under {label}, "
+        f"{plural(parting.ticks, 'steps')} to tick {end}"
+    )
+    for line in parting.lines():
+        print(line)
+    print(f"recording: {out} (runs original and {label}, ticks {args.at}-{end}; {_size_of(out, parting.ticks + 1)})")
+    print(_how_to_open(out))
+    return 0
+
+
 # -- the parser ------------------------------------------------------------------------
 def _common(q: argparse.ArgumentParser, default_steps: int) -> None:
     q.add_argument("scene", help="a stock scene (see 'phys2d scenes')")
@@ -860,6 +963,49 @@ def add_view(sub: Any) -> None:
     v.set_defaults(func=cmd_view)
 
 
+def add_replay(sub: Any) -> None:
+    r = sub.add_parser("replay", help="a recording's keyframes; --check steps it again and compares every tick")
+    r.add_argument("path")
+    r.add_argument("--check", action="store_true", help="step every tick again from its keyframe and compare hashes")
+    r.add_argument("--run", default=None, help="the run to replay, in a file of several (phys2d compare's)")
+    r.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr")
+    r.set_defaults(func=cmd_replay)
+
+
+def _tick(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a tick number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a tick number >= 0, got {text!r}")
+    return value
+
+
+def add_branch(sub: Any) -> None:
+    b = sub.add_parser("branch", help="the future from a recorded tick under another responder, beside the original")
+    b.add_argument("path")
+    b.add_argument("--at", type=_tick, required=True, metavar="TICK", help="the tick to branch from")
+    b.add_argument(
+        "--responder",
+        required=True,
+        metavar="NAME",
+        help="the branch's responder: " + ", ".join(RESPONDERS),
+    )
+    b.add_argument("--steps", type=_count, default=None, help="ticks to run (default: to the recording's end)")
+    b.add_argument("-o", "--out", default=None, help="recording path (default PATH-branch-TICK-NAME.rrd beside it)")
+    b.add_argument("--run", default=None, help="the run to branch, in a file of several (phys2d compare's)")
+    counts = b.add_argument_group("work per tick (each accepted only by responders that take it)")
+    counts.add_argument("--sweeps", type=_count, default=None, help="PGS sweeps per tick (default 10)")
+    counts.add_argument("--passes", type=_count, default=None, help="iterative passes per tick (default 10)")
+    counts.add_argument("--substeps", type=_count, default=None, help="soft-step sub-steps per tick (default 4)")
+    counts.add_argument(
+        "--iterations", type=_count, default=None, help="alias: the sweeps, passes or sub-steps of the responder"
+    )
+    b.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr")
+    b.set_defaults(func=cmd_branch)
+
+
 def add_sweep(sub: Any) -> None:
     from .sweeps.command import add_parser  # its own module: dask and pyarrow load lazily
 
@@ -872,7 +1018,9 @@ def add_check(sub: Any) -> None:
     add_parser(sub)
 
 
-COMMANDS: list[Callable[[Any], None]] = [add_scenes, add_run, add_compare, add_inspect, add_view, add_sweep, add_check]
+COMMANDS: list[Callable[[Any], None]] = [
+    add_scenes, add_run, add_compare, add_inspect, add_view, add_replay, add_branch, add_sweep, add_check,
+]  # fmt: skip
 
 
 def version() -> str:

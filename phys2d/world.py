@@ -765,6 +765,34 @@ class World:
         "neighbours' far ends, follow them).",
     )
 
+    # -- snapshots (``phys2d.snapshot``: the format, what the hash covers) ---------------------------
+    def snapshot(self) -> bytes:
+        """The world's live state as bytes, between steps (``phys2d.snapshot.snapshot``)."""
+        from .snapshot import snapshot
+
+        return snapshot(self)
+
+    def restore(self, data: bytes) -> None:
+        """Put a snapshot's state back in place; a bad image is refused, the world unchanged
+        (``phys2d.snapshot.restore``)."""
+        from .snapshot import restore
+
+        restore(self, data)
+
+    @classmethod
+    def from_snapshot(cls, data: bytes) -> World:
+        """A new World holding a snapshot's state (``phys2d.snapshot.from_snapshot``)."""
+        from .snapshot import from_snapshot
+
+        return from_snapshot(data)
+
+    def state_hash(self) -> int:
+        """A 64-bit hash of everything that decides the future, the tick included
+        (``phys2d.snapshot.state_hash``)."""
+        from .snapshot import state_hash
+
+        return state_hash(self)
+
     def __repr__(self) -> str:
         n = self._bodies.n
         n_static = int(self._bodies.static.sum())

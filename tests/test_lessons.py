@@ -62,7 +62,7 @@ def runs_in(path: Path) -> dict[str, int]:
 
 def test_lesson_files_are_indexed_and_documented():
     names = sorted(p.stem for p in LESSONS.glob("[0-9][0-9]_*.py"))
-    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 13)]
+    assert [n[:2] for n in names] == [f"{k:02d}" for k in range(1, 14)]
     index = (LESSONS / "README.md").read_text()
     for n in names:
         text = (LESSONS / f"{n}.py").read_text()
@@ -341,3 +341,18 @@ def test_12_your_own_responder(tmp_path):
     assert not (tmp_path / "check" / "lecture-pgs.rrd").exists()  # a passing card keeps none
     runs = runs_in(tmp_path / "12_your_own_responder.rrd")
     assert runs == {f"stack-{r}": 180 for r in ("lecture-pgs", "pgs", "lecture-naive", "naive")}
+
+
+def test_13_rewind_and_branch(tmp_path):
+    out = run("13_rewind_and_branch", tmp_path)
+    same, total = line(out, r"^snapshot at tick 120: .* 60 steps, restore, 60 steps: ")[:2]
+    assert same == total == 60
+    part = re.search(r"^they part at tick (\d+): body b(\d+) is ([\d.]+) mm", out, re.M)
+    assert part and 120 < int(part.group(1)) <= 240 and float(part.group(3)) > 1.0
+    pgs, naive = (line(out, rf"^  {name}\s+(?={NUM})") for name in ("PGS", "naive"))
+    rows, ground, box, sliding, residual = pgs
+    assert ground == pytest.approx(1.0, abs=1e-3) and box == pytest.approx(1.0, abs=1e-3)  # PGS carries the weight
+    assert naive[0] == rows and naive[1] < 0.5 and naive[2] < 0.1  # the naive take, a small part of it
+    kept = re.search(r"^by tick 240: PGS keeps (\d+)/(\d+) boxes .* the naive take (\d+)/(\d+)$", out, re.M)
+    assert kept and kept.group(1) == kept.group(2) == kept.group(4) == "55" and int(kept.group(3)) < 55
+    assert runs_in(tmp_path / "13_rewind_and_branch.rrd") == {"pgs": 241, "naive": 121}

@@ -7,6 +7,7 @@ at a World.
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Callable
 
 import numpy as np
@@ -122,6 +123,7 @@ def write_scene(rec: Stream, b: RunBuffer) -> None:
     b.stats.append((ticks, times, aggregates(ss)))
     b.stats_ticks += len(ss)
     _keep_residuals(b, ss, ticks, times)
+    _write_replay(rec, b, ss)
     b.samples = []
 
 
@@ -291,6 +293,46 @@ def _write_joints(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
             native.STRIP_CLASS_IDS: native.lists(np.full(len(ends), schema.CLASS_JOINT, np.uint16), lengths),
         },
     )
+
+
+def _write_replay(rec: Stream, b: RunBuffer, ss: list[Sample]) -> None:
+    """What re-enters the recording (``schema.REPLAY_STATE``, ``REPLAY_KEYFRAMES``, ``REPLAY_RESPONDER``):
+    every tick's state hash and dt, the keyframes (compressed here, on the writing side) and the
+    responder's spec where it changed."""
+    kept = [s for s in ss if s.state is not None and s.dt is not None]
+    if kept:
+        t = np.fromiter((s.tick for s in kept), dtype=np.int64, count=len(kept))
+        tm = np.fromiter((s.time for s in kept), dtype=np.float64, count=len(kept))
+        ones = _ones(t.size)
+        rec.send(
+            f"{b.prefix}{schema.REPLAY_STATE}",
+            _index(t, tm),
+            {
+                native.any_value(schema.STATE_HASH.name): native.lists(np.concatenate([s.state for s in kept]), ones),
+                native.any_value(schema.DT.name): native.lists(np.concatenate([s.dt for s in kept]), ones),
+            },
+        )
+    for entity, field, rows in (
+        (
+            schema.REPLAY_KEYFRAMES,
+            schema.KEYFRAME,
+            [(s, zlib.compress(s.keyframe.tobytes(), 1)) for s in ss if s.keyframe is not None],
+        ),
+        (
+            schema.REPLAY_RESPONDER,
+            schema.RESPONDER_SPEC,
+            [(s, s.responder.tobytes().decode()) for s in ss if s.responder is not None],
+        ),
+    ):
+        if not rows:
+            continue
+        t = np.fromiter((s.tick for s, _ in rows), dtype=np.int64, count=len(rows))
+        tm = np.fromiter((s.time for s, _ in rows), dtype=np.float64, count=len(rows))
+        kind = pa.string() if field is schema.RESPONDER_SPEC else pa.binary()
+        values = pa.array([v for _, v in rows], kind)
+        rec.send(
+            f"{b.prefix}{entity}", _index(t, tm), {native.any_value(field.name): native.lists(values, _ones(t.size))}
+        )
 
 
 def _keep_residuals(b: RunBuffer, ss: list[Sample], t: np.ndarray, tm: np.ndarray) -> None:

@@ -161,25 +161,30 @@ class Stream:
         path: str | None,
         stream_to: str | None,
         coalesce_bytes: int = 0,
+        recording: Any = None,
     ) -> None:
         self.application_id = application_id
         self.coalesce_bytes = coalesce_bytes
         # per entity: the column names of the held sends, the sends, their bytes
         self.held: dict[str, tuple[tuple, list[tuple[dict, dict]], int]] = {}
-        self.rec = rb.new_recording(
-            application_id=application_id,
-            recording_id=recording_id or str(uuid.uuid4()),
-            make_default=False,
-            make_thread_default=False,
-            default_enabled=True,
-            send_properties=True,
-        )
-        sinks: list[Any] = []
-        if path is not None:
-            sinks.append(rb.FileSink(path))
-        if stream_to is not None:
-            sinks.append(rb.GrpcSink(stream_to))
-        rb.set_sinks(sinks, recording=self.rec)
+        self.own = recording is None  # a recording of our own (closed with the stream), or one given
+        if recording is not None:  # an open native recording: its sinks stay as they are (a notebook viewer's)
+            self.rec = recording
+        else:
+            self.rec = rb.new_recording(
+                application_id=application_id,
+                recording_id=recording_id or str(uuid.uuid4()),
+                make_default=False,
+                make_thread_default=False,
+                default_enabled=True,
+                send_properties=True,
+            )
+            sinks: list[Any] = []
+            if path is not None:
+                sinks.append(rb.FileSink(path))
+            if stream_to is not None:
+                sinks.append(rb.GrpcSink(stream_to))
+            rb.set_sinks(sinks, recording=self.rec)
         rb.set_log_time_enabled(False, recording=self.rec)  # deterministic files: no wall-clock timeline
 
     def send(self, entity: str, timelines: dict[str, pa.Array], components: dict[Descriptor, pa.Array]) -> None:
@@ -248,6 +253,10 @@ class Stream:
         rb.flush(timeout_sec=timeout_sec, recording=self.rec)
 
     def close(self) -> None:
-        """Send what is held, flush and finalize: the file gets its footer."""
+        """Send what is held, flush and finalize: the file gets its footer (a given recording is only
+        flushed: it stays open for its owner)."""
         self.release()
-        rb.disconnect(recording=self.rec)
+        if self.own:
+            rb.disconnect(recording=self.rec)
+        else:
+            rb.flush(timeout_sec=1e38, recording=self.rec)

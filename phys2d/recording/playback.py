@@ -7,6 +7,9 @@
     rec.kinetic_energy                   # (T,) J
     ticks, lam = rec.series("lambda", key)   # one contact's [lambda_n, lambda_t] over time
 
+Re-entering a recording (``replay``): ``world_at(path, tick)`` gives a live World at any
+logged tick, from the keyframe at or before it, checked against the recorded state hashes.
+
 A file with several runs (``phys2d compare``) gives ``rec.runs["pgs"]`` and so on;
 a file with one run forwards attribute access to it. Poses, velocities, residuals,
 the per-tick aggregates and the plotted series are exactly the float64 values the
@@ -28,6 +31,7 @@ import pyarrow.compute as pc
 from rerun.chunk import RrdReader
 
 from . import schema
+from .replay import CheckResult, ReplayError, Timeline, timeline, timelines, world_at
 from .schema import contact_entity
 
 SERIES_FAMILIES = {"lambda": schema.LAMBDA, "penetration": schema.PENETRATION, "reaction": schema.REACTION}
@@ -428,4 +432,18 @@ def load(path: str | os.PathLike) -> Recording:
     return Recording(p, store, entities, properties)
 
 
-__all__ = ["ContactFrames", "Recording", "RecordingError", "Run", "SERIES_FAMILIES", "SERIES_UNITS", "load"]
+__all__ = [
+    "CheckResult",
+    "ContactFrames",
+    "Recording",
+    "RecordingError",
+    "ReplayError",
+    "Run",
+    "SERIES_FAMILIES",
+    "SERIES_UNITS",
+    "Timeline",
+    "load",
+    "timeline",
+    "timelines",
+    "world_at",
+]

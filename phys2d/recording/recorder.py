@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import os
 import sys
+import warnings
 import weakref
 from typing import Any
 
@@ -49,6 +50,8 @@ import numpy as np
 from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
 from .sample import Sample, Sampler, pack, window_parts
+
+KEYFRAME_EVERY = 60  # ticks between keyframes, by default (``Recorder``)
 
 
 def _checked_path(path: Any) -> str:
@@ -75,6 +78,14 @@ def _check_count(value: Any, name: str) -> int:
         raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
     if value < 1:
         raise ValueError(f"{name} must be >= 1, got {value}")
+    return int(value)
+
+
+def _check_every(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"keyframe_every must be an integer (ticks; 0 for none), got {type(value).__name__}")
+    if value < 0:
+        raise ValueError(f"keyframe_every must be >= 0 (ticks; 0 for none), got {value}")
     return int(value)
 
 
@@ -223,6 +234,13 @@ class Recorder:
     series_every  ticks buffered before the plotted series are written
     blueprint     store a layout (world beside the plots) in the file
     stream_to     a viewer's ``rerun+http://HOST:PORT/proxy`` URL to stream to as well
+    keyframe_every  re-enterable recordings (``playback.world_at``, ``phys2d replay``, ``phys2d branch``):
+                  a keyframe (the world's snapshot, zlib-compressed) on a run's first tick and
+                  then every this many ticks (0: none), besides every tick's state hash, dt and
+                  the responder (its class and settings, when they change). The default,
+                  ``KEYFRAME_EVERY``, adds about 6 % to pyramid_20's 600-tick recording
+    recording     a ``rerun.RecordingStream`` to log into instead of a file of its own (its sinks stay
+                  its own: a notebook viewer's, say); closing the recorder flushes it and leaves it open
     background    write from a process of its own: this process only samples and hands windows
                   of ticks over, so loading rerun's native layer and the encoding run on another
                   core meanwhile (``phys2d run`` does this), and the file gets long chunks (the
@@ -231,6 +249,10 @@ class Recorder:
 
     Call ``log(w)`` after each ``w.step``; for comparisons log several worlds into one
     file with ``log(w, run="pgs")`` (each run under ``runs/<run>/``, same timelines).
+    A replay steps from a keyframe with the recorded dts and responders: change the world
+    from outside the step (a force, a mouse target, a body added or moved) between a step and
+    its ``log``, and log that tick with ``keyframe=True``, or a replay through it finds its
+    state hash differs and says so.
     Use as a context manager, or call ``close()``. ``schema`` describes the file.
     """
 
@@ -249,12 +271,23 @@ class Recorder:
         blueprint: bool = True,
         stream_to: str | None = None,
         background: bool = False,
+        keyframe_every: int = KEYFRAME_EVERY,
+        recording: Any = None,
     ) -> None:
         if stream_to is not None and (not isinstance(stream_to, str) or "://" not in stream_to):
             raise TypeError(
                 f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', got {stream_to!r}"
             )
-        p = None if path is None and stream_to is not None else _checked_path(path)
+        native = None
+        if recording is not None:
+            if not hasattr(recording, "to_native"):
+                raise TypeError(f"recording must be a rerun.RecordingStream, got {type(recording).__name__}")
+            if path is not None or stream_to is not None or background:
+                raise ValueError(
+                    "recording: a recorder logging into a given RecordingStream takes no path, stream_to or background"
+                )
+            native = recording.to_native()
+        p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
         for value, arg in ((name, "name"), (scene, "scene"), (recording_id, "recording_id")):
             if value is not None and not isinstance(value, str):
                 raise TypeError(f"{arg} must be a str or None, got {type(value).__name__}")
@@ -265,6 +298,7 @@ class Recorder:
                 raise TypeError(f"{arg} must be True or False, got {flag!r}")
         choice = as_choice(plot)
         flush_every = _check_count(flush_every, "flush_every")
+        self.keyframe_every = _check_every(keyframe_every)
         series_every = _check_count(series_every, "series_every")
         self.path = p
         kwargs = dict(
@@ -279,6 +313,7 @@ class Recorder:
             series_every=series_every,
             blueprint=bool(blueprint),
             stream_to=stream_to,
+            recording=native,
         )
         self._samplers: dict[str | None, Sampler] = {}
         forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
@@ -286,8 +321,10 @@ class Recorder:
         self._state = _State(backend)
         self._finalizer = weakref.finalize(self, _State.close, self._state)
 
-    def log(self, world, *, run: str | None = None) -> None:
-        """Buffer the world's current state as tick ``World.tick`` (of run ``run``)."""
+    def log(self, world, *, run: str | None = None, keyframe: bool = False) -> None:
+        """Buffer the world's current state as tick ``World.tick`` (of run ``run``); ``keyframe``:
+        keep its snapshot too, whatever ``keyframe_every`` says (after a change from outside the
+        step, so that a replay can start there)."""
         from ..world import World
 
         if self._state.closed:
@@ -295,6 +332,8 @@ class Recorder:
         if not isinstance(world, World):
             raise TypeError(f"world must be a phys2d World, got {type(world).__name__}")
         label = None if run is None else _check_label(run)
+        if not isinstance(keyframe, (bool, np.bool_)):
+            raise TypeError(f"keyframe must be True or False, got {keyframe!r}")
         sampler = self._samplers.get(label)
         info = None
         if sampler is None:
@@ -302,14 +341,29 @@ class Recorder:
                 raise ValueError("this recorder holds named runs: pass run=<label> to every log()")
             if label is not None and None in self._samplers:
                 raise ValueError("this recorder holds an unnamed run: log() without run= only")
-            sampler = self._samplers[label] = Sampler()
+            sampler = self._samplers[label] = Sampler(replay=True, keyframe_every=self.keyframe_every)
             info = dict(
                 responder=repr(world.responder),
                 responder_name=str(getattr(world.responder, "name", "")),
                 bodies=len(world),
                 first_tick=int(world.tick),
+                keyframe_every=self.keyframe_every,
             )
-        self._state.backend.add(label, sampler.sample(world), info)
+        note = sampler.note
+        sample = sampler.sample(world, bool(keyframe))
+        if sampler.note is not None and note is None:  # once: why this run's keyframes stop
+            reason = f"recording {self.path}: no keyframes from tick {world.tick} on: {sampler.note}"
+            warnings.warn(reason, stacklevel=2)
+        self._state.backend.add(label, sample, info)
+
+    def flush(self) -> None:
+        """Write the ticks logged so far now, rather than at the next ``flush_every`` (a viewer fed
+        by ``recording`` shows them at once); in this process only (not with ``background``)."""
+        if self._state.closed:
+            raise ValueError(f"this recorder is closed ({self.path})")
+        backend = self._state.backend
+        if isinstance(backend, _Local):
+            backend.sink.flush()
 
     @property
     def runs(self) -> list[str | None]:

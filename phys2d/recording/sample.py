@@ -10,6 +10,7 @@ what it keeps, so the world may step on at once.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 
@@ -140,7 +141,10 @@ class Sample:
     warm (K,) bool; gravity (2,) m/s^2; step (4,) the step's max_penetration (mm), contact count,
     cache hit rate and iterations (the energies and momenta are worked out when written,
     ``aggregates``); residuals (R,) m/s; joint_ends (J, 2, 2) m and joint_impulses (rows,) N s with joint_keys (rows,)
-    (joint << 16 | row), or None in a world without joints.
+    (joint << 16 | row), or None in a world without joints. For replay (``replay``), when the
+    recorder keeps it: state (1,) uint64 the world's state hash, dt (1,) float64 the step that led
+    to the tick (s; 0 before the first), keyframe (B,) uint8 the world's snapshot on a keyframe
+    tick, responder (B,) uint8 the responder's spec as JSON on a tick where it changed.
     """
 
     tick: int
@@ -163,6 +167,10 @@ class Sample:
     joint_keys: np.ndarray | None = None
     joint_impulses: np.ndarray | None = None
     asleep: np.ndarray | None = None  # (N,) bool: the body sleeps; None when none does
+    state: np.ndarray | None = None  # (1,) uint64 state hash
+    dt: np.ndarray | None = None  # (1,) float64 s
+    keyframe: np.ndarray | None = None  # (B,) uint8: a snapshot (``phys2d.snapshot``)
+    responder: np.ndarray | None = None  # (B,) uint8: JSON of ``snapshot.responder_spec``
 
     def dynamic_classes(self) -> np.ndarray:
         """(D,) the class ids of the dynamic bodies this tick: a sleeping one's dimmed."""
@@ -176,13 +184,24 @@ class Sample:
 
 
 class Sampler:
-    """Samples one world tick by tick, rebuilding the layout only when its bodies change."""
+    """Samples one world tick by tick, rebuilding the layout only when its bodies change.
 
-    def __init__(self) -> None:
+    replay          also keep what re-enters the recording (``replay``): every tick's state hash
+                    and dt, the responder's spec when it changes, and a keyframe (a snapshot) on
+                    the first tick and every ``keyframe_every`` ticks after the last (0: none)
+    """
+
+    def __init__(self, replay: bool = False, keyframe_every: int = 0) -> None:
         self.layout: Layout | None = None
         self.had_joints = False
+        self.replay = replay
+        self.keyframe_every = keyframe_every
+        self.last_keyframe: int | None = None  # the tick of the last keyframe
+        self.spec: str | None = None  # the responder's spec as last written
+        self.note: str | None = None  # why keyframes stopped (a responder a snapshot cannot hold)
 
-    def sample(self, w) -> Sample:
+    def sample(self, w, keyframe: bool = False) -> Sample:
+        """Tick ``w.tick`` copied; with ``keyframe`` (and ``replay``) a keyframe whatever the count."""
         uid = w.body_uids
         lay = self.layout
         if lay is None or lay.uid.shape != uid.shape or not np.array_equal(lay.uid, uid):
@@ -224,7 +243,28 @@ class Sampler:
                 else np.zeros(0, np.int64)
             )
             out.joint_impulses = np.concatenate(imps) if imps else np.zeros(0)
+        if self.replay:
+            self._replay(w, out, keyframe)
         return out
+
+    def _replay(self, w, out: Sample, keyframe: bool) -> None:
+        """The state hash, dt, responder spec and keyframe of the tick (``replay``)."""
+        from .. import snapshot
+
+        out.state = np.array([snapshot.state_hash(w)], dtype=np.uint64)
+        out.dt = np.array([w.last_step.dt], dtype=np.float64)
+        try:
+            spec = json.dumps(snapshot.responder_spec(w.responder), sort_keys=True)
+        except snapshot.SnapshotError as e:
+            self.note = self.note or str(e)
+            return
+        if spec != self.spec:
+            self.spec = spec
+            out.responder = np.frombuffer(spec.encode(), dtype=np.uint8)
+        last, every = self.last_keyframe, self.keyframe_every
+        if keyframe or (every > 0 and (last is None or w.tick - last >= every)):
+            out.keyframe = np.frombuffer(snapshot.snapshot(w), dtype=np.uint8)
+            self.last_keyframe = w.tick
 
 
 def aggregates(samples: list[Sample]) -> np.ndarray:
@@ -276,6 +316,10 @@ _PACKED = (
     "joint_keys",
     "joint_impulses",
     "asleep",
+    "state",
+    "dt",
+    "keyframe",
+    "responder",
 )
 
 

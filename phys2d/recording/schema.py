@@ -35,6 +35,12 @@ solver sweeps, on which they read as one continuous curve.
                                  the plotted entity, as Rerun (0.30 on) plots every numeric component
                                  of an entity in a time series view (it drew this as a flat line at 0)
     <run>stats/<name>            STATS: energies, momenta, deepest overlap, counts, one row per tick
+    <run>replay/state            STATE_HASH (uint64, ``World.state_hash``) and DT (float64, s: the step
+                                 that led to the tick, 0 before the first), one row per tick
+    <run>replay/keyframes        KEYFRAME: the world's snapshot (``phys2d.snapshot``), zlib-compressed,
+                                 on the run's first tick and every ``keyframe_every`` ticks
+    <run>replay/responder        RESPONDER_SPEC: the responder's class and settings as JSON
+                                 (``snapshot.responder_spec``), on the ticks where they changed
 
 A contact's ``<name>`` is ``b<uid_a>-b<uid_b>/f<feature>`` (``contact_entity``): the
 bodies' uids and the manifold's feature id, the contact's identity across ticks.
@@ -64,6 +70,9 @@ REACTION = "joints/reaction"
 RESIDUAL = "solver/residual"
 SWEEPS = "solver/sweeps"  # the exact residual per sweep, not plotted
 STATS_ROOT = "stats"
+REPLAY_STATE = "replay/state"
+REPLAY_KEYFRAMES = "replay/keyframes"
+REPLAY_RESPONDER = "replay/responder"
 RUNS_ROOT = "runs"
 PROPERTIES_ENGINE = "phys2d"  # recording property: engine version, scene, name
 PROPERTIES_RUN = "run"  # recording property of an unnamed run; named runs use runs/<label>
@@ -109,6 +118,10 @@ CONTACT_FIELDS = (
     Field("warm_started", "", np.bool_, "the contact cache supplied last tick's impulses"),
 )
 RESIDUAL_FIELD = Field("residual", "m/s", np.float64, "largest velocity correction of the sweep")
+STATE_HASH = Field("state_hash", "", np.uint64, "World.state_hash() at the tick")
+DT = Field("dt", "s", np.float64, "the step that led to the tick (0 before the first)")
+KEYFRAME = Field("snapshot_zlib", "", np.uint8, "World.snapshot() at the tick, zlib-compressed")
+RESPONDER_SPEC = Field("spec", "", np.str_, "the responder's class and settings, JSON")
 
 
 @dataclass(frozen=True)

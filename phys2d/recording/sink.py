@@ -36,6 +36,7 @@ class Sink:
         blueprint: bool,
         stream_to: str | None,
         long_chunks: bool = False,
+        recording: Any = None,
     ) -> None:
         self.scene = scene
         self.contact_series = contact_series
@@ -51,9 +52,14 @@ class Sink:
         # series_every ticks. Only for a writer process: it outlives a killed simulation and still
         # writes what it holds, where an in-process writer loses it (then every window is written
         # at once: a hard kill loses at most flush_every ticks).
-        self.long_chunks = long_chunks and stream_to is None
+        self.long_chunks = long_chunks and stream_to is None and recording is None
         self.rec = Stream(
-            application_id, recording_id, path, stream_to, coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0
+            application_id,
+            recording_id,
+            path,
+            stream_to,
+            coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0,
+            recording=recording,
         )
         if name:
             self.rec.recording_name(name)
@@ -81,6 +87,17 @@ class Sink:
             self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
         if b.series_ticks >= self.series_every:
             columns.write_series(self.rec, b)
+
+    def flush(self) -> None:
+        """Write every run's buffered ticks now (the scene, stats and residuals; the plotted series
+        wait for ``series_every`` ticks or the end), and the layout if the runs changed."""
+        for r in self.runs.values():
+            if r.samples:
+                columns.write_scene(self.rec, r)
+                columns.write_stats(self.rec, r)
+        if self.runs:
+            self.send_blueprint()
+        self.rec.flush(timeout_sec=0)
 
     def send_blueprint(self) -> None:
         """The layout for the runs as they are now, unless the file already has that one.
