@@ -321,6 +321,24 @@ class BodyArrays:
         self._refresh_views()
         return i
 
+    @property
+    def capacity(self) -> tuple[int, int]:
+        """(bodies, vertices) the storage holds before it grows: what a snapshot keeps, so that a
+        restored world grows when the original did."""
+        return self._x.shape[0], self._local_v.shape[0]
+
+    @classmethod
+    def restored(cls, columns: dict[str, np.ndarray], counts: tuple[int, int, int], forces_applied: bool) -> BodyArrays:
+        """Body arrays over ``columns`` (each of ``_PER_BODY`` and local_v, local_n, at capacity),
+        ``counts`` = (n, n_verts, next_uid) of them live."""
+        b = cls.__new__(cls)
+        for name, column in columns.items():
+            setattr(b, "_" + name, column)
+        b.n, b.n_verts, b.next_uid = counts
+        b.forces_applied = forces_applied
+        b._refresh_views()
+        return b
+
     def delete(self, i: int) -> None:
         """Remove row i, shifting later rows (and their vertex slices) down by one."""
         s, c = int(self._vstart[i]), stored_rows(int(self._kind[i]), int(self._vcount[i]))

@@ -9,14 +9,14 @@
 The viewer is ``rerun.notebook.Viewer`` (rerun-notebook), fed by a ``rerun.RecordingStream``
 of the lab's own: the world's ticks as the lab steps it (a recording's chunks, for a lab on a
 file), and each branch as a recording of its own (the original and the branch side by side, as
-``phys2d branch`` writes them). ``Lab.on_event`` is registered with ``Viewer.on_event``, so
+``phys2d branch`` writes them). ``Lab.on_event`` is registered with ``rerun.notebook.Viewer.on_event``, so
 the lab follows the viewer:
 
-    TimeUpdateEvent       on the ``tick`` timeline: ``lab.tick`` becomes the tick shown (the
+    TimeUpdateEvent       on the ``tick`` timeline: ``Lab.tick`` becomes the tick shown (the
                           logged tick at or before it); on ``sim_time`` (ns) the tick of that
                           time, on ``sweep`` the tick of that solver sweep
     TimelineChangeEvent   the timeline the times come on from now (and its time, converted)
-    SelectionChangeEvent  a body picked in a world view: ``lab.selected`` is its uid. Instance k of
+    SelectionChangeEvent  a body picked in a world view: ``Lab.selected`` is its uid. Instance k of
                           ``world/sim/bodies`` is the k-th dynamic body of ``w.bodies`` at the tick
                           shown, instance k of ``world/sim/static`` the k-th static one (the same
                           entity's ``uid`` column and label ``b<uid>`` name it); a run's bodies
@@ -153,8 +153,7 @@ def rows_of_step(world: World, dt: float, responder: Responder | None = None) ->
             world.responder = r
         world.step(dt)
     finally:
-        delattr(r, "respond")  # (the instance's own, gone: the class's again)  # noqa: B043
-        r.__dict__.pop("_tick_spec", None)  # (and the step's note of it: the next step may go in one call)
+        delattr(r, "respond")  # (the instance's own, gone: the class's again, and its kernel)  # noqa: B043
     uids = world.body_uids
     n = kept["lam"].shape[0]
     first_joint = int(kept["contacts"][0])
@@ -631,7 +630,7 @@ def _layout(labels: list[str | None], bounds: tuple[float, float, float, float])
     """The lab's layout for runs ``labels`` (None: a file's unnamed run): a world view per run beside
     plots overlaying them (kinetic energy, deepest overlap, residual per sweep), the time panel's
     tick timeline below. Built with ``rerun.blueprint`` and handed to the notebook viewer
-    (``Viewer.set_application_blueprint``: a viewer fed by a callback takes its layout so)."""
+    (``rerun.notebook.Viewer.set_application_blueprint``: a viewer fed by a callback takes its layout so)."""
     import rerun.blueprint as rrb
 
     def prefix(label: str | None) -> str:

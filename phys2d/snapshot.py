@@ -93,8 +93,8 @@ _CONTACT_FIELDS = (
     "body_a", "body_b", "point", "anchor", "normal", "separation", "lambda_n", "lambda_t", "feature", "key",
     "warm_started", "friction", "restitution",
 )  # fmt: skip
-_FROM_BUFFER = {"warm_started": "hit"}
-_RESPONDER_SKIP = ("_tick_spec",)  # the pipeline's note of a responder's settings, not a setting
+# a responder's count of its changes and its note of a respond of its own: not settings
+_RESPONDER_SKIP = ("version", "respond_replaced")
 
 
 class SnapshotError(ValueError):
@@ -129,14 +129,15 @@ def _lineage(world: World) -> _Lineage:
 def _note_handles(world: World, lineage: _Lineage) -> list[int]:
     """Remember the world's handles (only those made since the last look: uids ascend along
     ``w.bodies``); returns each joint's id, in joint order."""
-    for h in reversed(world._handles):
+    parts = world._parts()
+    for h in reversed(parts.handles):
         if h._uid <= lineage.seen_uid:
             break
         lineage.bodies[h._uid] = weakref.ref(h)
-    if world._handles:
-        lineage.seen_uid = max(lineage.seen_uid, world._handles[-1]._uid)
+    if parts.handles:
+        lineage.seen_uid = max(lineage.seen_uid, parts.handles[-1]._uid)
     ids = []
-    for joint in world._joints:
+    for joint in parts.joints.handles:
         jid = lineage.joint_ids.get(joint)
         if jid is None:
             jid = secrets.randbits(62)
@@ -276,35 +277,14 @@ def _points_of(span: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return counts, np.repeat(span[:, 0] - (ends - counts), counts) + np.arange(total)
 
 
-def _contacts_of(world: World) -> dict[str, np.ndarray]:
-    """The last step's contacts (``w.contacts``), read where they are: in the buffers while they have
-    not been copied out (reading ``w.contacts`` would copy them out: a change of the world)."""
-    if world._pending_contacts is not None and not world._contacts_sealed:
-        buffers, k = world._pending_contacts
-        return {name: getattr(buffers, _FROM_BUFFER.get(name, name))[:k] for name in _CONTACT_FIELDS}
-    c = world._contacts
-    return {name: getattr(c, name) for name in _CONTACT_FIELDS}
-
-
-def _joint_impulses(world: World) -> list[np.ndarray]:
-    """Each joint's last reactions (``Joint.impulse``), read without repacking the joints."""
-    lam = world._packed_joint_lam
-    out = []
-    for joint in world._joints:
-        if joint._offset is None:
-            out.append(np.asarray(joint._impulse, np.float64))
-        else:
-            out.append(lam[joint._offset : joint._offset + joint.row_count])
-    return out
-
-
 def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The world's live state: a plain dict (settings, counts, the responder, the joints) and the
     arrays, by name, as views where they can be (nothing is changed, nothing copied that need not be).
     ``for_hash`` leaves out what does not decide the future: sizes, the thread count, the step
     path, the last report, the joints' bookkeeping, and of the last step's contacts all but what
     putting an island to sleep by hand reads."""
-    b, p, islands = world._bodies, world._pipeline, world._islands
+    parts = world._parts()
+    b, p, islands, joint_set, settings = parts.bodies, parts.pipeline, parts.islands, parts.joints, parts.settings
     n = b.n
     arrays: dict[str, np.ndarray] = {}
     for name in BodyArrays._PER_BODY:
@@ -338,16 +318,17 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
     arrays["fat"] = g[5] if fat_holds else np.zeros((n, 4))
     arrays["pair_order"] = p.buffers.pair_order[:n_pairs] if ordered != PAIR_ORDER else np.zeros(0, np.int32)
     arrays["part"] = p.part if ordered != PAIR_ORDER else np.zeros(n, np.int32)
-    contacts = _contacts_of(world)
+    contacts = p.contact_fields(_CONTACT_FIELDS)  # (read where they lie: ``w.contacts`` would copy them out)
     if for_hash:  # what putting an island to sleep by hand reads of them (``sleep.touching``)
         contacts = {name: contacts[name] for name in ("body_a", "body_b", "separation")}
     for name, values in contacts.items():
         arrays["contacts." + name] = values
-    impulses = _joint_impulses(world)
+    impulses = joint_set.impulses()  # (read without packing the joints anew)
+    lam, rows_first, packed, placed = joint_set.state()
     if for_hash:
         arrays["joints.impulse"] = np.concatenate(impulses) if impulses else np.zeros(0)
     else:
-        arrays["joints.lam"] = world._packed_joint_lam
+        arrays["joints.lam"] = lam
     kept = sorted(islands.kept.items())
     arrays["islands.id"] = np.array([i for i, _ in kept], np.int64)
     arrays["islands.count"] = np.array([e[0].shape[0] for _, e in kept], np.int64)
@@ -363,19 +344,19 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
             "b": int(j.body_b._uid),
             "attrs": _plain_attributes(vars(j), f"joint {q}", _JOINT_LINKS + skip),
         }
-        for q, j in enumerate(world._joints)
+        for q, j in enumerate(joint_set.handles)
     ]
     meta: dict[str, Any] = {
         "tick": int(world.tick),
         "time": float(world.time),
         "world": {
-            "gravity": [float(v) for v in world._gravity],
-            "contact_margin": world._contact_margin,
-            "max_speed": world._max_speed,
-            "contact_recycle_distance": world._contact_recycle_distance,
-            "sleep": world._sleep,
+            "gravity": [float(v) for v in settings.gravity],
+            "contact_margin": settings.contact_margin,
+            "max_speed": settings.max_speed,
+            "contact_recycle_distance": settings.recycle_distance,
+            "sleep": parts.sleep,
         },
-        "responder": responder_spec(world._responder, lenient=for_hash),
+        "responder": responder_spec(parts.responder, lenient=for_hash),
         "bodies": {"n": n, "n_verts": b.n_verts, "next_uid": b.next_uid, "forces_applied": b.forces_applied},
         "pipeline": {
             "n_pairs": n_pairs,
@@ -388,7 +369,7 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
         "islands": {"some_asleep": islands.some_asleep, "next_island": islands.next_island},
     }
     if not for_hash:
-        meta["world"].update(threads=world._threads, one_call_tick=world._one_call_tick)
+        meta["world"].update(threads=settings.threads, one_call_tick=parts.one_call_tick)
         meta["pipeline"].update(
             recycled=int(store.recycled),
             room={
@@ -397,16 +378,12 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
                 "pair_list": int(p.pairs.shape[0]),
                 "store_rows": int(store.found_pose.shape[0]),
                 "residuals": int(p.residuals.shape[0]),
-                "bodies": int(b._x.shape[0]),
-                "vertices": int(b._local_v.shape[0]),
+                "bodies": int(b.capacity[0]),
+                "vertices": int(b.capacity[1]),
             },
         )
-        meta["joint_state"] = {
-            "rows_first": int(world._joint_rows_first),
-            "packed": bool(world._joints_packed),
-            "placed": bool(world._joints_placed),
-        }
-        r = world._last_step
+        meta["joint_state"] = {"rows_first": int(rows_first), "packed": bool(packed), "placed": bool(placed)}
+        r = parts.last_step
         meta["report"] = {
             "responder": r.responder,
             "dt": float(r.dt),
@@ -532,16 +509,11 @@ class _Plan:
     """Everything ``_commit`` puts into the world, built and checked."""
 
     meta: dict[str, Any]
-    bodies: BodyArrays
-    pipeline: Any
-    responder: Responder
-    handles: list[Body]
+    parts: Any  # ``world.WorldParts``: the bodies, handles, pipeline, islands, settings, responder, report
     joints: list[joint_module.Joint]
     joint_attrs: list[dict[str, Any]]
     joint_lam: np.ndarray
     contacts: Contacts
-    report: StepReport
-    islands: Any
     lineage: int
     joint_ids: list[int]
     made: list[Body]  # the handles made anew (the others were the lineage's)
@@ -566,6 +538,7 @@ def _prepare(world: World, image: _Image) -> _Plan:
     """Everything the image puts into ``world``, built and checked; the world is not touched."""
     from .pipeline.step import Buffers, Pipeline
     from .sleep import Islands
+    from .world import WorldParts, WorldSettings
 
     meta = image.meta
     try:
@@ -577,28 +550,25 @@ def _prepare(world: World, image: _Image) -> _Plan:
         raise SnapshotError(f"snapshot is damaged: its description lacks {e}") from None
 
     # the bodies: new storage of the original's size, the live rows copied in
-    b = BodyArrays.__new__(BodyArrays)  # (its storage is made here, of the original's size)
-    cap = _room(max(n, 8), room["bodies"])
+    cap, vcap = _room(max(n, 8), room["bodies"]), _room(max(n_verts, 32), room["vertices"])
+    columns = {}
     for name, (shape, dtype) in BodyArrays._PER_BODY.items():
-        src = _need(image, "bodies." + name, dtype, (n, *shape))
         column: np.ndarray = np.zeros((cap, *shape), dtype)
-        column[:n] = src
-        setattr(b, "_" + name, column)
-    vcap = _room(max(n_verts, 32), room["vertices"])
+        column[:n] = _need(image, "bodies." + name, dtype, (n, *shape))
+        columns[name] = column
     for name in ("local_v", "local_n"):
         column = np.zeros((vcap, 2))
         column[:n_verts] = _need(image, "bodies." + name, np.float64, (n_verts, 2))
-        setattr(b, "_" + name, column)
-    b.n, b.n_verts, b.next_uid = n, n_verts, int(counts["next_uid"])
-    b.forces_applied = bool(counts["forces_applied"])
-    b._refresh_views()
+        columns[name] = column
+    b = BodyArrays.restored(columns, (n, n_verts, int(counts["next_uid"])), bool(counts["forces_applied"]))
     uids = b.uid
     if n and (np.any(np.diff(uids) <= 0) or uids[0] < 0 or uids[-1] >= b.next_uid):
         raise SnapshotError("snapshot is damaged: its bodies' uids do not ascend below next_uid")
 
     # the pipeline: its buffers of the original's sizes, the live state in them (side 0)
     k, m, n_pairs = int(pipe["cached"]), int(pipe["manifolds"]), int(pipe["n_pairs"])
-    p = Pipeline()
+    handles: list[Body] = []
+    p = Pipeline(b, joint_module.JointSet(), handles)  # (its joints: set below, once made)
     pairs_room = _room(max(n_pairs, m, (k + 1) // 2), room["pairs"])
     p.buffers = t = Buffers(pairs_room, int(room["joint_rows"]))
     c = t.sides[0]
@@ -654,7 +624,7 @@ def _prepare(world: World, image: _Image) -> _Plan:
         r["contact_count"], r["cache_hits"], image.arrays["report.joint_impulses"], None,
         image.arrays["report.solve_order"], r["counted"],
     ).read_only()  # fmt: skip
-    islands = Islands()
+    islands = Islands(b, p.joints, p)  # (its joints: set below, once made)
     islands.some_asleep = bool(meta["islands"]["some_asleep"])
     islands.next_island = int(meta["islands"]["next_island"])
     ids, sizes = image.arrays["islands.id"], image.arrays["islands.count"]
@@ -668,10 +638,12 @@ def _prepare(world: World, image: _Image) -> _Plan:
     token = int(meta["lineage"])
     same = lineage is not None and lineage.token == token
     uid_list = uids.tolist()
-    handles, made = [], []
-    if same and [h._uid for h in world._handles] == uid_list:  # (a rollback: the same bodies)
-        handles, uid_list = list(world._handles), []
-    current = {h._uid: h for h in world._handles} if same else {}
+    made: list[Body] = []
+    now = world._parts()
+    if same and [h._uid for h in now.handles] == uid_list:  # (a rollback: the same bodies)
+        handles += now.handles
+        uid_list = []
+    current = {h._uid: h for h in now.handles} if same else {}
     for i, u in enumerate(uid_list):
         h = current.get(u)
         if h is None and same:
@@ -696,50 +668,47 @@ def _prepare(world: World, image: _Image) -> _Plan:
         )  # fmt: skip
         jids.append(int(spec["id"]))
     lam = image.arrays["joints.lam"].copy()
-    return _Plan(meta, b, p, responder, handles, joints, attrs, lam, contacts, report, islands, token, jids, made)
+    s = meta["world"]
+    settings = WorldSettings(
+        np.array(s["gravity"], np.float64), float(s["contact_margin"]), float(s["contact_recycle_distance"]),
+        float(s["max_speed"]), int(s["threads"]),
+    )  # fmt: skip
+    parts = WorldParts(b, handles, p.joints, p, islands, settings, responder, report, bool(s["sleep"]), False)
+    parts = parts._replace(one_call_tick=bool(s["one_call_tick"]))
+    return _Plan(meta, parts, joints, attrs, lam, contacts, token, jids, made)
 
 
 def _commit(world: World, plan: _Plan) -> None:
     """Put a prepared plan into the world: assignments only, nothing here refuses."""
-    meta = plan.meta
+    meta, now, parts = plan.meta, world._parts(), plan.parts
     staying = {id(j) for j in plan.joints}
-    for joint in world._joints:  # joints made since the image: removed, their last reactions kept
+    for joint in now.joints.handles:  # joints made since the image: removed, their last reactions kept
         if id(joint) not in staying:
             joint._impulse, joint._offset, joint.alive, joint._has_rows = joint.impulse, None, False, False
-    keep = {id(h) for h in plan.handles}
-    for h in world._handles:
+    keep = {id(h) for h in parts.handles}
+    for h in now.handles:
         if id(h) not in keep:
             h._index = -1
-    for i, h in enumerate(plan.handles):
+    for i, h in enumerate(parts.handles):
         h._index = i
     for joint, attrs in zip(plan.joints, plan.joint_attrs, strict=True):
         joint.__dict__.clear()
         joint.__dict__.update(attrs)
-    s = meta["world"]
-    gravity = np.array(s["gravity"], np.float64)
-    world._gravity, world._gravity_norm = gravity, float(math.hypot(*gravity))
-    world._contact_margin, world._max_speed = float(s["contact_margin"]), float(s["max_speed"])
-    world._contact_recycle_distance = float(s["contact_recycle_distance"])
-    world._sleep, world._threads, world._one_call_tick = bool(s["sleep"]), int(s["threads"]), bool(s["one_call_tick"])
-    world._responder = plan.responder
-    world._bodies, world._handles, world._pipeline = plan.bodies, plan.handles, plan.pipeline
-    world._joints = plan.joints
-    world._mice = sum(isinstance(j, joint_module.MouseJoint) for j in plan.joints)
     js = meta["joint_state"]
-    world._packed_joint_lam, world._joint_rows_first = plan.joint_lam, int(js["rows_first"])
-    world._pack_joints()  # the packed joints and excluded pairs, each joint's reactions from its offset
-    world._joints_placed = bool(js["placed"]) if js["packed"] else False  # (as the original's next pack leaves it)
-    world._contacts, world._contacts_sealed, world._pending_contacts = plan.contacts, True, None
-    world._last_step = plan.report
-    world._islands = plan.islands
+    rows_first, packed, placed = int(js["rows_first"]), bool(js["packed"]), bool(js["placed"])
+    joints = joint_module.JointSet.restored(plan.joints, plan.joint_lam, rows_first, packed, placed)
+    pipeline, islands = parts.pipeline, parts.islands
+    pipeline.joints = islands.joints = joints
+    pipeline.keep_contacts(plan.contacts)
+    world._put_parts(parts._replace(joints=joints))
     world.tick, world.time = int(meta["tick"]), float(meta["time"])
     lineage = _LINEAGES.get(world)
     if lineage is None or lineage.token != plan.lineage:  # the world goes on as one of the image's lineage
         lineage = _LINEAGES[world] = _Lineage(token=plan.lineage)
     for h in plan.made:
         lineage.bodies[h._uid] = weakref.ref(h)
-    if plan.handles:
-        lineage.seen_uid = max(lineage.seen_uid, plan.handles[-1]._uid)
+    if parts.handles:
+        lineage.seen_uid = max(lineage.seen_uid, parts.handles[-1]._uid)
     for joint, jid in zip(plan.joints, plan.joint_ids, strict=True):
         lineage.joint_ids[joint] = jid
         lineage.joints[jid] = joint

@@ -7,12 +7,11 @@ shared/benchmarks.c; Solver2D: samples/collection/sample_contact.cpp, sample_far
 sample_joints.cpp) and what it tests. Units are SI; Box2D's defaults carry over:
 density 1 kg/m^2, friction 0.6, gravity (0, -10) m/s^2.
 
-Until phys2d has segments and capsules (the shapes branch), a ground segment is a static
-box whose top face lies on the segment and a capsule is the box around its core
-segment (half extents: half length + radius, radius); each docstring says where.
-Revolute joints are ``add_pin_joint``; the motors, springs and joint friction some
-samples add are left out (phys2d has none yet). ``ragdoll`` is missing: it needs
-capsules and joint limits.
+Some scenes were written before phys2d had segments: there a ground segment is a static
+box whose top face lies on the segment; each docstring says where. Revolute joints are
+``add_pin_joint``, with their motors (``car``) and limits (``ragdoll``, whose limbs are
+capsules); joint friction is a motor of speed 0 and bounded torque; the springs some samples
+add are left out.
 
 ``STOCK_SCENES`` lists them as ``phys2d.scenes.SCENES`` does (which takes them in), and
 ``WATCHES`` gives each the watch that judges its own claim (``verdict.watch_for``).

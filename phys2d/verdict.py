@@ -314,7 +314,7 @@ def joint_gaps(world) -> np.ndarray:
     | |p_b - p_a| - L | for a distance joint, with p the anchors in world coordinates."""
     from .constraints.joints import JOINT_DISTANCE, JOINT_PIN
 
-    ja = world._joints.arrays
+    ja = world._parts().joints.arrays  # (the joints packed, as the step reads them)
     x, theta = world.x, world.theta
 
     def anchor(body: np.ndarray, local: np.ndarray) -> np.ndarray:
@@ -433,7 +433,7 @@ class RampWatch(Watch):
 
     def __init__(self, world, *, slope: float, ramp_friction: float, settle: float = 1.5, window: float = 0.5) -> None:
         super().__init__(world)
-        mu = np.sqrt(world._bodies.friction[self._judged] * ramp_friction)
+        mu = np.sqrt(np.array([world.bodies[i].friction for i in self._judged]) * ramp_friction)
         self.sticks = mu > math.tan(_check_limit(slope, "slope"))
         self.settle = _check_limit(settle, "settle")
         self.window = _check_limit(window, "window")

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -53,6 +53,23 @@ if TYPE_CHECKING:
     from typing_extensions import Unpack  # typing.Unpack from Python 3.11; annotations only
 
 _J = TypeVar("_J", bound=Joint)
+
+
+class WorldParts(NamedTuple):
+    """What a World's state is made of (``World._parts``): its body arrays and handles, its
+    joints, its pipeline (buffers, caches, pairs) and sleeping islands, its settings, responder,
+    last report, and the switches ``sleep`` and ``one_call_tick``."""
+
+    bodies: BodyArrays
+    handles: list[Body]
+    joints: JointSet
+    pipeline: Pipeline
+    islands: sleeping.Islands
+    settings: WorldSettings
+    responder: Responder
+    last_step: StepReport
+    sleep: bool
+    one_call_tick: bool
 
 
 def _read_only_view(field: str, doc: str) -> property:
@@ -766,6 +783,21 @@ class World:
     )
 
     # -- snapshots (``phys2d.snapshot``: the format, what the hash covers) ---------------------------
+    def _parts(self) -> WorldParts:
+        """What the world's state is made of, for ``phys2d.snapshot`` to read (and to put back,
+        ``_put_parts``): its one way into the world."""
+        return WorldParts(
+            self._bodies, self._handles, self._joints, self._pipeline, self._islands, self._settings, self._responder,
+            self._last_step, self._sleep, self._one_call_tick,
+        )  # fmt: skip
+
+    def _put_parts(self, parts: WorldParts) -> None:
+        """Take ``parts`` (a snapshot's, built and checked) as the world's state; nothing refuses here."""
+        (
+            self._bodies, self._handles, self._joints, self._pipeline, self._islands, self._settings, self._responder,
+            self._last_step, self._sleep, self._one_call_tick,
+        ) = parts  # fmt: skip
+
     def snapshot(self) -> bytes:
         """The world's live state as bytes, between steps (``phys2d.snapshot.snapshot``)."""
         from .snapshot import snapshot

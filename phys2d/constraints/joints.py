@@ -703,6 +703,32 @@ class JointSet:
         self._excluded = np.unique(np.asarray(keys, np.int64))
         self._packed = True
 
+    def impulses(self) -> list[np.ndarray]:
+        """Each joint's last reactions (``Joint.impulse``), read without packing the joints anew."""
+        out = []
+        for joint in self.handles:
+            if joint._offset is None:
+                out.append(np.asarray(joint._impulse, np.float64))
+            else:
+                out.append(self._lam[joint._offset : joint._offset + joint.row_count])
+        return out
+
+    def state(self) -> tuple[np.ndarray, int, bool, bool]:
+        """(the packed reactions as they lie, rows_first, packed, placed): what a snapshot keeps."""
+        return self._lam, self.rows_first, self._packed, self._placed
+
+    @classmethod
+    def restored(cls, handles: list[Joint], lam: np.ndarray, rows_first: int, packed: bool, placed: bool) -> JointSet:
+        """The joints of a snapshot: ``handles`` (their offsets into ``lam`` as they were), packed
+        again, and the bookkeeping as the original's next pack would leave it."""
+        joints = cls()
+        joints.handles = list(handles)
+        joints.mice = sum(isinstance(j, MouseJoint) for j in handles)
+        joints._lam, joints.rows_first = lam, rows_first
+        joints._pack()  # the packed joints and excluded pairs, each joint's reactions from its offset
+        joints._placed = placed if packed else False
+        return joints
+
     def store_impulses(self, first_row: int, lam: np.ndarray) -> None:
         """Keep the reactions of the step just taken: the rows' ``lam`` from first_row on, in
         joint order (one copy, which every joint's ``impulse`` reads)."""

@@ -57,6 +57,7 @@ from .stages import (
 )
 from .tick import tick
 
+BUFFER_NAMES = {"warm_started": "hit"}  # a field of ``Contacts`` by its name in the buffers
 BOUNCE_SWEEPS = 10  # sweeps of the restitution pass the world makes for a responder that leaves it the move
 
 
@@ -156,7 +157,7 @@ class Pipeline:
         # the context (``context``): the record, its records, what it was made over
         self.ctx: Any = None
         self._records: list = []
-        self._over: tuple = ()
+        self._over = -1  # the joints' version the context was made with
         # the step's settings and solve (``prepare``), what they were made from, and the machine code
         self.settings: StepSettings | None = None
         self.solver: Solver | None = None
@@ -172,7 +173,7 @@ class Pipeline:
         """A copy (pickle, deepcopy) leaves out the context (numba structrefs) and the machine
         code: made anew when needed."""
         state = self.__dict__.copy()
-        state.update(ctx=None, _records=[], _over=(), settings=None, solver=None, _made_from=(), _machine={})
+        state.update(ctx=None, _records=[], _over=-1, settings=None, solver=None, _made_from=(), _machine={})
         state.update(_kernel=(None, None, None))
         state.update(_solver_of=(None, -1, None))
         return state
@@ -264,6 +265,19 @@ class Pipeline:
             self._contacts = self.buffers.sides[side].contacts(k).read_only()
         return self._contacts
 
+    def contact_fields(self, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+        """The last step's contacts' fields ``names`` (``Contacts``'), read where they lie: in the
+        buffers while nobody has looked at them (``contacts`` would copy them out)."""
+        if self._contacts is not None:
+            return {name: getattr(self._contacts, name) for name in names}
+        side, k = self.last_contacts
+        found = self.buffers.sides[side]
+        return {name: getattr(found, BUFFER_NAMES.get(name, name))[:k] for name in names}
+
+    def keep_contacts(self, contacts: Contacts) -> None:
+        """The last step's contacts are ``contacts`` (a snapshot's)."""
+        self._contacts, self.last_contacts = contacts.read_only(), (None, contacts.body_a.shape[0])
+
     def forget_contacts(self) -> None:
         """No contacts to show (a body was removed: their indices no longer match)."""
         self._contacts, self.last_contacts = Contacts().read_only(), (None, 0)
@@ -281,14 +295,12 @@ class Pipeline:
     def context(self) -> Any:
         """The step's ``TickContext`` over the world's arrays and these buffers (and the records it
         holds: ``bodies_record``, ``shapes_record``, ...): made anew when one of the arrays was
-        replaced (``ctx`` set to None), the joints were repacked or the threads changed."""
+        replaced or the threads changed (``ctx`` set to None), or the joints changed."""
+        if self.ctx is not None and self._over == self.joints.version:
+            return self.ctx
         b, t, store = self.bodies, self.buffers, self.store
         joints = self.joints.arrays if self.joints.handles else None
         threads = threads_switch(self._threads)
-        lam = self.joints.lam if joints is not None else None
-        kept = self._over
-        if self.ctx is not None and kept[0] is b.x and kept[1] is joints and kept[2] is lam and kept[3] == threads:
-            return self.ctx
         if self.undo[1].shape[0] != b.n:
             self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
         if self.part.shape[0] != b.n:
@@ -313,7 +325,7 @@ class Pipeline:
                 (b.gravity_scale, b.damping, b.force), joint_record, threads, self.rounded,
             ),
         )  # fmt: skip
-        self._over = (b.x, joints, lam, threads)
+        self._over = self.joints.version
         return self.ctx
 
     _threads = 1  # the world's threads, as the last ``prepare`` read them
@@ -363,7 +375,7 @@ class Pipeline:
             if solver is not None:
                 self._n_residuals = solver.pgs.iterations if solver.pgs is not None else solver.soft.substeps
             if self._threads != world.threads:
-                self._threads = world.threads
+                self._threads, self.ctx = world.threads, None
             self._made_from = (world, responder, responder.version, dt, one_call)
         return self.solver
 

@@ -304,6 +304,12 @@ class Responder:
             object.__setattr__(self, "respond_replaced", True)
         object.__setattr__(self, "version", self.version + 1)  # the world reads its settings again
 
+    def __delattr__(self, name: str) -> None:
+        super().__delattr__(name)
+        if name == "respond":  # the class's respond again: its kernel too
+            object.__setattr__(self, "respond_replaced", False)
+        object.__setattr__(self, "version", self.version + 1)
+
     @property
     def settings(self) -> object:
         """Its settings as its solve kernel reads them, plain values (``kernel``); None without one."""

@@ -293,10 +293,11 @@ CONTACT_ARRAYS = (
 
 def fingerprint(w: phys2d.World) -> tuple:
     """Everything a World holds, as bytes: two equal fingerprints mean bit-identical worlds."""
-    b = w._bodies
+    parts = w._parts()  # (what the world is made of: ``World._parts``)
+    b, pipeline = parts.bodies, parts.pipeline
     arrays = [getattr(b, name) for name in b._PER_BODY] + [b.local_v, b.local_n]
     contact_arrays = [getattr(w.contacts, name) for name in CONTACT_ARRAYS]
-    cache_keys, cache_lambda_n, cache_lambda_t = w._pipeline.cache()
+    cache_keys, cache_lambda_n, cache_lambda_t = pipeline.cache()
     return (
         b.n,
         b.n_verts,
@@ -319,9 +320,9 @@ def fingerprint(w: phys2d.World) -> tuple:
             (type(j).__name__, j.body_a._uid, j.body_b._uid, j.alive, j.impulse.tobytes())
             for j in getattr(w, "joints", ())
         ),
-        w._joints.excluded.tobytes(),
+        parts.joints.excluded.tobytes(),
         w.contact_recycle_distance,
-        tuple(np.asarray(a).tobytes() for a in w._pipeline.store.live(*w._pipeline.manifold_keys())),
+        tuple(np.asarray(a).tobytes() for a in pipeline.store.live(*pipeline.manifold_keys())),
     )
 
 
