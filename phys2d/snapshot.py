@@ -67,7 +67,9 @@ from .contacts import Contacts
 from .responders.base import Responder, StepReport
 
 if TYPE_CHECKING:
-    from .world import World
+    from .pipeline.step import Pipeline
+    from .sleep import Islands
+    from .world import World, WorldParts
 
 MAGIC = b"PHYS2D\x00S"  # 8 bytes: what every snapshot starts with
 FORMAT = 1  # the format version: a reader refuses any other
@@ -284,12 +286,36 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
     path, the last report, the joints' bookkeeping, and of the last step's contacts all but what
     putting an island to sleep by hand reads."""
     parts = world._parts()
-    b, p, islands, joint_set, settings = parts.bodies, parts.pipeline, parts.islands, parts.joints, parts.settings
-    n = b.n
+    b, p, joint_set = parts.bodies, parts.pipeline, parts.joints
     arrays: dict[str, np.ndarray] = {}
     for name in BodyArrays._PER_BODY:
         arrays["bodies." + name] = getattr(b, name)
     arrays["bodies.local_v"], arrays["bodies.local_n"] = b.local_v, b.local_n
+    _gather_cache(p, arrays)
+    n_pairs, ordered = _gather_pairs(p, b, arrays)
+    contacts = p.contact_fields(_CONTACT_FIELDS)  # (read where they lie: ``w.contacts`` would copy them out)
+    if for_hash:  # what putting an island to sleep by hand reads of them (``sleep.touching``)
+        contacts = {name: contacts[name] for name in ("body_a", "body_b", "separation")}
+    for name, values in contacts.items():
+        arrays["contacts." + name] = values
+    impulses = joint_set.impulses()  # (read without packing the joints anew)
+    lam, rows_first, packed, placed = joint_set.state()
+    if for_hash:
+        arrays["joints.impulse"] = np.concatenate(impulses) if impulses else np.zeros(0)
+    else:
+        arrays["joints.lam"] = lam
+    _gather_islands(parts.islands, arrays)
+    meta = _describe(world, parts, n_pairs, ordered, for_hash)
+    if not for_hash:
+        _gather_for_restore(parts, meta)
+        meta["joint_state"] = {"rows_first": int(rows_first), "packed": bool(packed), "placed": bool(placed)}
+        _gather_report(parts.last_step, meta, arrays)
+    return meta, arrays
+
+
+def _gather_cache(p: Pipeline, arrays: dict[str, np.ndarray]) -> None:
+    """The contact cache and the cached manifolds with their points, in cache order: views when the
+    store holds just these, else the live rows gathered (the store's dead rows left out)."""
     side, k, m = p.buffers.sides[p.side], p.cached, p.manifolds
     arrays["cache.key"], arrays["cache.lambda_n"] = side.key[:k], side.cache_lambda_n[:k]
     arrays["cache.lambda_t"], arrays["cache.pushed"] = side.cache_lambda_t[:k], side.cache_pushed[:k]
@@ -306,9 +332,15 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
     arrays["manifolds.pose"], arrays["manifolds.rotation"] = store.found_pose[took[0]], store.found_rotation[took[0]]
     arrays["points.anchor"], arrays["points.normal"] = store.anchor[took[1]], store.normal[took[1]]
     arrays["points.separation"], arrays["points.feature"] = store.separation[took[1]], store.feature[took[1]]
+
+
+def _gather_pairs(p: Pipeline, b: BodyArrays, arrays: dict[str, np.ndarray]) -> tuple[int, int]:
+    """The broadphase's pairs, fat boxes and solve order, as far as they hold; returns (the pairs kept,
+    the order they are in: ``PAIR_ORDER`` when none is kept)."""
     # the pairs (while they hold: once the bodies or joints changed, the next step sweeps anew), the fat
     # boxes they were swept from, and their solve order with the bodies' parts (once made: else the next
     # step makes them, from the positions then)
+    n = b.n
     live_pairs = not p.sweep_again
     n_pairs = int(p.n_pairs) if live_pairs else 0
     g = p.geometry
@@ -318,17 +350,11 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
     arrays["fat"] = g[5] if fat_holds else np.zeros((n, 4))
     arrays["pair_order"] = p.buffers.pair_order[:n_pairs] if ordered != PAIR_ORDER else np.zeros(0, np.int32)
     arrays["part"] = p.part if ordered != PAIR_ORDER else np.zeros(n, np.int32)
-    contacts = p.contact_fields(_CONTACT_FIELDS)  # (read where they lie: ``w.contacts`` would copy them out)
-    if for_hash:  # what putting an island to sleep by hand reads of them (``sleep.touching``)
-        contacts = {name: contacts[name] for name in ("body_a", "body_b", "separation")}
-    for name, values in contacts.items():
-        arrays["contacts." + name] = values
-    impulses = joint_set.impulses()  # (read without packing the joints anew)
-    lam, rows_first, packed, placed = joint_set.state()
-    if for_hash:
-        arrays["joints.impulse"] = np.concatenate(impulses) if impulses else np.zeros(0)
-    else:
-        arrays["joints.lam"] = lam
+    return n_pairs, ordered
+
+
+def _gather_islands(islands: Islands, arrays: dict[str, np.ndarray]) -> None:
+    """The cache each sleeping island keeps, concatenated in island order, with the ids and counts."""
     kept = sorted(islands.kept.items())
     arrays["islands.id"] = np.array([i for i, _ in kept], np.int64)
     arrays["islands.count"] = np.array([e[0].shape[0] for _, e in kept], np.int64)
@@ -336,8 +362,12 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
         dtype = (np.int64, np.float64, np.float64, np.bool_)[q]
         arrays["islands." + name] = np.concatenate([e[q] for _, e in kept]) if kept else np.zeros(0, dtype)
 
+
+def _joint_specs(joint_set: joint_module.JointSet, for_hash: bool) -> list[dict[str, Any]]:
+    """Each joint as plain values: its class, its bodies' uids and its settings (``for_hash``: without
+    its bookkeeping); SnapshotError for a setting a snapshot cannot hold."""
     skip = ("_offset", "_rows_offset", "_has_rows", "_impulse") if for_hash else ()
-    joints = [
+    return [
         {
             "type": type(j).__name__,
             "a": int(j.body_a._uid),
@@ -346,7 +376,14 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
         }
         for q, j in enumerate(joint_set.handles)
     ]
-    meta: dict[str, Any] = {
+
+
+def _describe(world: World, parts: WorldParts, n_pairs: int, ordered: int, for_hash: bool) -> dict[str, Any]:
+    """The plain part both a snapshot and the hash read: the tick and time, the settings, the responder,
+    the counts, the joints and the islands' bookkeeping."""
+    b, p, islands, settings = parts.bodies, parts.pipeline, parts.islands, parts.settings
+    joints = _joint_specs(parts.joints, for_hash)
+    return {
         "tick": int(world.tick),
         "time": float(world.time),
         "world": {
@@ -357,46 +394,52 @@ def _gather(world: World, for_hash: bool = False) -> tuple[dict[str, Any], dict[
             "sleep": parts.sleep,
         },
         "responder": responder_spec(parts.responder, lenient=for_hash),
-        "bodies": {"n": n, "n_verts": b.n_verts, "next_uid": b.next_uid, "forces_applied": b.forces_applied},
+        "bodies": {"n": b.n, "n_verts": b.n_verts, "next_uid": b.next_uid, "forces_applied": b.forces_applied},
         "pipeline": {
             "n_pairs": n_pairs,
-            "manifolds": int(m),
-            "cached": int(k),
+            "manifolds": int(p.manifolds),
+            "cached": int(p.cached),
             "ordered": ordered,
             "sweep_again": bool(p.sweep_again),
         },
         "joints": joints,
         "islands": {"some_asleep": islands.some_asleep, "next_island": islands.next_island},
     }
-    if not for_hash:
-        meta["world"].update(threads=settings.threads, one_call_tick=parts.one_call_tick)
-        meta["pipeline"].update(
-            recycled=int(store.recycled),
-            room={
-                "pairs": p.buffers.pairs,
-                "joint_rows": p.buffers.joint_rows,
-                "pair_list": int(p.pairs.shape[0]),
-                "store_rows": int(store.found_pose.shape[0]),
-                "residuals": int(p.residuals.shape[0]),
-                "bodies": int(b.capacity[0]),
-                "vertices": int(b.capacity[1]),
-            },
-        )
-        meta["joint_state"] = {"rows_first": int(rows_first), "packed": bool(packed), "placed": bool(placed)}
-        r = parts.last_step
-        meta["report"] = {
-            "responder": r.responder,
-            "dt": float(r.dt),
-            "count": int(r.count),
-            "counted": r.counted,
-            "max_penetration": float(r.max_penetration),
-            "contact_count": int(r.contact_count),
-            "cache_hits": int(r.cache_hits),
-        }
-        arrays["report.residuals"] = r.residuals
-        arrays["report.joint_impulses"] = r.joint_impulses
-        arrays["report.solve_order"] = r.solve_order
-    return meta, arrays
+
+
+def _gather_for_restore(parts: WorldParts, meta: dict[str, Any]) -> None:
+    """What a restore needs and the hash does not: the thread count, the step path, and the buffers'
+    sizes (so that a restored world grows them at the ticks the original did)."""
+    p, store, b, settings = parts.pipeline, parts.pipeline.store, parts.bodies, parts.settings
+    meta["world"].update(threads=settings.threads, one_call_tick=parts.one_call_tick)
+    meta["pipeline"].update(
+        recycled=int(store.recycled),
+        room={
+            "pairs": p.buffers.pairs,
+            "joint_rows": p.buffers.joint_rows,
+            "pair_list": int(p.pairs.shape[0]),
+            "store_rows": int(store.found_pose.shape[0]),
+            "residuals": int(p.residuals.shape[0]),
+            "bodies": int(b.capacity[0]),
+            "vertices": int(b.capacity[1]),
+        },
+    )
+
+
+def _gather_report(r: StepReport, meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+    """The last step's report, which a restored world hands back as ``World.last_step``."""
+    meta["report"] = {
+        "responder": r.responder,
+        "dt": float(r.dt),
+        "count": int(r.count),
+        "counted": r.counted,
+        "max_penetration": float(r.max_penetration),
+        "contact_count": int(r.contact_count),
+        "cache_hits": int(r.cache_hits),
+    }
+    arrays["report.residuals"] = r.residuals
+    arrays["report.joint_impulses"] = r.joint_impulses
+    arrays["report.solve_order"] = r.solve_order
 
 
 # -- the image ---------------------------------------------------------------------------------------
