@@ -67,7 +67,8 @@ from .contacts import Contacts
 from .responders.base import Responder, StepReport
 
 if TYPE_CHECKING:
-    from .pipeline.step import Pipeline
+    from .collision.recycle import ManifoldStore
+    from .pipeline.step import ContactBuffers, Pipeline
     from .sleep import Islands
     from .world import World, WorldParts
 
@@ -579,8 +580,6 @@ def _room(n: int, capacity: int) -> int:
 
 def _prepare(world: World, image: _Image) -> _Plan:
     """Everything the image puts into ``world``, built and checked; the world is not touched."""
-    from .pipeline.step import Buffers, Pipeline
-    from .sleep import Islands
     from .world import WorldParts, WorldSettings
 
     meta = image.meta
@@ -591,8 +590,35 @@ def _prepare(world: World, image: _Image) -> _Plan:
         room = pipe["room"]
     except (KeyError, TypeError, ValueError) as e:
         raise SnapshotError(f"snapshot is damaged: its description lacks {e}") from None
+    b = _bodies_from(image, n, n_verts, counts, room)
+    handles: list[Body] = []  # (the pipeline's: filled below, once the lineage is known)
+    p = _pipeline_from(image, b, pipe, handles)
 
-    # the bodies: new storage of the original's size, the live rows copied in
+    # the responder, the contacts, the report, the islands
+    responder = responder_from_spec(meta["responder"])
+    contacts = Contacts(**{name: image.arrays[f"contacts.{name}"] for name in _CONTACT_FIELDS}).read_only()
+    report = _report_from(image)
+    islands = _islands_from(image, b, p)
+
+    # the handles: this lineage's own where they live on, new ones for the rest
+    lineage = _LINEAGES.get(world)
+    token = int(meta["lineage"])
+    own = lineage if lineage is not None and lineage.token == token else None
+    made = _handles_from(world, own, b.uid.tolist(), handles)
+    joints, attrs, jids = _joints_from(world, meta["joints"], own, {h._uid: h for h in handles})
+    lam = image.arrays["joints.lam"].copy()
+    s = meta["world"]
+    settings = WorldSettings(
+        np.array(s["gravity"], np.float64), float(s["contact_margin"]), float(s["contact_recycle_distance"]),
+        float(s["max_speed"]), int(s["threads"]),
+    )  # fmt: skip
+    parts = WorldParts(b, handles, p.joints, p, islands, settings, responder, report, bool(s["sleep"]), False)
+    parts = parts._replace(one_call_tick=bool(s["one_call_tick"]))
+    return _Plan(meta, parts, joints, attrs, lam, contacts, token, jids, made)
+
+
+def _bodies_from(image: _Image, n: int, n_verts: int, counts: dict[str, Any], room: dict[str, Any]) -> BodyArrays:
+    """The bodies: new storage of the original's size, the live rows copied in, their uids checked."""
     cap, vcap = _room(max(n, 8), room["bodies"]), _room(max(n_verts, 32), room["vertices"])
     columns = {}
     for name, (shape, dtype) in BodyArrays._PER_BODY.items():
@@ -607,39 +633,21 @@ def _prepare(world: World, image: _Image) -> _Plan:
     uids = b.uid
     if n and (np.any(np.diff(uids) <= 0) or uids[0] < 0 or uids[-1] >= b.next_uid):
         raise SnapshotError("snapshot is damaged: its bodies' uids do not ascend below next_uid")
+    return b
 
-    # the pipeline: its buffers of the original's sizes, the live state in them (side 0)
+
+def _pipeline_from(image: _Image, b: BodyArrays, pipe: dict[str, Any], handles: list[Body]) -> Pipeline:
+    """The pipeline of bodies ``b`` and ``handles``: its buffers of the original's sizes, the live state
+    in them (side 0); its joints are set once made."""
+    from .pipeline.step import Buffers, Pipeline
+
+    n, n_verts, room = b.n, b.n_verts, pipe["room"]
     k, m, n_pairs = int(pipe["cached"]), int(pipe["manifolds"]), int(pipe["n_pairs"])
-    handles: list[Body] = []
     p = Pipeline(b, joint_module.JointSet(), handles)  # (its joints: set below, once made)
     pairs_room = _room(max(n_pairs, m, (k + 1) // 2), room["pairs"])
     p.buffers = t = Buffers(pairs_room, int(room["joint_rows"]))
-    c = t.sides[0]
-    c.key[:k] = _need(image, "cache.key", np.int64, (k,))
-    c.cache_lambda_n[:k] = _need(image, "cache.lambda_n", np.float64, (k,))
-    c.cache_lambda_t[:k] = _need(image, "cache.lambda_t", np.float64, (k,))
-    c.cache_pushed[:k] = _need(image, "cache.pushed", np.bool_, (k,))
-    points = _need(image, "manifolds.points", np.int64, (m,))
-    total = int(points.sum())
-    if np.any(points < 0) or np.any(points > 2):
-        raise SnapshotError("snapshot is damaged: a manifold has more than 2 points")
-    c.manifold_key[:m] = _need(image, "manifolds.key", np.int64, (m,))
-    c.manifold_row[:m] = np.arange(m)
-    store = p.store
-    rows = _room(m, room["store_rows"])
-    store.found_pose, store.found_rotation = np.zeros((rows, 2)), np.zeros((rows, 4))
-    store.span = np.zeros((rows, 2), np.int64)
-    store.anchor, store.normal = np.zeros((2 * rows, 4)), np.zeros((2 * rows, 2))
-    store.separation, store.feature = np.zeros(2 * rows), np.zeros(2 * rows, np.int32)
-    store.found_pose[:m] = _need(image, "manifolds.pose", np.float64, (m, 2))
-    store.found_rotation[:m] = _need(image, "manifolds.rotation", np.float64, (m, 4))
-    np.cumsum(points, out=store.span[:m, 1])
-    store.span[:m, 0] = store.span[:m, 1] - points
-    store.anchor[:total] = _need(image, "points.anchor", np.float64, (total, 4))
-    store.normal[:total] = _need(image, "points.normal", np.float64, (total, 2))
-    store.separation[:total] = _need(image, "points.separation", np.float64, (total,))
-    store.feature[:total] = _need(image, "points.feature", np.int32, (total,))
-    store.rows_used, store.points_used, store.recycled = m, total, int(pipe.get("recycled", 0))
+    points = _side_from(image, t.sides[0], k, m)
+    _store_from(image, p.store, points, pipe)
     p.side, p.manifolds, p.cached = 0, m, k
     p.pairs = np.zeros((_room(n_pairs, room["pair_list"]), 2), np.int32)
     pairs = _need(image, "pairs", np.int32, (n_pairs, 2))
@@ -657,52 +665,101 @@ def _prepare(world: World, image: _Image) -> _Plan:
         _need(image, "fat", np.float64, (n, 4)).copy(),
     )  # fmt: skip
     p.residuals = np.zeros(_room(16, room["residuals"]))
+    return p
 
-    # the responder, the contacts, the report, the islands
-    responder = responder_from_spec(meta["responder"])
-    contacts = Contacts(**{name: image.arrays[f"contacts.{name}"] for name in _CONTACT_FIELDS}).read_only()
-    r = meta["report"]
-    report = StepReport(
+
+def _side_from(image: _Image, c: ContactBuffers, k: int, m: int) -> np.ndarray:
+    """The contact cache (``k`` entries) and the manifolds' keys (``m``, the store's first rows) into
+    side ``c``; returns each manifold's point count, checked."""
+    c.key[:k] = _need(image, "cache.key", np.int64, (k,))
+    c.cache_lambda_n[:k] = _need(image, "cache.lambda_n", np.float64, (k,))
+    c.cache_lambda_t[:k] = _need(image, "cache.lambda_t", np.float64, (k,))
+    c.cache_pushed[:k] = _need(image, "cache.pushed", np.bool_, (k,))
+    points = _need(image, "manifolds.points", np.int64, (m,))
+    if np.any(points < 0) or np.any(points > 2):
+        raise SnapshotError("snapshot is damaged: a manifold has more than 2 points")
+    c.manifold_key[:m] = _need(image, "manifolds.key", np.int64, (m,))
+    c.manifold_row[:m] = np.arange(m)
+    return points
+
+
+def _store_from(image: _Image, store: ManifoldStore, points: np.ndarray, pipe: dict[str, Any]) -> None:
+    """The cached manifolds into a store of the original's size: rows in cache order, ``points``
+    of each, packed from the first."""
+    m, total = points.shape[0], int(points.sum())
+    rows = _room(m, pipe["room"]["store_rows"])
+    store.found_pose, store.found_rotation = np.zeros((rows, 2)), np.zeros((rows, 4))
+    store.span = np.zeros((rows, 2), np.int64)
+    store.anchor, store.normal = np.zeros((2 * rows, 4)), np.zeros((2 * rows, 2))
+    store.separation, store.feature = np.zeros(2 * rows), np.zeros(2 * rows, np.int32)
+    store.found_pose[:m] = _need(image, "manifolds.pose", np.float64, (m, 2))
+    store.found_rotation[:m] = _need(image, "manifolds.rotation", np.float64, (m, 4))
+    np.cumsum(points, out=store.span[:m, 1])
+    store.span[:m, 0] = store.span[:m, 1] - points
+    store.anchor[:total] = _need(image, "points.anchor", np.float64, (total, 4))
+    store.normal[:total] = _need(image, "points.normal", np.float64, (total, 2))
+    store.separation[:total] = _need(image, "points.separation", np.float64, (total,))
+    store.feature[:total] = _need(image, "points.feature", np.int32, (total,))
+    store.rows_used, store.points_used, store.recycled = m, total, int(pipe.get("recycled", 0))
+
+
+def _report_from(image: _Image) -> StepReport:
+    """The last step's report, read-only, as the original's ``World.last_step`` was."""
+    r = image.meta["report"]
+    return StepReport(
         r["responder"], r["dt"], r["count"], image.arrays["report.residuals"], r["max_penetration"],
         r["contact_count"], r["cache_hits"], image.arrays["report.joint_impulses"], None,
         image.arrays["report.solve_order"], r["counted"],
     ).read_only()  # fmt: skip
+
+
+def _islands_from(image: _Image, b: BodyArrays, p: Pipeline) -> Islands:
+    """The sleeping islands with the cache each keeps (their joints: set once made)."""
+    from .sleep import Islands
+
     islands = Islands(b, p.joints, p)  # (its joints: set below, once made)
-    islands.some_asleep = bool(meta["islands"]["some_asleep"])
-    islands.next_island = int(meta["islands"]["next_island"])
+    islands.some_asleep = bool(image.meta["islands"]["some_asleep"])
+    islands.next_island = int(image.meta["islands"]["next_island"])
     ids, sizes = image.arrays["islands.id"], image.arrays["islands.count"]
     ends = np.cumsum(sizes)
     kept = [image.arrays[f"islands.{name}"] for name in ("key", "lambda_n", "lambda_t", "pushed")]
     for island, end, size in zip(ids.tolist(), ends.tolist(), sizes.tolist(), strict=True):
         islands.kept[island] = tuple(a[end - size : end].copy() for a in kept)
+    return islands
 
-    # the handles: this lineage's own where they live on, new ones for the rest
-    lineage = _LINEAGES.get(world)
-    token = int(meta["lineage"])
-    same = lineage is not None and lineage.token == token
-    uid_list = uids.tolist()
+
+def _handles_from(world: World, own: _Lineage | None, uids: list[int], handles: list[Body]) -> list[Body]:
+    """Append to ``handles`` a Body for each of ``uids``: the world's or its lineage ``own``'s where
+    they live on (None: the image is of another lineage), new ones for the rest; returns the new ones."""
     made: list[Body] = []
     now = world._parts()
-    if same and [h._uid for h in now.handles] == uid_list:  # (a rollback: the same bodies)
+    if own is not None and [h._uid for h in now.handles] == uids:  # (a rollback: the same bodies)
         handles += now.handles
-        uid_list = []
-    current = {h._uid: h for h in now.handles} if same else {}
-    for i, u in enumerate(uid_list):
+        uids = []
+    current = {h._uid: h for h in now.handles} if own is not None else {}
+    for i, u in enumerate(uids):
         h = current.get(u)
-        if h is None and same:
-            ref = lineage.bodies.get(u)  # type: ignore[union-attr]
+        if h is None and own is not None:
+            ref = own.bodies.get(u)
             h = ref() if ref is not None else None
         if h is None:
             h = Body(world, i, u)
             made.append(h)
         handles.append(h)
-    by_uid = {h._uid: h for h in handles}
+    return made
+
+
+def _joints_from(
+    world: World, specs: list[Any], own: _Lineage | None, by_uid: dict[int, Body]
+) -> tuple[list[joint_module.Joint], list[dict[str, Any]], list[int]]:
+    """(the joints, the attributes each gets, their ids): the lineage ``own``'s joint where it is one of
+    the same class, else a new one, for each of ``specs``; bodies by uid from ``by_uid``."""
     joints, attrs, jids = [], [], []
-    for q, spec in enumerate(meta["joints"]):
+    for q, spec in enumerate(specs):
         cls = _JOINT_CLASSES.get(spec.get("type"))
         if cls is None or spec["a"] not in by_uid or spec["b"] not in by_uid:
             raise SnapshotError(f"snapshot is damaged: joint {q} is not a joint of its bodies")
-        old = lineage.joints.get(spec["id"]) if same else None  # type: ignore[union-attr]
+        old = own.joints.get(spec["id"]) if own is not None else None
         joint = old if type(old) is cls else cls.__new__(cls)
         joints.append(joint)
         attrs.append(
@@ -710,15 +767,7 @@ def _prepare(world: World, image: _Image) -> _Plan:
              "body_a": by_uid[spec["a"]], "body_b": by_uid[spec["b"]]}
         )  # fmt: skip
         jids.append(int(spec["id"]))
-    lam = image.arrays["joints.lam"].copy()
-    s = meta["world"]
-    settings = WorldSettings(
-        np.array(s["gravity"], np.float64), float(s["contact_margin"]), float(s["contact_recycle_distance"]),
-        float(s["max_speed"]), int(s["threads"]),
-    )  # fmt: skip
-    parts = WorldParts(b, handles, p.joints, p, islands, settings, responder, report, bool(s["sleep"]), False)
-    parts = parts._replace(one_call_tick=bool(s["one_call_tick"]))
-    return _Plan(meta, parts, joints, attrs, lam, contacts, token, jids, made)
+    return joints, attrs, jids
 
 
 def _commit(world: World, plan: _Plan) -> None:
