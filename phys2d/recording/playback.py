@@ -294,76 +294,13 @@ class Recording:
         assert bodies_t is not None
         bt = bodies_t.filter(pc.is_valid(bodies_t.column("x")))
         time = bt.column(schema.SIM_TIME).cast(pa.int64()).to_numpy() / 1e9
-        T = tick.size
-        # static bodies: written when they change; each tick takes the latest row at or before it
-        stat = self._bodies(f"{p}{schema.STATIC}")
-        uids = [dval["uid"]]
-        if stat is not None:
-            s_tick, n_st, sval, srow = stat
-            which = np.searchsorted(s_tick, tick, side="right") - 1  # latest static row per tick (-1: none)
-            s_start = np.concatenate([[0], np.cumsum(n_st)])
-            take = [np.arange(s_start[k], s_start[k + 1]) if k >= 0 else np.zeros(0, np.int64) for k in which]
-            s_idx = np.concatenate(take) if take else np.zeros(0, np.int64)
-            s_rowtick = np.repeat(np.arange(T), [len(a) for a in take])
-            uids.append(sval["uid"][s_idx])
-        body_uid = np.unique(np.concatenate(uids))  # uid order is the world's order
-        U = body_uid.size
-        x, theta, V = np.full((T, U, 2), np.nan), np.full((T, U), np.nan), np.full((T, U, 3), np.nan)
-
-        def fill(rows: np.ndarray, vals: dict[str, np.ndarray], idx) -> None:
-            slot = np.searchsorted(body_uid, vals["uid"][idx])
-            x[rows, slot, 0], x[rows, slot, 1] = vals["x"][idx], vals["y"][idx]
-            theta[rows, slot] = vals["angle"][idx]
-            V[rows, slot, 0], V[rows, slot, 1], V[rows, slot, 2] = vals["vx"][idx], vals["vy"][idx], vals["omega"][idx]
-
-        fill(drow, dval, slice(None))
-        if stat is not None:
-            fill(s_rowtick, sval, s_idx)
-
-        ct = self._temporal(f"{p}{schema.CONTACTS}")
-        if ct is not None and "lambda_n" in ct.column_names:
-            ct = ct.filter(pc.is_valid(ct.column("lambda_n")))
-            cn = _lengths(ct, "lambda_n")
-            rows_tick = ct.column(schema.TICK).to_numpy()
-            counts = np.zeros(T, np.int64)  # contacts per body tick (a tick without a contact row has none)
-            counts[np.searchsorted(tick, rows_tick)] = cn
-            f = {
-                name: _flat(ct, name)
-                for name in ("body_a", "body_b", "feature", "lambda_n", "lambda_t", "separation", "warm_started")
-            }
-            a, b_, feat = (f[k].astype(np.int64) for k in ("body_a", "body_b", "feature"))
-            origins = _points(ct, "Arrows2D:origins")
-            vectors = _points(ct, "Arrows2D:vectors")
-            contacts = ContactFrames(
-                offsets=np.concatenate([[0], np.cumsum(counts)]),
-                tick=np.repeat(rows_tick, cn),
-                key=schema.contact_key(a, b_, feat),
-                body_a=a,
-                body_b=b_,
-                feature=feat,
-                point=origins,
-                normal=vectors / schema.NORMAL_LENGTH,
-                separation=f["separation"].astype(np.float64),
-                normal_impulse=f["lambda_n"].astype(np.float64),
-                tangent_impulse=f["lambda_t"].astype(np.float64),
-                warm_started=f["warm_started"].astype(np.bool_),
-            )
-        else:
-            contacts = ContactFrames.empty(T)
-
+        body_uid, x, theta, V = _poses(tick, dval, drow, self._bodies(f"{p}{schema.STATIC}"))
+        contacts = self._contacts(p, tick)
         res = self._temporal(f"{p}{schema.SWEEPS}")
         if res is None:  # written before the exact residuals had an entity of their own
             res = self._temporal(f"{p}{schema.RESIDUAL}")
         stats = {st.name: _scalars(self._temporal(f"{p}{schema.STATS_ROOT}/{st.name}")) for st in schema.STATS}
-        joints = self._temporal(f"{p}{schema.JOINTS}")
-        anchors: list[np.ndarray] = []
-        if joints is not None and "LineStrips2D:strips" in joints.column_names:
-            joints = joints.filter(pc.is_valid(joints.column("LineStrips2D:strips")))
-            jl = _lengths(joints, "LineStrips2D:strips")
-            pts = np.asarray(
-                pc.list_flatten(pc.list_flatten(joints.column("LineStrips2D:strips"))).to_pylist(), dtype=np.float64
-            ).reshape(-1, 2, 2)
-            anchors = np.split(pts, np.cumsum(jl)[:-1])
+        anchors = self._joint_anchors(p)
         props = self.properties.get(schema.run_property(label), {})
         return Run(
             label=label,
@@ -390,6 +327,86 @@ class Recording:
             joint_anchors=anchors,
             _recording=self,
         )
+
+    def _contacts(self, p: str, tick: np.ndarray) -> ContactFrames:
+        """The run's per-tick contact table (entity ``p`` + ``schema.CONTACTS``) over the body ticks ``tick``."""
+        ct = self._temporal(f"{p}{schema.CONTACTS}")
+        if ct is None or "lambda_n" not in ct.column_names:
+            return ContactFrames.empty(tick.size)
+        ct = ct.filter(pc.is_valid(ct.column("lambda_n")))
+        cn = _lengths(ct, "lambda_n")
+        rows_tick = ct.column(schema.TICK).to_numpy()
+        counts = np.zeros(tick.size, np.int64)  # contacts per body tick (a tick without a contact row has none)
+        counts[np.searchsorted(tick, rows_tick)] = cn
+        f = {
+            name: _flat(ct, name)
+            for name in ("body_a", "body_b", "feature", "lambda_n", "lambda_t", "separation", "warm_started")
+        }
+        a, b_, feat = (f[k].astype(np.int64) for k in ("body_a", "body_b", "feature"))
+        origins = _points(ct, "Arrows2D:origins")
+        vectors = _points(ct, "Arrows2D:vectors")
+        return ContactFrames(
+            offsets=np.concatenate([[0], np.cumsum(counts)]),
+            tick=np.repeat(rows_tick, cn),
+            key=schema.contact_key(a, b_, feat),
+            body_a=a,
+            body_b=b_,
+            feature=feat,
+            point=origins,
+            normal=vectors / schema.NORMAL_LENGTH,
+            separation=f["separation"].astype(np.float64),
+            normal_impulse=f["lambda_n"].astype(np.float64),
+            tangent_impulse=f["lambda_t"].astype(np.float64),
+            warm_started=f["warm_started"].astype(np.bool_),
+        )
+
+    def _joint_anchors(self, p: str) -> list[np.ndarray]:
+        """Each tick's joint anchors as drawn (entity ``p`` + ``schema.JOINTS``): (joints, 2, 2) m."""
+        joints = self._temporal(f"{p}{schema.JOINTS}")
+        if joints is None or "LineStrips2D:strips" not in joints.column_names:
+            return []
+        joints = joints.filter(pc.is_valid(joints.column("LineStrips2D:strips")))
+        jl = _lengths(joints, "LineStrips2D:strips")
+        pts = np.asarray(
+            pc.list_flatten(pc.list_flatten(joints.column("LineStrips2D:strips"))).to_pylist(), dtype=np.float64
+        ).reshape(-1, 2, 2)
+        return np.split(pts, np.cumsum(jl)[:-1])
+
+
+def _poses(
+    tick: np.ndarray,
+    dval: dict[str, np.ndarray],
+    drow: np.ndarray,
+    stat: tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(body_uid, x, theta, V): every body seen, in uid order, and its pose at each of ``tick`` (NaN
+    where it did not exist), from the bodies' table (values ``dval``, each instance's row ``drow``)
+    and the static bodies' (``stat``, None when there is none)."""
+    T = tick.size
+    # static bodies: written when they change; each tick takes the latest row at or before it
+    uids = [dval["uid"]]
+    if stat is not None:
+        s_tick, n_st, sval, srow = stat
+        which = np.searchsorted(s_tick, tick, side="right") - 1  # latest static row per tick (-1: none)
+        s_start = np.concatenate([[0], np.cumsum(n_st)])
+        take = [np.arange(s_start[k], s_start[k + 1]) if k >= 0 else np.zeros(0, np.int64) for k in which]
+        s_idx = np.concatenate(take) if take else np.zeros(0, np.int64)
+        s_rowtick = np.repeat(np.arange(T), [len(a) for a in take])
+        uids.append(sval["uid"][s_idx])
+    body_uid = np.unique(np.concatenate(uids))  # uid order is the world's order
+    U = body_uid.size
+    x, theta, V = np.full((T, U, 2), np.nan), np.full((T, U), np.nan), np.full((T, U, 3), np.nan)
+
+    def fill(rows: np.ndarray, vals: dict[str, np.ndarray], idx) -> None:
+        slot = np.searchsorted(body_uid, vals["uid"][idx])
+        x[rows, slot, 0], x[rows, slot, 1] = vals["x"][idx], vals["y"][idx]
+        theta[rows, slot] = vals["angle"][idx]
+        V[rows, slot, 0], V[rows, slot, 1], V[rows, slot, 2] = vals["vx"][idx], vals["vy"][idx], vals["omega"][idx]
+
+    fill(drow, dval, slice(None))
+    if stat is not None:
+        fill(s_rowtick, sval, s_idx)
+    return body_uid, x, theta, V
 
 
 def load(path: str | os.PathLike) -> Recording:
