@@ -364,28 +364,14 @@ def _column(batch: Any, name: str) -> list:
 def timelines(path: str | os.PathLike) -> dict[str, Timeline]:
     """Every run's Timeline in a recording, by label ('' for a file's one unnamed run); runs recorded
     without replay data come back empty."""
-    from rerun.chunk import RrdReader
-
-    from .playback import RecordingError
-
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
     p = os.fspath(path)
     if not os.path.isfile(p):
         raise FileNotFoundError(f"path {p!r}: no such recording file")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            reader = RrdReader(p)
-        try:
-            chunks = list(reader.store().stream())
-        except Exception:  # no footer: what was written
-            chunks = list(reader.stream())
-    except Exception as e:
-        raise RecordingError(f"path {p!r} is not a readable .rrd file: {e}") from e
     rows: dict[str, dict[str, list]] = {}
     labels: set[str] = set()
-    for ch in chunks:
+    for ch in _chunks(p):
         ep = ch.entity_path
         if ch.is_static:
             continue
@@ -402,31 +388,56 @@ def timelines(path: str | os.PathLike) -> dict[str, Timeline]:
     out = {}
     for run in sorted(labels):
         where = f"{p!r}" + (f" (run {run!r})" if run else "")
-        t = Timeline(where)
-        state = sorted(
-            (int(tick), int(h), float(dt), int(ns) / 1e9)
-            for b in rows.get(run, {}).get(schema.REPLAY_STATE, [])
-            for tick, h, dt, ns in zip(
-                b.column(schema.TICK).to_pylist(),
-                _column(b, schema.STATE_HASH.name),
-                _column(b, schema.DT.name),
-                b.column(schema.SIM_TIME).cast(pa.int64()).to_pylist(),
-            )
-        )
-        t.ticks, t.hashes = [s[0] for s in state], [s[1] for s in state]
-        t.dts, t.times = [s[2] for s in state], [s[3] for s in state]
-        swept = [np.asarray(b.column(schema.TICK).to_numpy()) for b in rows.get(run, {}).get(schema.SWEEPS, [])]
-        per_tick = np.concatenate(swept) if swept else np.zeros(0, np.int64)
-        t.sweeps = np.searchsorted(np.sort(per_tick), t.ticks, side="right").tolist()
-        t.sweeps = np.diff(np.concatenate([[0], t.sweeps])).astype(int).tolist() if t.ticks else []
-        for suffix, name, into in (
-            (schema.REPLAY_KEYFRAMES, schema.KEYFRAME.name, t.keyframes),
-            (schema.REPLAY_RESPONDER, schema.RESPONDER_SPEC.name, t.responders),
-        ):
-            for b in rows.get(run, {}).get(suffix, []):
-                into.update(zip((int(v) for v in b.column(schema.TICK).to_pylist()), _column(b, name)))
-        out[run] = t
+        out[run] = _timeline_of(where, rows.get(run, {}))
     return out
+
+
+def _chunks(p: str) -> list:
+    """The chunks of recording file ``p``, read with rerun's own reader (a file without a footer: what
+    was written); RecordingError when it is not a readable .rrd."""
+    from rerun.chunk import RrdReader
+
+    from .playback import RecordingError
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            reader = RrdReader(p)
+        try:
+            return list(reader.store().stream())
+        except Exception:  # no footer: what was written
+            return list(reader.stream())
+    except Exception as e:
+        raise RecordingError(f"path {p!r} is not a readable .rrd file: {e}") from e
+
+
+def _timeline_of(where: str, kept: dict[str, list]) -> Timeline:
+    """One run's Timeline from its record batches (``kept``, by entity: ``schema.REPLAY_STATE``, the
+    keyframes, the responders and ``schema.SWEEPS``); ``where`` names it in messages."""
+    t = Timeline(where)
+    state = sorted(
+        (int(tick), int(h), float(dt), int(ns) / 1e9)
+        for b in kept.get(schema.REPLAY_STATE, [])
+        for tick, h, dt, ns in zip(
+            b.column(schema.TICK).to_pylist(),
+            _column(b, schema.STATE_HASH.name),
+            _column(b, schema.DT.name),
+            b.column(schema.SIM_TIME).cast(pa.int64()).to_pylist(),
+        )
+    )
+    t.ticks, t.hashes = [s[0] for s in state], [s[1] for s in state]
+    t.dts, t.times = [s[2] for s in state], [s[3] for s in state]
+    swept = [np.asarray(b.column(schema.TICK).to_numpy()) for b in kept.get(schema.SWEEPS, [])]
+    per_tick = np.concatenate(swept) if swept else np.zeros(0, np.int64)
+    t.sweeps = np.searchsorted(np.sort(per_tick), t.ticks, side="right").tolist()
+    t.sweeps = np.diff(np.concatenate([[0], t.sweeps])).astype(int).tolist() if t.ticks else []
+    for suffix, name, into in (
+        (schema.REPLAY_KEYFRAMES, schema.KEYFRAME.name, t.keyframes),
+        (schema.REPLAY_RESPONDER, schema.RESPONDER_SPEC.name, t.responders),
+    ):
+        for b in kept.get(suffix, []):
+            into.update(zip((int(v) for v in b.column(schema.TICK).to_pylist()), _column(b, name)))
+    return t
 
 
 def timeline(path: str | os.PathLike, run: str | None = None) -> Timeline:
