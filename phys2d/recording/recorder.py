@@ -97,6 +97,20 @@ def _check_label(run: Any) -> str:
     return run
 
 
+def _native_of(recording: Any, path: Any, stream_to: str | None, background: Any) -> Any:
+    """The native side of ``recording``, a ``rerun.RecordingStream`` to log into (None: none given),
+    checked to be one and to come without a path, stream_to or background of the recorder's own."""
+    if recording is None:
+        return None
+    if not hasattr(recording, "to_native"):
+        raise TypeError(f"recording must be a rerun.RecordingStream, got {type(recording).__name__}")
+    if path is not None or stream_to is not None or background:
+        raise ValueError(
+            "recording: a recorder logging into a given RecordingStream takes no path, stream_to or background"
+        )
+    return recording.to_native()
+
+
 class _Local:
     """The Sink in this process."""
 
@@ -278,15 +292,7 @@ class Recorder:
             raise TypeError(
                 f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', got {stream_to!r}"
             )
-        native = None
-        if recording is not None:
-            if not hasattr(recording, "to_native"):
-                raise TypeError(f"recording must be a rerun.RecordingStream, got {type(recording).__name__}")
-            if path is not None or stream_to is not None or background:
-                raise ValueError(
-                    "recording: a recorder logging into a given RecordingStream takes no path, stream_to or background"
-                )
-            native = recording.to_native()
+        native = _native_of(recording, path, stream_to, background)
         p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
         for value, arg in ((name, "name"), (scene, "scene"), (recording_id, "recording_id")):
             if value is not None and not isinstance(value, str):
