@@ -549,6 +549,11 @@ class Lab:
             assert src.world is not None
             self._recorder.log(src.world, run=self._main)
             self._recorder.flush()
+        self._ui = self._controls(widgets)
+
+    def _controls(self, widgets: Any) -> tuple[Any, Any, Any, Any]:
+        """(the controls, the tables, the rows' table, the contacts' table): the ipywidgets (module
+        ``widgets``) beside the viewer, the buttons wired to the lab's step, play, pause and branch_here."""
         responder = widgets.Dropdown(options=list(REGISTRY), value=self.responder_name, description="responder")
         count = widgets.BoundedIntText(value=10, min=1, max=1000, description="count")
         steps = widgets.BoundedIntText(value=1, min=1, max=100000, description="steps")
@@ -571,7 +576,7 @@ class Lab:
         buttons["branch here"].on_click(branch)
         controls = widgets.HBox([responder, count, steps, *buttons.values()])
         tables = widgets.VBox([said, rows_out, contacts_out], layout=widgets.Layout(overflow="auto"))
-        self._ui = (controls, tables, rows_out, contacts_out)
+        return controls, tables, rows_out, contacts_out
 
     def _refresh(self) -> None:
         """The tables beside the viewer, for the tick shown and the body selected."""
