@@ -598,7 +598,6 @@ def _run(
     if previous is not None:
         os.unlink(previous)
     watch = watch_for(args.scene, w)
-    deepest = 0.0
     t0 = time.perf_counter()
     bar = None
     try:
@@ -620,7 +619,6 @@ def _run(
             watch.observe()
             if rec is not None:
                 rec.log(w)
-            deepest = max(deepest, w.last_step.max_penetration)
             if bar is not None and k:
                 bar.update(1)
     finally:
