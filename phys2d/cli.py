@@ -41,15 +41,18 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, NoReturn, TextIO, cast
+from typing import TYPE_CHECKING, Any, NoReturn, TextIO, cast
 
 import numpy as np
 
 from . import scenes
 from .responders import REGISTRY
 from .responders.base import Responder
-from .verdict import watch_for
+from .verdict import Watch, watch_for
 from .world import SimulationError, World
+
+if TYPE_CHECKING:
+    from .recording import Recorder
 
 RESPONDERS = tuple(REGISTRY)
 COMPARE_ORDER = tuple(REGISTRY)  # compare runs every registered responder, in the registry's order
@@ -561,28 +564,13 @@ def _run(
     stream_to: str | None,
 ) -> int:
     """``phys2d run`` once its arguments are checked and its live viewer (if any) is up."""
-    from .recording import Recorder
-
-    rec = None
     folder = os.path.dirname(os.path.abspath(path)) if path else None
     new_folder = folder is not None and not os.path.isdir(folder)
     previous = None  # a recording already at path is kept aside until this run has a world to record
     if path is not None and os.path.isfile(path):
         previous = f"{path}.previous"
         os.replace(path, previous)
-    if path or stream_to:
-        # the writer process starts first, so that it loads rerun while this one builds the world
-        # and loads the numba kernels
-        rec = Recorder(
-            path,
-            name=f"{args.scene} {size} / {args.responder}",
-            scene=args.scene,
-            contact_series=not args.no_series,
-            plot=choice,
-            stream_to=stream_to,
-            flush_every=6 if stream_to else 60,
-            background=True,
-        )
+    rec = _run_recorder(args, choice, size, path, stream_to)
     try:
         w = build_world(args.scene, args.size, responder)
     except BaseException:
@@ -598,6 +586,41 @@ def _run(
     if previous is not None:
         os.unlink(previous)
     watch = watch_for(args.scene, w)
+    elapsed, steady = _step_run(args, w, watch, rec, path)
+    _say_run(args, responder, size, w, watch, rec, path, elapsed, steady)
+    if viewer is not None and viewer.kind == "web":
+        return viewer.serve(f"the run is over; the web viewer keeps serving it at {viewer.url} until Ctrl-C")
+    return 0
+
+
+def _run_recorder(
+    args: argparse.Namespace, choice: Any, size: Any, path: str | None, stream_to: str | None
+) -> Recorder | None:
+    """The run's recorder, to ``path`` and the live viewer ``stream_to`` (None: neither), writing from
+    a process of its own."""
+    from .recording import Recorder
+
+    if not (path or stream_to):
+        return None
+    # the writer process starts first, so that it loads rerun while this one builds the world
+    # and loads the numba kernels
+    return Recorder(
+        path,
+        name=f"{args.scene} {size} / {args.responder}",
+        scene=args.scene,
+        contact_series=not args.no_series,
+        plot=choice,
+        stream_to=stream_to,
+        flush_every=6 if stream_to else 60,
+        background=True,
+    )
+
+
+def _step_run(
+    args: argparse.Namespace, w: World, watch: Watch, rec: Recorder | None, path: str | None
+) -> tuple[float, float]:
+    """Step ``w`` ``args.steps`` times, each tick watched and logged, with a progress bar from the first
+    step on (its compiling left out); (the seconds in all, the seconds after the first step)."""
     t0 = time.perf_counter()
     bar = None
     try:
@@ -628,6 +651,21 @@ def _run(
             bar.close()
     elapsed = time.perf_counter() - t0
     steady = time.perf_counter() - t_first
+    return elapsed, steady
+
+
+def _say_run(
+    args: argparse.Namespace,
+    responder: Responder,
+    size: Any,
+    w: World,
+    watch: Watch,
+    rec: Recorder | None,
+    path: str | None,
+    elapsed: float,
+    steady: float,
+) -> None:
+    """What ``phys2d run`` prints once the run is over: the pace, the last step, the verdict and the recording."""
     print(f"{args.scene} (size {size}), {len(w)} bodies, responder {responder!r}")
     per = f"{1e3 * steady / (args.steps - 1):.3f} ms/step after the first" if args.steps > 1 else "1 step"
     print(
@@ -645,9 +683,6 @@ def _run(
         if plotted:
             print(f"plotted contacts: {', '.join(plotted)}")
         print(_how_to_open(path))
-    if viewer is not None and viewer.kind == "web":
-        return viewer.serve(f"the run is over; the web viewer keeps serving it at {viewer.url} until Ctrl-C")
-    return 0
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
