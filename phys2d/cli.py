@@ -696,9 +696,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     size = default_size(scene_builder(args.scene)) if args.size is None else args.size
     tag = f"-{count[1]}{count[0]}" if count else ""
     path = args.out or os.path.join(DEFAULT_DIR, f"{args.scene}-{size}-compare{tag}.rrd")
-    failed: dict[str, str] = {}
     watches = {label: watch_for(args.scene, w) for label, w in worlds.items()}
-    bar = None
     # its own application id: the viewer keeps one blueprint per application, and a comparison's
     # layout (a world per run) differs from a single run's
     with Recorder(
@@ -712,28 +710,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     ) as rec:
         for label, w in worlds.items():
             rec.log(w, run=label)
-        try:
-            for k in range(args.steps):
-                for label, w in worlds.items():
-                    if label in failed:
-                        continue
-                    try:
-                        if k == 0:
-                            first_step([w], args.dt)
-                        else:
-                            w.step(args.dt)
-                    except SimulationError as e:
-                        failed[label] = f"step {k + 1}: {e}"
-                        continue
-                    watches[label].observe()
-                    rec.log(w, run=label)
-                if k == 0:
-                    bar = progress(args.steps, 1, _progress_enabled(args.progress, args.steps * len(worlds)))
-                elif bar is not None:
-                    bar.update(1)
-        finally:
-            if bar is not None:
-                bar.close()
+        failed = _step_side_by_side(args, worlds, watches, rec)
     print(
         f"{args.scene} (size {size}), {plural(args.steps, 'steps')} of {args.dt:.4g} s, every responder, "
         f"same timelines (tick, sim_time)"
@@ -746,6 +723,38 @@ def cmd_compare(args: argparse.Namespace) -> int:
     print(f"recording: {path} ({_size_of(path, args.steps + 1)})")
     print(_how_to_open(path))
     return 0
+
+
+def _step_side_by_side(
+    args: argparse.Namespace, worlds: dict[str, World], watches: dict[str, Watch], rec: Recorder
+) -> dict[str, str]:
+    """Step every world ``args.steps`` times, tick by tick in turn, each tick watched and logged as its
+    run; a world that fails stops there. Returns where and why each stopped, by label."""
+    failed: dict[str, str] = {}
+    bar = None
+    try:
+        for k in range(args.steps):
+            for label, w in worlds.items():
+                if label in failed:
+                    continue
+                try:
+                    if k == 0:
+                        first_step([w], args.dt)
+                    else:
+                        w.step(args.dt)
+                except SimulationError as e:
+                    failed[label] = f"step {k + 1}: {e}"
+                    continue
+                watches[label].observe()
+                rec.log(w, run=label)
+            if k == 0:
+                bar = progress(args.steps, 1, _progress_enabled(args.progress, args.steps * len(worlds)))
+            elif bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    return failed
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
