@@ -207,11 +207,14 @@ def row_velocity(k, a, b, J, V):
 @njit(cache=True, inline="always")
 def clamp_accumulated(lam, k, delta, low, high):
     """The lecture's projection: lambda_k += delta with the accumulated impulse clamped into
-    [low, high], not delta. Returns the change applied (N s), what M^-1 J_k^T acts on. Every
-    sweep's update, PGS's and the soft step's, is this one."""
-    new = min(max(lam[k] + delta, low), high)
-    applied = new - lam[k]
-    lam[k] = new
+    [low, high], not delta. Written as delta clamped into [low - lambda_k, high - lambda_k]: those
+    bounds are known before delta is, so the velocity update that the next row waits on follows
+    delta at once; lambda_k then moves by it, clamped again (rounding may not step past a bound).
+    Returns the change applied (N s), what M^-1 J_k^T acts on. Every sweep's update, PGS's and
+    the soft step's, is this one."""
+    old = lam[k]
+    applied = min(max(delta, low - old), high - old)
+    lam[k] = min(max(old + applied, low), high)
     return applied
 
 

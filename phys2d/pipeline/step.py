@@ -166,6 +166,7 @@ class Pipeline:
         self._machine: dict[tuple, Callable] = {}
         self._kernel: tuple = (None, None, None)  # (context, solver, machine code) of the last call
         self._names = ("none", "iterations")  # the responder's name and counts word, as prepared
+        self._visit = PAIR_ORDER  # the order it visits the contacts in (``Responder.visit_order``)
         self._n_residuals = 0  # the sweeps or sub-steps its solve may make
         self.began = False
 
@@ -364,13 +365,16 @@ class Pipeline:
             not kept
             or kept[0] is not world
             or kept[1] is not responder
-            or kept[2:] != (responder.version, dt, one_call)
+            or kept[2] != responder.version
+            or kept[3] != dt
+            or kept[4] != one_call
         ):
             check_joints_supported(responder, bool(self.joints.handles), self.joints.mice > 0)
             solver = self._solver(responder) if one_call else None
             self.settings = step_settings(world, responder, dt, solver is not None)
             self.solver = solver
             self._names = (responder.name, responder.counts)
+            self._visit = responder.visit_order
             self._n_residuals = 0
             if solver is not None:
                 self._n_residuals = solver.pgs.iterations if solver.pgs is not None else solver.soft.substeps
@@ -419,7 +423,7 @@ class Pipeline:
     def _in_one_call(self, responder: Responder, solver: Solver) -> tuple | None:
         """The tick as one kernel call (``tick.tick``; again when it stopped for room); None,
         having changed nothing, while a child process compiles it (``_behind``)."""
-        counts = self._counts(responder.visit_order, START)
+        counts = self._counts(self._visit, START)
         while True:
             self._room()
             ctx = self.context()
