@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 # one process compiles: a child compiling ahead (phys2d.pipeline.ahead) would only race the tests' own
@@ -27,3 +28,12 @@ settings.register_profile("ci", max_examples=200, derandomize=True, **_COMMON)
 settings.register_profile("thorough", max_examples=400, **_COMMON)
 settings.register_profile("quick", max_examples=10, derandomize=True, **_COMMON)
 settings.load_profile(os.environ.get("PHYS2D_HYPOTHESIS_PROFILE", "ci"))
+
+
+@pytest.fixture(scope="session")
+def fresh_cache_compiles(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """What a fresh process compiles on a fresh numba cache (``tests/fresh_cache.py``), run once
+    for the tests that ask: mark them ``xdist_group("fresh_cache")`` so one worker runs them all."""
+    from tests.fresh_cache import compiles_on_a_fresh_cache
+
+    return compiles_on_a_fresh_cache(tmp_path_factory.mktemp("fresh_numba_cache"))

@@ -37,38 +37,15 @@ def _tick_args(w: phys2d.World) -> tuple:
     return (p.context(), p.settings, p.solver, p._counts(w.responder.visit_order, START))
 
 
-SAME_TYPES = """
-import os, sys
-from numba.core import event
-from phys2d import scenes, PGS, SoftStep
-from phys2d.pipeline import ahead
-from phys2d.pipeline.stages import START
-
-compiled = []
-class Listener(event.Listener):
-    def on_start(self, ev):
-        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-    def on_end(self, ev):
-        pass
-event.register("numba:compile", Listener())
-for w in (scenes.pyramid(3, responder=PGS()), scenes.heavy_chain(responder=SoftStep())):
-    w.step(1 / 60)  # a cold cache: the tick and every stage it calls compile here, for the tick's types
-    p = w._pipeline
-    args = (p.context(), p.settings, p.solver, p._counts(w.responder.visit_order, START))
-    compiled.clear()
-    ahead.compile_from_the_end(p, args)
-    if compiled:
-        sys.exit("compiled again, for other types: " + ", ".join(compiled))
-"""
-
-
 @pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")
-def test_the_stages_are_compiled_for_the_types_the_tick_calls_them_with(tmp_path):
+@pytest.mark.xdist_group("fresh_cache")
+@pytest.mark.parametrize("world", ["pyramid", "heavy_chain"])
+def test_the_stages_are_compiled_for_the_types_the_tick_calls_them_with(fresh_cache_compiles, world):
     """In a fresh process and cache the tick compiles every stage it calls; compiling them again from
-    the last one up must then find each already compiled for its types (PGS, and SoftStep with joints)."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PHYS2D_COMPILE_AHEAD": "0"}
-    child = subprocess.run([sys.executable, "-c", SAME_TYPES], env=env, capture_output=True, timeout=1200)
-    assert child.returncode == 0, child.stderr.decode()[-2000:]
+    the last one up must then find each already compiled for its types (PGS on a pyramid, and the
+    soft step on the heavy chain, with joints): ``tests/fresh_cache.py``, one child for both."""
+    again = fresh_cache_compiles[world]["compiled_again"]
+    assert again == [], "compiled again, for other types: " + ", ".join(again)
 
 
 @pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")

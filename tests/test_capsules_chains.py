@@ -6,9 +6,6 @@ the recordings' outlines, the stock scene, and bad input."""
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -433,29 +430,13 @@ def test_removing_chain_segments_keeps_the_other_bodies_shapes():
 
 # -- compiling: a world without the new shapes compiles none of their code ------------------------
 
-NO_ROUNDED_CODE = """
-import sys
-from numba.core import event
-from phys2d import scenes
-
-compiled = []
-class Listener(event.Listener):
-    def on_start(self, ev):
-        compiled.append(str(ev.data["dispatcher"].py_func.__module__))
-    def on_end(self, ev):
-        pass
-event.register("numba:compile", Listener())
-scenes.pyramid(3).step(1 / 60)
-assert any(m == "phys2d.collision.narrowphase" for m in compiled), compiled
-if "phys2d.collision.rounded" in compiled:
-    sys.exit("a world of boxes compiled phys2d.collision.rounded")
-"""
-
 
 @pytest.mark.skipif(numba_config.DISABLE_JIT, reason="nothing is compiled")
-def test_a_world_of_boxes_compiles_none_of_the_rounded_shapes_code(tmp_path):
+@pytest.mark.xdist_group("fresh_cache")
+def test_a_world_of_boxes_compiles_none_of_the_rounded_shapes_code(fresh_cache_compiles):
     """On a fresh cache, a pyramid's first step compiles the narrowphase but nothing of
-    ``collision.rounded``: numba prunes the tick's branch for capsules, segments and chains."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PHYS2D_COMPILE_AHEAD": "0"}
-    child = subprocess.run([sys.executable, "-c", NO_ROUNDED_CODE], env=env, capture_output=True, timeout=1200)
-    assert child.returncode == 0, child.stderr.decode()[-2000:]
+    ``collision.rounded``: numba prunes the tick's branch for capsules, segments and chains.
+    (The pyramid's child process is shared with tests/test_ahead.py: ``tests/fresh_cache.py``.)"""
+    compiled = fresh_cache_compiles["pyramid"]["first_step_modules"]
+    assert "phys2d.collision.narrowphase" in compiled, compiled
+    assert "phys2d.collision.rounded" not in compiled, "a world of boxes compiled phys2d.collision.rounded"
