@@ -17,21 +17,21 @@ REFERENCE holds each responder's compile time, wall clock, on a quiet 2-core mac
 from __future__ import annotations
 
 import json
-import os
-import statistics
 import time
 from pathlib import Path
 
-# seconds a first run compiles (the first step, wall clock) with two cores and one, by responder,
-# on the machine where cpu_pace() took REFERENCE_PACE (benchmarks/STARTUP.md)
-REFERENCE = {"pgs": 30.0, "soft-step": 42.0, "other": 20.0}
-REFERENCE_CPU = {"pgs": 50.0, "soft-step": 70.0, "other": 20.0}
-REFERENCE_PACE = 1.0e-3  # s, cpu_pace() there
+# seconds a first run compiles (the first step, wall clock) with two cores and with one, by responder,
+# on the machine where cpu_pace() took REFERENCE_PACE (benchmarks/STARTUP.md, "The first-run estimate")
+REFERENCE = {"pgs": 33.0, "soft-step": 35.0, "other": 20.0}
+REFERENCE_CPU = {"pgs": 49.0, "soft-step": 52.0, "other": 20.0}
+REFERENCE_PACE = 1.3e-3  # s, cpu_pace() there
 FILE = "phys2d-first-run.json"
 
 
-def cpu_pace(repeats: int = 5) -> float:
-    """Seconds a fixed pure-Python loop takes here (the median of ``repeats``, a few ms in all)."""
+def cpu_pace(repeats: int = 10) -> float:
+    """Seconds a fixed pure-Python loop takes here: the least of ``repeats`` (15-25 ms in all). A
+    shared machine's core can run at half its pace for tens of milliseconds at a time; the least
+    is the pace it can give, which a compile of half a minute mostly sees."""
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -39,7 +39,13 @@ def cpu_pace(repeats: int = 5) -> float:
         for k in range(20_000):
             total += (k % 7) * 0.5
         times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    return min(times)
+
+
+def _cores() -> int:
+    from .pipeline.ahead import cores
+
+    return cores()
 
 
 def _reference(names: list[str], cores: int) -> float:
@@ -59,7 +65,7 @@ def _record_file() -> Path | None:
 
 def estimate(names: list[str], cores: int | None = None) -> float:
     """Seconds the first run of the responders ``names`` should compile for here."""
-    cores = (os.cpu_count() or 1) if cores is None else cores
+    cores = _cores() if cores is None else cores
     pace = cpu_pace()
     record = _record_file()
     try:
@@ -76,7 +82,7 @@ def remember(names: list[str], seconds: float, cores: int | None = None) -> None
     record = _record_file()
     if record is None or seconds <= 0.0:
         return
-    cores = (os.cpu_count() or 1) if cores is None else cores
+    cores = _cores() if cores is None else cores
     try:
         record.parent.mkdir(parents=True, exist_ok=True)
         record.write_text(json.dumps({"seconds": seconds, "names": names, "pace": cpu_pace(), "cores": cores}))

@@ -14,7 +14,8 @@ from phys2d import first_run
 def kept(tmp_path, monkeypatch):
     record = tmp_path / first_run.FILE
     monkeypatch.setattr(first_run, "_record_file", lambda: record)
-    monkeypatch.setattr(first_run, "cpu_pace", lambda repeats=5: 2e-3)  # a machine twice as slow as the reference's
+    twice_as_slow = 2 * first_run.REFERENCE_PACE  # a machine twice as slow as the reference's
+    monkeypatch.setattr(first_run, "cpu_pace", lambda repeats=10: twice_as_slow)
     return record
 
 

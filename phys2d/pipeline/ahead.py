@@ -8,7 +8,10 @@ second core, ``start`` splits the work:
     a child process   steps a small world of the same responder: numba compiles the tick
                       from its first stage down, saving each kernel to the cache
     this process      compiles the tick's stages from the last one up (``compile_from_the_end``),
-                      then the tick itself, which loads from the cache what the child saved
+                      then waits for the child (``wait_for``) and loads the tick it saved; the
+                      child reaches the stages this process compiled after their turn and
+                      loads them, so each kernel is compiled about once (the tick's own top,
+                      ``before_solve`` and ``after_solve``, is the child's alone)
 
 Nothing changes in what runs: the same kernels, compiled for the same argument types, and a
 kernel that neither process has compiled yet is compiled by whichever needs it first.
@@ -61,9 +64,16 @@ def cold_for(kernel: Any, sig: tuple) -> bool:
     return not any(key[0] == sig for key in index)
 
 
+def cores() -> int:
+    """The cores this process may run on (its affinity: ``taskset -c 0`` gives 1 of 2)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0)) or 1
+    return os.cpu_count() or 1
+
+
 def wanted() -> bool:
     """Whether to compile on two cores: a second core, and not turned off."""
-    return os.environ.get("PHYS2D_COMPILE_AHEAD", "1") != "0" and (os.cpu_count() or 1) >= 2
+    return os.environ.get("PHYS2D_COMPILE_AHEAD", "1") != "0" and cores() >= 2
 
 
 def start(responder: Any, joints: bool, rounded: bool = False, threads: int = 1) -> subprocess.Popen | None:
@@ -94,6 +104,15 @@ def plan(pipeline: Any, tick: Any, args: tuple) -> str:
         return "here"
     warm = any(not cold_for(kernel, sig) for kernel, sig in stage_jobs(pipeline, args))
     return "behind" if warm else "ahead"
+
+
+def wait_for(child: subprocess.Popen, limit: float = 600.0) -> None:
+    """Wait until the child has compiled the tick into the cache (or died, or ``limit`` s went
+    by: then this process compiles what is missing itself, as numba would)."""
+    try:
+        child.wait(timeout=limit)
+    except subprocess.TimeoutExpired:
+        pass
 
 
 def compile_from_the_end(pipeline: Any, args: tuple) -> None:

@@ -99,7 +99,7 @@ class TickResult(NamedTuple):
     solved: int  # the solve's sweeps or sub-steps
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def result(status, counts, n_pairs, ordered):
     """A TickResult that stopped before the contacts (status), the pairs as they are."""
     return TickResult(
@@ -107,7 +107,7 @@ def result(status, counts, n_pairs, ordered):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def flat(r):
     """``r``'s fields as a plain tuple, in TickResult's order: what the one-call tick hands back to
     Python (a tuple crosses into Python for a fifth of what a named tuple costs;
@@ -118,7 +118,7 @@ def flat(r):
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def with_status(r, status, count):
     """``r`` with another status and the solve's count."""
     return TickResult(
@@ -156,7 +156,7 @@ def before_solve(ctx, settings, counts):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def first_bad_body(ctx):
     """The first body whose state, as written between steps (``w.x``, ``w.theta``, ``w.V``,
     ``w.M_inv``), a step cannot take: not finite, M^-1 < 0, or M^-1 > 0 on a body of infinite
@@ -172,7 +172,7 @@ def first_bad_body(ctx):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def begin(ctx, settings):
     """Keep x and theta to undo (and V as V1, the velocity the tick began with), add the
     external forces to V, and update the geometry (on the context's threads); returns whether
@@ -185,7 +185,7 @@ def begin(ctx, settings):
     return update_geometry_on(ctx.threads, b, ctx.shapes, settings.dt, settings.contact_margin)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def pairs(ctx, visit):
     """The broadphase's pairs anew (``collision.broadphase.find_pairs``), in the order the
     responder visits them (``in_visit_order``). Returns (their count, the order they are in), or
@@ -196,7 +196,7 @@ def pairs(ctx, visit):
     return n_pairs, in_visit_order(ctx, n_pairs, visit)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def in_visit_order(ctx, n_pairs, visit):
     """The pairs' visit order (``pair_order``, and each body's ``part``, from the centres x:
     ``constraints.order.order_pairs``); in pair order, none. Returns the order they are in."""
@@ -208,14 +208,14 @@ def in_visit_order(ctx, n_pairs, visit):
     return visit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def store_has_room(ctx, counts, n_pairs):
     """Whether the manifold store has room for a new manifold per pair (Python makes it if not)."""
     store = ctx.store
     return has_room(store.found_pose.shape[0], counts.rows_used, store.anchor.shape[0], counts.points_used, n_pairs)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def collide(ctx, settings, counts, n_pairs):
     """Collision -> contacts: each pair's manifold recycled or found, into the side the last step
     did not write; then the manifolds sorted by key for the next step's look-up, and the order
@@ -242,7 +242,7 @@ def collide(ctx, settings, counts, n_pairs):
     return k, n_new, recycled, rows_used, points_used
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rows(ctx, settings, counts, k):
     """Contacts and cache -> constraint rows: the K contacts' rows, warm started from the cache the
     last step left (``constraints.rows.contact_rows``), then the joints' rows. Returns (the
@@ -264,7 +264,7 @@ def joint_rows(joints, ctx, settings, k, step_rows):
         start_joint_rows(joints, 2 * k, ctx.bodies, settings.dt, r.beta, r.warm_start, step_rows)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rows_of(ctx, k):
     """The step's rows: the first 2 K + joint rows of the row buffers, and the K contacts' row map."""
     n = 2 * k + n_joint_rows(ctx.joints)
@@ -296,7 +296,7 @@ def after_solve(ctx, settings, before, count):
     return with_status(before, status, count)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def limits(ctx, settings, k, count):
     """OK, TOO_FAST or NOT_FINITE (``after_solve``) for a step of K contacts and ``count`` residuals."""
     b = ctx.bodies
@@ -307,7 +307,7 @@ def limits(ctx, settings, k, count):
     return OK
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def all_finite(values):
     """Whether every value is finite (a responder's impulses lambda, its residuals)."""
     for v in values:
@@ -316,7 +316,7 @@ def all_finite(values):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def cache(ctx, before):
     """Each contact's lambda_n, lambda_t read off its rows, and what the cache keeps of them, on
     the side this step wrote (``contacts.impulses_to_contacts_and_cache``)."""

@@ -535,6 +535,7 @@ class Pipeline:
         child = ahead.start(responder, joints, self.rounded is not None, self._threads)
         if child is not None:
             ahead.compile_from_the_end(self, args)
+            ahead.wait_for(child)  # its tick then loads from the cache, not compiled twice
         return child
 
     # -- room -------------------------------------------------------------------------------------

@@ -50,7 +50,7 @@ def solve(ctx, dt, pgs, soft, threads, before):
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def in_row_order(values, order, k):
     """values[order[q]] for q < k: a per-contact array gathered into row order (row pair q is
     contact order[q])."""
