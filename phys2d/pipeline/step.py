@@ -126,6 +126,11 @@ class Buffers:
 
 
 # -- the pipeline -----------------------------------------------------------------------------
+# a named tuple from a plain one without its __new__'s keyword handling (a third of the time, per
+# step: the tick's counts in and its result out)
+_named = tuple.__new__
+
+
 class Pipeline:
     """The buffers of a world's steps and the step that fills them (``step``).
 
@@ -392,10 +397,10 @@ class Pipeline:
 
     def _counts(self, visit: int, resume: int) -> Counts:
         store = self.store
-        return Counts(
+        return _named(Counts, (
             self.side, self.n_pairs, self.manifolds, self.cached, store.rows_used, store.points_used, visit,
             self.ordered, self.sweep_again, resume,
-        )  # fmt: skip
+        ))  # fmt: skip
 
     # -- a step ---------------------------------------------------------------------------------
     def step(self, world: WorldSettings, responder: Responder, dt: float, one_call: bool) -> StepReport:
@@ -441,7 +446,7 @@ class Pipeline:
             if counts.resume == START and self.undo[1].shape[0]:  # a NaN angle to undo to: ``begin`` has not run
                 self.undo[1][0] = np.nan
             self.began = True
-            result = TickResult._make(kernel(*args))
+            result = _named(TickResult, kernel(*args))
             if child is not None:  # the tick is compiled: the child's work is done or no longer needed
                 child.kill()
                 child.wait()
@@ -616,24 +621,25 @@ class Pipeline:
         self, responder: Responder, dt: float, done: TickResult, residuals: np.ndarray, result: Any
     ) -> StepReport:
         """A step that succeeded: its side of the buffers becomes the cache, and the report."""
-        self._keep_pairs(done)
+        _, side, n_pairs, ordered, k, manifolds, recycled, rows_used, points_used, hits, deepest, solved = done
+        if n_pairs != self.n_pairs or ordered != self.ordered or self.sweep_again:  # (``_keep_pairs``)
+            self.n_pairs, self.ordered, self.sweep_again = n_pairs, ordered, False
         store = self.store
-        store.recycled, store.rows_used, store.points_used = done.recycled, done.rows_used, done.points_used
-        self.side, k = done.side, done.contacts
-        self.manifolds, self.cached = done.manifolds, k
+        store.recycled, store.rows_used, store.points_used = recycled, rows_used, points_used
+        self.side, self.manifolds, self.cached = side, manifolds, k
         b = self.bodies
         if b.forces_applied:  # Body.apply_force and apply_torque act for one step
             b.force[:] = 0.0
             b.forces_applied = False
-        self._contacts, self.last_contacts = None, (done.side, k)  # copied out when first looked at
+        self._contacts, self.last_contacts = None, (side, k)  # copied out when first looked at
         joint_impulses = EMPTY
         if self.joints.handles:
             self.joints.store_impulses(2 * k, self.buffers.rows.lam)
             joint_impulses = self.joints.lam.copy()
-        c = self.buffers.sides[done.side]
+        c = self.buffers.sides[side]
         name, counted = self._names
         return StepReport(
-            name, dt, done.solved, residuals, done.deepest, k, done.hits, joint_impulses,
+            name, dt, solved, residuals, deepest, k, hits, joint_impulses,
             None if result is None else result.system, c.order[:k].copy(), counted,
         )  # fmt: skip
 
