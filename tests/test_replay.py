@@ -11,6 +11,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -274,3 +275,23 @@ def test_replay_of_a_recording_without_keyframes_says_what_to_do(tmp_path):
     record(path, phys2d.scenes.pyramid(2), 3, keyframe_every=0)
     out = phys2d_cmd("replay", str(path), "--check", cwd=tmp_path)
     assert out.returncode == 1 and "holds no keyframes" in out.stderr and "keyframe_every=60" in out.stderr
+
+
+@pytest.mark.parametrize("every", [60, 0])
+def test_a_responder_no_snapshot_can_keep_warns_only_where_keyframes_were_asked(tmp_path, every):
+    """A responder holding a function cannot be kept in a keyframe: the recorder says so once,
+    when it was asked for keyframes; with ``keyframe_every=0`` (the report card's recordings)
+    there is nothing to stop, and nothing is said."""
+    w = phys2d.scenes.pyramid(2)
+    w.responder.helper = lambda: None  # a function: no snapshot keeps it
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        rec = Recorder(str(tmp_path / "r.rrd"), keyframe_every=every)
+        for _ in range(3):
+            w.step(1 / 60)
+            rec.log(w)
+        rec.close()
+    messages = [str(m.message) for m in said if "keyframes" in str(m.message)]
+    assert len(messages) == (1 if every else 0), messages
+    if every:
+        assert "helper" in messages[0] and "tick 1" in messages[0]

@@ -198,11 +198,13 @@ def recording_path(responder: Responder, out: str) -> str:
 
 
 def _recorder(path: str, responder: Responder) -> Any:
-    """A Recorder writing ``path`` from a process of its own, or None if it cannot be written."""
+    """A Recorder writing ``path`` from a process of its own, or None if it cannot be written. It
+    keeps no keyframes: the card's recording is for watching a claim fail, and the card wraps
+    the responder's ``respond``, which a snapshot cannot keep."""
     from ..recording import Recorder
 
     try:
-        return Recorder(path, name=f"check {responder.name}", background=True)
+        return Recorder(path, name=f"check {responder.name}", background=True, keyframe_every=0)
     except (OSError, ValueError):
         return None
 

@@ -357,7 +357,7 @@ class Recorder:
             )
         note = sampler.note
         sample = sampler.sample(world, bool(keyframe))
-        if sampler.note is not None and note is None:  # once: why this run's keyframes stop
+        if sampler.note is not None and note is None and (self.keyframe_every > 0 or keyframe):  # once: why they stop
             reason = f"recording {self.path}: no keyframes from tick {world.tick} on: {sampler.note}"
             warnings.warn(reason, stacklevel=2)
         self._state.backend.add(label, sample, info)
