@@ -1,7 +1,7 @@
 """The soft step's floor (issue 45 item 7): its arithmetic and its bytes per contact point per sub-step,
 against this machine's measured peak and bandwidth, and where large_pyramid stands against it.
 
-    python benchmarks/floor.py                       # ~15 s of CPU: limits, the scene, the passes
+    python benchmarks/floor.py                       # ~11 s of CPU: limits, the scene, the passes
     python benchmarks/floor.py --save-limits l.json  # keep the machine's limits for later runs
     python benchmarks/floor.py --limits l.json       # reuse them (no compile, no 5 s measure)
     python benchmarks/floor.py --no-passes           # skip the replay of each pass
@@ -375,6 +375,7 @@ class Scene:
 
     counts: dict[str, float]
     contacts: int  # len(World.contacts) after settling
+    steps: int  # timed steps per round
     step_rounds: list[float] = field(default_factory=list)  # s per step (World.step), per round
     solve_rounds: list[float] = field(default_factory=list)  # s per soft_step_solve, per round
     staged_rounds: list[float] = field(default_factory=list)  # s per staged step, per round
@@ -479,14 +480,14 @@ def measure_scene(base: int, settle: int, steps: int, rounds: int) -> Scene:
     ctx = caught["ctx"]
     counts = scene_counts(ctx, caught["lam_in"], ctx.rows.lam, soft)
     return Scene(
-        counts, contacts, step_rounds, solve_rounds, staged_rounds, ctx, caught["lam_in"], caught["V_in"],
+        counts, contacts, steps, step_rounds, solve_rounds, staged_rounds, ctx, caught["lam_in"], caught["V_in"],
         caught["x_in"],
     )  # fmt: skip
 
 
 # -- each pass, replayed --------------------------------------------------------------------------
 def replay_passes(scene: Scene, repeats: int) -> dict[str, float]:
-    """Seconds per call of each pass, the median of ``repeats`` calls, replayed on the timed tick's rows
+    """Seconds per call of each pass, the best of ``repeats`` calls, replayed on the timed tick's rows
     and bodies (copies: the world is left alone), called from Python as ``soft_step_solve`` calls them;
     keys: ``REPLAY_CALLS``. The sweeps, warm start and integrate positions: less a call over no units."""
     soft = phys2d.SoftStep(SUBSTEPS)
@@ -557,7 +558,7 @@ def replay_passes(scene: Scene, repeats: int) -> dict[str, float]:
             t0 = time.perf_counter()
             call()
             times.append(time.perf_counter() - t0)
-        return statistics.median(times)
+        return min(times)  # the best call: on a shared host the slower ones are other programs' doing
 
     out = {}
     for name in REPLAY_CALLS:
@@ -784,11 +785,10 @@ def report(
     rows = []
     for stage in dict.fromkeys([w.stage for w in WORK] + [p.stage for p in PASSES]):
         part = floor_of(c, limits, stage)
-        f = part.flops_per_point
         rows.append(
             [
                 stage,
-                f"{sum(f.values()):.1f}",
+                f"{sum(part.flops_per_point.values()):.1f}",
                 f"{part.read_per_point:.0f}",
                 f"{part.written_per_point:.0f}",
                 f"{part.t_flops * 1e6:,.0f}",
@@ -816,7 +816,7 @@ def report(
     rows = [
         [
             "flops per step",
-            f"{sum(f.values()) * per_step / 1e6:.1f} M",
+            f"{sum(fl.flops_per_point.values()) * per_step / 1e6:.1f} M",
             f"at {limits.packed_flops / 1e9:.1f} GFLOP/s packed (divisions at {limits.packed_divs / 1e9:.2f} G/s)",
             f"{fl.t_flops * us:,.0f}",
         ],
@@ -843,7 +843,8 @@ def report(
         [
             "measured: World.step",
             "",
-            f"median of {len(scene.step_rounds)} rounds: " + ", ".join(f"{t * us:,.0f}" for t in scene.step_rounds),
+            f"median of {len(scene.step_rounds)} rounds of {scene.steps}: "
+            + ", ".join(f"{t * us:,.0f}" for t in scene.step_rounds),
             f"{step * us:,.0f} ({step / fl.t:.1f}x the floor)",
         ],
         [
@@ -856,7 +857,7 @@ def report(
     ]
     out.append(table(["", "per step", "how", "µs per step"], rows))
     if passes is not None:
-        out.append("\n## Each pass replayed on the timed tick (median of the calls)\n")
+        out.append("\n## Each pass replayed on the timed tick (the best of its calls)\n")
         rows = []
         total = 0.0
         stages_done = set()
