@@ -670,9 +670,9 @@ def floor_of(counts: dict[str, float], limits: Limits, stage: str | None = None)
 
 
 # -- the report ------------------------------------------------------------------------------------
-def table(head: list[str], rows: list[list[str]]) -> str:
-    """A Markdown table (first column left, the rest right)."""
-    lines = ["| " + " | ".join(head) + " |", "| --- |" + " ---: |" * (len(head) - 1)]
+def table(head: list[str], rows: list[list[str]], text: int = 1) -> str:
+    """A Markdown table: the first ``text`` columns left-aligned, the rest (figures) right-aligned."""
+    lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * text + " ---: |" * (len(head) - text)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     return "\n".join(lines)
 
@@ -757,7 +757,7 @@ def report(
             ]
         )
     out.append(
-        table(["stage", "source", "per", "how often", "add/mul/div/sqrt/minmax per unit", "flops per point"], rows)
+        table(["stage", "source", "per", "how often", "add/mul/div/sqrt/minmax per unit", "flops per point"], rows, 4)
     )
     f = fl.flops_per_point
     out.append(
@@ -772,14 +772,15 @@ def report(
         names = ", ".join(a if isinstance(a, str) else f"{a[0]} ({a[1]})" for a in p.reads)
         wnames = ", ".join(a if isinstance(a, str) else f"{a[0]} ({a[1]})" for a in p.writes)
         rows.append([p.stage, f"`{p.source}`", p.times, names, wnames or "-", f"{r * scale:.1f}", f"{w * scale:.1f}"])
-    out.append(table(["stage", "source", "how often", "reads", "writes", "read B/point", "written B/point"], rows))
+    out.append(table(["stage", "source", "how often", "reads", "writes", "read B/point", "written B/point"], rows, 5))
     out.append(
         f"\nTotal per point per sub-step: {fl.read_per_point:.0f} bytes read, {fl.written_per_point:.0f} written "
         f"({fl.read_per_point + fl.written_per_point:.0f}); of which the body arrays: "
         f"{fl.body_bytes_per_body:.0f} bytes per body per sub-step. Working set (every array once): "
         f"{fl.working_set / 2**20:.2f} MiB.\n"
     )
-    out.append("Array sizes per unit: " + "; ".join(f"{k} {a.nbytes} B/{a.per[:-1]}" for k, a in ARRAYS.items()) + "\n")
+    unit = {"points": "point", "manifolds": "manifold", "bodies": "body"}
+    out.append("Array sizes: " + "; ".join(f"{k} {a.nbytes} B/{unit[a.per]}" for k, a in ARRAYS.items()) + "\n")
 
     out.append("## By stage, per contact point per sub-step\n")
     rows = []
@@ -855,7 +856,7 @@ def report(
         ],
         ["measured: the staged step", "", "its whole step, for reference", f"{staged * us:,.0f}"],
     ]
-    out.append(table(["", "per step", "how", "µs per step"], rows))
+    out.append(table(["", "per step", "how", "µs per step"], rows, 1))
     if passes is not None:
         out.append("\n## Each pass replayed on the timed tick (the best of its calls)\n")
         rows = []
