@@ -19,10 +19,10 @@
    of REPEATS is kept: on a shared host the slower runs are other programs' doing (a run that
    shares its core with another busy process gets a fraction of it).
 
-   The chains are written out as named variables: gcc 12 -O2 keeps an array of them in memory,
-   where each update waits for a store and a load (the first version of this file measured that). The copy loop is kept a loop (gcc -O2 would
-   call memcpy, which switches to non-temporal stores on large arrays; a kernel's stores do
-   not). */
+   The chains are written out as named variables: gcc 12 -O2 keeps an array of them in memory
+   (the assembly of this file's first version), where each update waits for a store and a load.
+   The copy loop is kept a loop (gcc -O2 would call memcpy, which switches to non-temporal stores
+   on large arrays; a kernel's stores do not). */
 #include <immintrin.h>
 #include <stdio.h>
 #include <stdlib.h>
