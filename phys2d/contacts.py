@@ -47,7 +47,7 @@ UID_BITS = 23  # key = uid_a << 39 | uid_b << 16 | feature: key >> 16 is the pai
 FEATURE_BITS = 16
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (called with int32 and uint32 bodies: one compile, not two)
 def _root(parent, b):
     """The representative of body b's island (union-find with path halving)."""
     while parent[b] != b:

@@ -224,7 +224,7 @@ def sweep_and_prune(aabb, static, excluded, pairs, filters):
         for s in range(first[a], last[a] + 1):
             members[fill[s]] = a
             fill[s] += 1
-    count = 0
+    count = np.int64(0)  # (not the literal 0: numba would compile sort_pairs for Literal[int](0) too)
     cap = pairs.shape[0]
     for s in range(n_strips):
         for ii in range(start[s], start[s + 1]):

@@ -172,7 +172,9 @@ def order_pairs(pairs, n_pairs, static, x, part, visit):
     for w in weight:
         moving += w > 0
     if moving >= PARTS_FROM:
-        part[:] = partition(x, weight, PART_DEPTH)
+        parts = partition(x, weight, PART_DEPTH)
+        for i in range(n_bodies):  # (a loop: `part[:] = parts` would compile numba's shape-mismatch message too)
+            part[i] = parts[i]
     else:
         part[:] = 0
     used = np.zeros((n_bodies, MAX_COLOURS if colours else 1), np.bool_)
