@@ -1,7 +1,8 @@
 """Hypothesis profiles for the property tests.
 
-    ci        the default: few examples per property, so the whole suite runs in a few
-              minutes on 2 cores; derandomized, so a CI run is reproducible
+    ci        the default: hypothesis's own 100 examples per property (unless a test sets
+              fewer), so the whole suite runs in minutes on 2 cores; derandomized, so a CI
+              run is reproducible
     thorough  many examples and a fresh random seed each run, for hunting bugs:
               PHYS2D_HYPOTHESIS_PROFILE=thorough python -m pytest tests/test_prop_*.py
     quick     a handful of examples, for runs with NUMBA_DISABLE_JIT=1 (the kernels as
@@ -28,7 +29,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 _COMMON = dict(deadline=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
-settings.register_profile("ci", max_examples=200, derandomize=True, **_COMMON)
+settings.register_profile("ci", max_examples=100, derandomize=True, **_COMMON)
 settings.register_profile("thorough", max_examples=400, **_COMMON)
 settings.register_profile("quick", max_examples=10, derandomize=True, **_COMMON)
 settings.load_profile(os.environ.get("PHYS2D_HYPOTHESIS_PROFILE", "ci"))
