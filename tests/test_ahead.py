@@ -38,6 +38,7 @@ def _tick_args(w: phys2d.World) -> tuple:
 
 
 @pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")
+@pytest.mark.fresh_numba_cache
 @pytest.mark.xdist_group("fresh_cache")
 @pytest.mark.parametrize("world", ["pyramid", "heavy_chain"])
 def test_the_stages_are_compiled_for_the_types_the_tick_calls_them_with(fresh_cache_compiles, world):
@@ -115,6 +116,7 @@ print("behind")
 
 
 @pytest.mark.skipif(config.DISABLE_JIT, reason="nothing is compiled")
+@pytest.mark.fresh_numba_cache
 def test_an_edit_steps_in_stages_while_a_child_compiles_the_tick(tmp_path):
     """A first step on a cold cache compiles ahead, on two cores. Then, with the stages cached but
     not the tick (its cache entry removed, as after an edit of it), a new process steps the world

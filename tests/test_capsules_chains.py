@@ -432,6 +432,7 @@ def test_removing_chain_segments_keeps_the_other_bodies_shapes():
 
 
 @pytest.mark.skipif(numba_config.DISABLE_JIT, reason="nothing is compiled")
+@pytest.mark.fresh_numba_cache
 @pytest.mark.xdist_group("fresh_cache")
 def test_a_world_of_boxes_compiles_none_of_the_rounded_shapes_code(fresh_cache_compiles):
     """On a fresh cache, a pyramid's first step compiles the narrowphase but nothing of

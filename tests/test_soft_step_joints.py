@@ -191,6 +191,7 @@ def test_redundant_pins_are_solved_without_blowing_up():
 
 
 @pytest.mark.skipif(numba.config.DISABLE_JIT, reason="uncompiled kernels have no overloads")
+@pytest.mark.fresh_numba_cache
 def test_a_world_without_joints_compiles_none_of_their_code(tmp_path):
     # joints=None (SoftStep.respond's for a world without joints): numba drops the `joints is not None`
     # branches, so no joint kernel is compiled; with a JointRecord they are. A fresh process and
