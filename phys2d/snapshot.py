@@ -420,7 +420,7 @@ def _gather_for_restore(parts: WorldParts, meta: dict[str, Any]) -> None:
             "joint_rows": p.buffers.joint_rows,
             "pair_list": int(p.pairs.shape[0]),
             "store_rows": int(store.found_pose.shape[0]),
-            "residuals": int(p.residuals.shape[0]),
+            "residuals": int(p.residuals.shape[1]),
             "bodies": int(b.capacity[0]),
             "vertices": int(b.capacity[1]),
         },
@@ -664,7 +664,7 @@ def _pipeline_from(image: _Image, b: BodyArrays, pipe: dict[str, Any], handles: 
         np.empty((n_verts, 2)), np.empty((n_verts, 2)), np.empty((n, 4)), np.empty(n), np.empty((n, 2)),
         _need(image, "fat", np.float64, (n, 4)).copy(),
     )  # fmt: skip
-    p.residuals = np.zeros(_room(16, room["residuals"]))
+    p.residuals = np.zeros((2, _room(16, room["residuals"])))
     return p
 
 

@@ -166,3 +166,36 @@ def test_editing_any_array_handed_out_leaves_the_next_step_bit_identical(respond
     edited.step(DT)
     untouched.step(DT)
     assert fingerprint(edited) == fingerprint(untouched)
+
+
+REPORTED = ("residuals", "solve_order", "joint_impulses")
+
+
+@pytest.mark.parametrize(
+    "make",
+    [phys2d.PGS, lambda: phys2d.PGS(block=True), phys2d.SoftStep, phys2d.IterativeImpulse],
+    ids=["pgs", "block", "soft", "iterative"],
+)
+def test_a_report_kept_across_steps_and_a_failed_step_keeps_what_its_step_did(make):
+    """A report's arrays are those of its own step however long it is kept and whenever they are
+    first read (the world lends it views of its buffers and copies them before it writes them
+    again): against a twin world whose reports are read as soon as each step returns."""
+    kept, twin = scene(make()), scene(make())
+    reports, read_at_once = [], []
+    for _ in range(8):
+        reports.append(kept.step(DT))  # kept, not read
+        r = twin.step(DT)
+        read_at_once.append({n: getattr(r, n).copy() for n in REPORTED})
+    assert read_at_once[-1]["residuals"].size > 0 and read_at_once[-1]["solve_order"].size > 0
+    held, body = kept.last_step, kept.bodies[4]  # the ball, free
+    velocity = body.velocity
+    body.velocity = (2 * kept.max_speed, 0.0)  # the next step ends past max_speed: refused, undone
+    with pytest.raises(phys2d.SimulationError):
+        kept.step(DT)
+    assert kept.last_step is held
+    body.velocity = velocity
+    for _ in range(3):  # the failed step wrote the other side of the buffers; these write both again
+        kept.step(DT)
+    for i, (report, expected) in enumerate(zip(reports, read_at_once, strict=True)):
+        for n in REPORTED:
+            np.testing.assert_array_equal(getattr(report, n), expected[n], err_msg=f"step {i}: {n}")

@@ -137,7 +137,7 @@ def stage_jobs(pipeline: Any, args: tuple) -> list[tuple[Any, tuple]]:
     bodies, shapes, store, sides, rows = (typeof(r) for r in pipeline._records)
     found = typeof(pipeline._records[3][0])
     i64, f64 = typeof(0), typeof(0.0)
-    floats, residuals = typeof(np.zeros(0)), typeof(pipeline.residuals)
+    floats, residuals = typeof(np.zeros(0)), typeof(pipeline.residuals[0])  # (one side's)
     context = typeof(ctx)
     joints, threads, rounded = (context.field_dict[name] for name in ("joints", "threads", "rounded"))
     solve_threads = typeof(None if pipeline._threads == 1 else (pipeline._threads, np.zeros(0, np.int32)))

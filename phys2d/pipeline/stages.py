@@ -290,19 +290,20 @@ def after_solve(ctx, settings, before, count):
     past max_speed or not finite; NOT_FINITE: an impulse, or one of the ``count`` residuals, not
     finite; Python undoes the step), then lambda per contact and the cache the next step starts
     from. Returns ``before`` with the status and the count."""
-    status = limits(ctx, settings, before.contacts, count)
+    status = limits(ctx, settings, before.side, before.contacts, count)
     if status == OK:
         cache(ctx, before)
     return with_status(before, status, count)
 
 
 @njit(cache=True, inline="always")
-def limits(ctx, settings, k, count):
-    """OK, TOO_FAST or NOT_FINITE (``after_solve``) for a step of K contacts and ``count`` residuals."""
+def limits(ctx, settings, side, k, count):
+    """OK, TOO_FAST or NOT_FINITE (``after_solve``) for a step of K contacts and ``count`` residuals
+    (on ``side``, the side it writes)."""
     b = ctx.bodies
     if first_too_fast(b.V, b.x, b.theta, settings.max_speed) >= 0:
         return TOO_FAST
-    if not (all_finite(ctx.rows.lam[: 2 * k + n_joint_rows(ctx.joints)]) and all_finite(ctx.residuals[:count])):
+    if not (all_finite(ctx.rows.lam[: 2 * k + n_joint_rows(ctx.joints)]) and all_finite(ctx.residuals[side, :count])):
         return NOT_FINITE
     return OK
 

@@ -23,6 +23,7 @@ What the world offers the pipeline on purpose: its body arrays (``BodyArrays``),
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -154,11 +155,13 @@ class Pipeline:
         self.sweep_again = True  # the bodies or joints changed: the pairs must be found anew
         self.geometry: tuple = ()  # world_v, world_n, aabb, travel, rotation, fat
         self.undo = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 3)))  # x, theta, V1 to undo a failed step
-        self.residuals = np.zeros(16)
+        self._begun = memoryview(np.empty(1))  # undo[1][0] (``context``): NaN until ``begin`` has run
+        self.residuals = np.zeros((2, 16))  # per side: residuals[side, s] of the step that wrote that side
         self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
         self.rounded: bool | None = None  # True with capsules, segments or chains
         self.last_contacts: tuple = (None, 0)  # (side, K) of the last step's contacts, copied out when read
         self._contacts: Contacts | None = Contacts().read_only()
+        self._lent: list = [None, None]  # per side: a weak reference to the report lent that side's views
         # the context (``context``): the record, its records, what it was made over
         self.ctx: Any = None
         self._records: list = []
@@ -180,7 +183,7 @@ class Pipeline:
         code: made anew when needed."""
         state = self.__dict__.copy()
         state.update(ctx=None, _records=[], _over=-1, settings=None, solver=None, _made_from=(), _machine={})
-        state.update(_kernel=(None, None, None))
+        state.update(_kernel=(None, None, None), _lent=[None, None], _begun=None)
         state.update(_solver_of=(None, -1, None))
         return state
 
@@ -301,14 +304,18 @@ class Pipeline:
     def context(self) -> Any:
         """The step's ``TickContext`` over the world's arrays and these buffers (and the records it
         holds: ``bodies_record``, ``shapes_record``, ...): made anew when one of the arrays was
-        replaced or the threads changed (``ctx`` set to None), or the joints changed."""
+        replaced or the threads changed (``ctx`` set to None), or the joints changed; with room
+        for them first (``_room``: between a step that succeeded and the next, only such changes
+        and ``prepare`` can leave the buffers short)."""
         if self.ctx is not None and self._over == self.joints.version:
             return self.ctx
+        self._room()
         b, t, store = self.bodies, self.buffers, self.store
         joints = self.joints.arrays if self.joints.handles else None
         threads = threads_switch(self._threads)
         if self.undo[1].shape[0] != b.n:
             self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
+        self._begun = memoryview(self.undo[1] if b.n else np.empty(1))  # (a quick way to write its [0])
         if self.part.shape[0] != b.n:
             self.part = np.zeros(b.n, np.int32)
             self.ordered = PAIR_ORDER
@@ -385,6 +392,7 @@ class Pipeline:
                 self._n_residuals = solver.pgs.iterations if solver.pgs is not None else solver.soft.substeps
             if self._threads != world.threads:
                 self._threads, self.ctx = world.threads, None
+            self._room()  # (room for its sweeps' residuals)
             self._made_from = (world, responder, responder.version, dt, one_call)
         return self.solver
 
@@ -408,6 +416,9 @@ class Pipeline:
         stage by stage. Returns the report; a step that fails leaves the world as it was."""
         solver = self.prepare(world, responder, dt, one_call)
         self.began = False
+        lent = self._lent[1 - self.side]  # the report lent the views of the side this step writes
+        if lent is not None and (report := lent()) is not None:
+            report.own()  # (still held: it copies them)
         try:
             if world.threads == 1:  # (no context to enter: a small scene's step is a few microseconds)
                 done = self._in_one_call(responder, solver) if solver is not None else None
@@ -430,8 +441,7 @@ class Pipeline:
         having changed nothing, while a child process compiles it (``_behind``)."""
         counts = self._counts(self._visit, START)
         while True:
-            self._room()
-            ctx = self.context()
+            ctx = self.context()  # (with room for the step: ``context``)
             args = (ctx, self.settings, solver, counts)
             kept_ctx, kept_solver, kernel = self._kernel
             if kept_ctx is not ctx or kept_solver is not solver or kernel is tick:  # machine code for these types
@@ -443,8 +453,8 @@ class Pipeline:
                 if self._behind(responder, args, key):
                     return None  # a child compiles the tick: this step goes stage by stage
                 child = self._compile_ahead(responder, args)
-            if counts.resume == START and self.undo[1].shape[0]:  # a NaN angle to undo to: ``begin`` has not run
-                self.undo[1][0] = np.nan
+            if counts.resume == START:
+                self._begun[0] = np.nan  # undo_theta[0] NaN until ``begin`` fills the undo buffers
             self.began = True
             result = _named(TickResult, kernel(*args))
             if child is not None:  # the tick is compiled: the child's work is done or no longer needed
@@ -454,7 +464,7 @@ class Pipeline:
                 self._machine[key] = compiled_for(tick, args)
                 self._kernel = (ctx, solver, self._machine[key])
             if result.status == OK:
-                return result, self.residuals[: result.solved].copy(), None
+                return result, self.residuals[result.side, : result.solved], None
             counts = self._stopped(result, counts, responder)
 
     def _in_stages(self, responder: Responder) -> tuple:
@@ -554,7 +564,7 @@ class Pipeline:
             and self.manifolds <= t.pairs
             and self.cached <= 2 * t.pairs
             and n_joint_rows <= t.joint_rows
-            and n_residuals <= self.residuals.shape[0]
+            and n_residuals <= self.residuals.shape[1]
         ):
             return
         pairs = max(self.n_pairs, self.manifolds, (self.cached + 1) // 2)
@@ -567,8 +577,8 @@ class Pipeline:
             for name in ("key", "cache_lambda_n", "cache_lambda_t", "cache_pushed"):
                 getattr(new, name)[:k] = getattr(old, name)[:k]
             self.ordered = PAIR_ORDER
-        if self.residuals.shape[0] < n_residuals:
-            self.residuals = np.zeros(n_residuals)
+        if self.residuals.shape[1] < n_residuals:
+            self.residuals = np.zeros((2, n_residuals))
             self.ctx = None
 
     def _make_room(self) -> None:
@@ -638,10 +648,12 @@ class Pipeline:
             joint_impulses = self.joints.lam.copy()
         c = self.buffers.sides[side]
         name, counted = self._names
-        return StepReport(
+        report = StepReport(
             name, dt, solved, residuals, deepest, k, hits, joint_impulses,
-            None if result is None else result.system, c.order[:k].copy(), counted,
+            None if result is None else result.system, c.order[:k], counted, True,
         )  # fmt: skip
+        self._lent[side] = weakref.ref(report)  # (its views: residuals and order of this side)
+        return report
 
 
 # -- refusals -------------------------------------------------------------------------------------

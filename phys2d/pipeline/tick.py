@@ -36,17 +36,17 @@ def solve(ctx, dt, pgs, soft, threads, before):
     numba compiles only the one given. On one thread (threads None), or on ``threads`` with each
     body's part of the solve order (``pipeline.parallel``). Returns its sweeps or sub-steps."""
     k, found, b, joints = before.contacts, ctx.sides[before.side], ctx.bodies, ctx.joints
-    rows = rows_of(ctx, k)
+    rows, residuals = rows_of(ctx, k), ctx.residuals[before.side]  # (the residuals of the side it writes)
     if pgs is not None:
         separation = in_row_order(found.separation, found.order, k)
         if threads is None:  # (numba compiles one branch: the other's threads has another type)
-            return pgs_step(b, rows, separation, dt, pgs, ctx.residuals, joints, None)
-        return pgs_step(b, rows, separation, dt, pgs, ctx.residuals, joints, (threads, ctx.shapes.part))
+            return pgs_step(b, rows, separation, dt, pgs, residuals, joints, None)
+        return pgs_step(b, rows, separation, dt, pgs, residuals, joints, (threads, ctx.shapes.part))
     if soft is not None:
         contacts = (found.order[:k], found.separation[:k], found.restitution[:k])
         if threads is None:
-            return soft_step_solve(b, rows, contacts, joints, dt, soft, ctx.residuals, None)
-        return soft_step_solve(b, rows, contacts, joints, dt, soft, ctx.residuals, (threads, ctx.shapes.part))
+            return soft_step_solve(b, rows, contacts, joints, dt, soft, residuals, None)
+        return soft_step_solve(b, rows, contacts, joints, dt, soft, residuals, (threads, ctx.shapes.part))
     return 0
 
 

@@ -129,7 +129,10 @@ class StepReport:
     solve_order      the q-th contact visited (and given the q-th pair of rows of the
                      step's system) is solve_order[q]
 
-    Its arrays are read-only: the report describes a step taken.
+    Its arrays are read-only: the report describes a step taken. The world may lend it
+    residuals and solve_order as views of its buffers (``lent=True``): they are copied when
+    first read, or by the world before a step writes those buffers again (``own``), so a
+    step that nobody asks about copies nothing.
     """
 
     __slots__ = (
@@ -145,6 +148,8 @@ class StepReport:
         "system",
         "_solve_order",
         "_sealed",
+        "_lent",
+        "__weakref__",
     )
 
     def __init__(
@@ -160,6 +165,7 @@ class StepReport:
         system: object = None,
         solve_order: np.ndarray = EMPTY,
         counted: str = "iterations",
+        lent: bool = False,
     ) -> None:
         self.responder = responder
         self.dt = dt
@@ -173,10 +179,19 @@ class StepReport:
         self.system = system
         self._solve_order = solve_order
         self._sealed = False
+        self._lent = lent
+
+    def own(self) -> None:
+        """Copy the residuals and solve_order lent from the world's buffers (the world calls it
+        before a step writes them again, if the report is still held)."""
+        if self._lent:
+            self._residuals, self._solve_order = self._residuals.copy(), self._solve_order.copy()
+            self._lent = False
 
     def read_only(self) -> StepReport:
         """Make the report's arrays (and its system's) read-only, and return self."""
         if not self._sealed:
+            self.own()
             for a in (self._residuals, self._joint_impulses, self._solve_order):
                 a.flags.writeable = False
             if self.system is not None:
