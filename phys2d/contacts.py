@@ -17,9 +17,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from .collision.sort import lower_bound
+from .jit import njit
 
 if TYPE_CHECKING:  # constraints.rows imports this module: its contact rows start from the cache
     pass

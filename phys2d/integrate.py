@@ -9,7 +9,8 @@ theta' = omega is the 2D form of the lecture's q' = 1/2 w q.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .jit import njit
 
 
 @njit(cache=True)

@@ -25,10 +25,10 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from .bodies import should_collide
 from .collision.queries import geometry, tight_aabbs
+from .jit import njit
 
 LINEAR_SLEEP = 0.05  # m/s: a body slower than this may sleep
 ANGULAR_SLEEP = math.radians(2.0)  # rad/s: and turning slower than this

@@ -17,8 +17,9 @@ tick to tick for as long as every body's tight box stays inside its fat box
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
+from ..jit import njit
 from ..shapes import CIRCLE
 from .sort import counting_argsort, lower_bound, stable_argsort
 

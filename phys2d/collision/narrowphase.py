@@ -37,8 +37,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..shapes import CHAIN, CIRCLE, POLYGON
 from .rounded import (
     A_EDGE_BIT,

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..shapes import CIRCLE
 
 if TYPE_CHECKING:

@@ -51,8 +51,9 @@ a corner onto the next segment, which the points it had do not hold).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
+from ..jit import njit
 from ..shapes import CIRCLE, POLYGON
 from .narrowphase import (
     FLIP_BIT,

@@ -34,8 +34,8 @@ vertex (bit 0 set: b's edge).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .sat import FLIP_BIT, REFERENCE_FACE_TOL, VERTEX_BIT, max_separation
 
 CLOSEST_BIT = VERTEX_BIT  # a polygon-pair feature from the cores' closest features

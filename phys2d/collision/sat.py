@@ -4,7 +4,8 @@ shared by the polygon narrowphase (``narrowphase``) and the rounded one (``round
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 FLIP_BIT = 1 << 15
 VERTEX_BIT = 1 << 7

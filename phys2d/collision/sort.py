@@ -13,7 +13,8 @@ for the same reason.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 
 @njit(cache=True, inline="always")

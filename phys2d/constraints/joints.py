@@ -56,8 +56,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..validation import finite_float, non_negative_float, vec2
 from .rows import fill_row
 

@@ -50,9 +50,9 @@ is as stable as the pair list.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..collision.sort import counting_argsort, stable_argsort
+from ..jit import njit
 
 MAX_COLOURS = 64  # a body in more pairs than this shares the last colour
 

@@ -44,9 +44,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..contacts import find_in_cache
+from ..jit import njit
 from ..pipeline.records import RowRecord
 
 FRICTION_COULOMB = 0

@@ -47,9 +47,10 @@ from contextlib import contextmanager
 
 import numba
 import numpy as np
-from numba import config, njit, prange
+from numba import config, prange
 
 from ..constraints.order import PART_DEPTH, set_of
+from ..jit import njit
 from ..responders.soft_contacts import (
     manifold_constants,
     new_manifolds,

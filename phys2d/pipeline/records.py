@@ -19,8 +19,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from numba import config, njit, types
+from numba import config, types
 from numba.experimental import structref
+
+from ..jit import njit
 
 
 def _record(name: str, fields: tuple[str, ...], doc: str) -> Any:

@@ -30,7 +30,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ..collision.broadphase import find_pairs, update_geometry_on
 from ..collision.recycle import collide_recycling_on, has_room
@@ -40,6 +39,7 @@ from ..constraints.order import PAIR_ORDER, order_pairs, solve_order
 from ..constraints.rows import RowSettings, contact_rows
 from ..contacts import impulses_to_contacts_and_cache
 from ..integrate import apply_external_forces, first_too_fast
+from ..jit import njit
 from .records import RowRecord
 
 # TickResult.status

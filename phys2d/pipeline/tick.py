@@ -10,8 +10,8 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..responders.pgs import pgs_step
 from ..responders.soft_step import soft_step_solve
 from .stages import OK, after_solve, before_solve, flat, rows_of

@@ -8,7 +8,8 @@ trying the four active sets (``lcp2``). PGS (``block=True``) and the soft step u
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 
 @njit(cache=True)

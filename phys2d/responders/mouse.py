@@ -22,10 +22,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ..constraints.joints import JOINT_MOUSE, P_HERTZ, P_MOTOR_MAX, P_ZETA
 from ..constraints.rows import apply_row_impulse, row_velocity
+from ..jit import njit
 from .soft_contacts import soft_constants
 
 

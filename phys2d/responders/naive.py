@@ -48,7 +48,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ..constraints.rows import (
     MET,
@@ -59,6 +58,7 @@ from ..constraints.rows import (
     speculative_friction_target,
 )
 from ..integrate import integrate_positions
+from ..jit import njit
 from ..pipeline.records import record_of_rows
 from ..validation import Setting, non_negative_float
 from .base import Responder, SolveResult, StepContext

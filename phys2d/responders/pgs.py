@@ -34,7 +34,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from ..constraints.joints import OWN_SOLVE, JointArrays
 from ..constraints.rows import (
@@ -51,6 +51,7 @@ from ..constraints.rows import (
     unsigned_indices,
 )
 from ..integrate import integrate_positions
+from ..jit import njit
 from ..pipeline.context import pgs_kernel
 from ..pipeline.parallel import largest, manifold_groups
 from ..pipeline.records import RowRecord, new_bodies, record_of_joints, record_of_rows

@@ -47,10 +47,10 @@ from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
-from numba import njit
 
 from ..constraints.joints import JOINT_MOUSE, OWN_SOLVE, JointArrays
 from ..constraints.rows import Rows, clamp_accumulated, coupling, push_rows
+from ..jit import njit
 from ..pipeline.records import record_of_joints
 from .base import SolveResult, StepContext
 from .mouse import clamp_to_disk, has_mouse, mouse_springs

@@ -17,10 +17,10 @@ momentum and the centre of mass, not angular momentum about a fixed point.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..constraints.rows import MET, apply_row_impulse, clamp_accumulated, row_velocity
 from ..integrate import integrate_positions
+from ..jit import njit
 from ..pipeline.records import record_of_rows
 from .base import StepContext
 

@@ -15,7 +15,6 @@ so the push is bounded and critically damped instead of proportional to 1/dt.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..constraints.rows import (
     MET,
@@ -29,6 +28,7 @@ from ..constraints.rows import (
     speculative_friction_target,
     store_pair_velocity,
 )
+from ..jit import njit
 from .block import block_is_well_conditioned, lcp2
 from .soft_points import separation_now
 

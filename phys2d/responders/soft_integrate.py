@@ -4,7 +4,8 @@ the positions after each sub-step, with how far each body has moved since the ti
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 SMALL_TURN = 1.0 / 32.0  # rad: a turn below this takes cos and sin from their Taylor series
 

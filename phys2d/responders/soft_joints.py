@@ -14,10 +14,10 @@ torque or force times the sub-step; mouse joints have a soft solve of their own 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..constraints.joints import OWN_SOLVE, joint_rows
 from ..constraints.rows import MET, apply_row_impulse, clamp_accumulated, coupling, row_velocity
+from ..jit import njit
 from .soft_contacts import soft_push
 
 DIRECT_JOINT_ROWS_MAX = 256  # more equality joint rows than this are swept, not factored

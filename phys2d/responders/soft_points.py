@@ -13,7 +13,7 @@ when it pushes.
 from __future__ import annotations
 
 import numpy as np
-from numba import config, njit, types
+from numba import config, types
 from numba.experimental import structref
 
 from ..constraints.rows import (
@@ -28,6 +28,7 @@ from ..constraints.rows import (
     row_velocity,
     store_pair_velocity,
 )
+from ..jit import njit
 
 POINT_FIELDS = ("C0", "e", "C", "moved", "V_sweep", "pending", "impacted", "vn_impact", "dvn_impact", "landed")
 _POINTS_DOC = """The tick's contact points, in row order (point c owns rows normal_row[c] and friction_row[c]):

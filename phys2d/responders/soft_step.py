@@ -39,10 +39,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ..constraints.joints import JointArrays
 from ..constraints.rows import unsigned_rows
+from ..jit import njit
 from ..pipeline import records
 from ..pipeline.parallel import (
     groups_for,
