@@ -464,7 +464,7 @@ class Pipeline:
                 self._machine[key] = compiled_for(tick, args)
                 self._kernel = (ctx, solver, self._machine[key])
             if result.status == OK:
-                return result, self.residuals[result.side, : result.solved], None
+                return result, self.residuals[result.side], None  # (its first ``solved``: the report's)
             counts = self._stopped(result, counts, responder)
 
     def _in_stages(self, responder: Responder) -> tuple:
@@ -648,11 +648,11 @@ class Pipeline:
             joint_impulses = self.joints.lam.copy()
         c = self.buffers.sides[side]
         name, counted = self._names
-        report = StepReport(
-            name, dt, solved, residuals, deepest, k, hits, joint_impulses,
-            None if result is None else result.system, c.order[:k], counted, True,
-        )  # fmt: skip
-        self._lent[side] = weakref.ref(report)  # (its views: residuals and order of this side)
+        if result is not None:  # stage by stage: the responder's residuals, and the order copied
+            system, order = result.system, c.order[:k].copy()
+            return StepReport(name, dt, solved, residuals, deepest, k, hits, joint_impulses, system, order, counted)
+        report = StepReport(name, dt, solved, residuals, deepest, k, hits, joint_impulses, None, c.order, counted, True)
+        self._lent[side] = weakref.ref(report)  # (lent this side's residuals and order)
         return report
 
 

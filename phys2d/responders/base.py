@@ -129,10 +129,11 @@ class StepReport:
     solve_order      the q-th contact visited (and given the q-th pair of rows of the
                      step's system) is solve_order[q]
 
-    Its arrays are read-only: the report describes a step taken. The world may lend it
-    residuals and solve_order as views of its buffers (``lent=True``): they are copied when
-    first read, or by the world before a step writes those buffers again (``own``), so a
-    step that nobody asks about copies nothing.
+    Its arrays are read-only: the report describes a step taken. The world may lend it its
+    buffers of residuals and solve order (``lent=True``: their first ``count`` and
+    ``contact_count`` entries are the report's): they are copied out when first read, or by
+    the world before a step writes those buffers again (``own``), so a step that nobody asks
+    about copies nothing.
     """
 
     __slots__ = (
@@ -185,7 +186,8 @@ class StepReport:
         """Copy the residuals and solve_order lent from the world's buffers (the world calls it
         before a step writes them again, if the report is still held)."""
         if self._lent:
-            self._residuals, self._solve_order = self._residuals.copy(), self._solve_order.copy()
+            self._residuals = self._residuals[: self.count].copy()
+            self._solve_order = self._solve_order[: self.contact_count].copy()
             self._lent = False
 
     def read_only(self) -> StepReport:
@@ -225,7 +227,8 @@ class StepReport:
         return self.cache_hits / self.contact_count if self.contact_count else 1.0
 
     def __repr__(self) -> str:
-        res = f"{self._residuals[-1]:.3g} m/s" if self._residuals.size else "-"
+        residuals = self.residuals
+        res = f"{residuals[-1]:.3g} m/s" if residuals.size else "-"
         return (
             f"<StepReport {self.responder}: {self.contact_count} contacts, "
             f"{self.cache_hits} cached, {self.count} {self.counted}, final residual {res}, "
