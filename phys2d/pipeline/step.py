@@ -161,7 +161,7 @@ class Pipeline:
         self.rounded: bool | None = None  # True with capsules, segments or chains
         self.last_contacts: tuple = (None, 0)  # (side, K) of the last step's contacts, copied out when read
         self._contacts: Contacts | None = Contacts().read_only()
-        self._lent: list = [None, None]  # per side: a weak reference to the report lent that side's views
+        self._lent: list = [None, None]  # per side: a weak reference to the report lent its buffers (``_commit``)
         # the context (``context``): the record, its records, what it was made over
         self.ctx: Any = None
         self._records: list = []
@@ -416,7 +416,7 @@ class Pipeline:
         stage by stage. Returns the report; a step that fails leaves the world as it was."""
         solver = self.prepare(world, responder, dt, one_call)
         self.began = False
-        lent = self._lent[1 - self.side]  # the report lent the views of the side this step writes
+        lent = self._lent[1 - self.side]  # the report lent the buffers of the side this step writes
         if lent is not None and (report := lent()) is not None:
             report.own()  # (still held: it copies them)
         try:
