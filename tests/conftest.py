@@ -24,7 +24,7 @@ from hypothesis import HealthCheck, settings
 os.environ.setdefault("PHYS2D_COMPILE_AHEAD", "0")
 # numba's OpenMP threads sleep while they wait instead of spinning: pytest-xdist runs a test per core, so
 # a world on 2 threads shares its cores with the other worker, and a spinning thread takes the core the
-# thread it waits for needs (a threaded pyramid test ran 5x longer). The bits do not depend on it.
+# thread it waits for needs (benchmarks/TESTS.md has the figures). The bits do not depend on it.
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 _COMMON = dict(deadline=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
