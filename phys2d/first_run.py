@@ -58,7 +58,7 @@ def _record_file() -> Path | None:
     try:
         from .pipeline.tick import tick
 
-        return Path(tick._cache._cache_path) / FILE  # type: ignore[attr-defined]  # numba internals
+        return Path(tick._cache._cache_path) / FILE  # numba internals
     except (ImportError, AttributeError):
         return None
 

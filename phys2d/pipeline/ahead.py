@@ -176,7 +176,7 @@ def one_child_per_cache() -> Iterator[None]:
 
         from .tick import tick
 
-        folder = Path(tick._cache._cache_path)  # type: ignore[attr-defined]  # numba internals: its cache folder
+        folder = Path(tick._cache._cache_path)  # numba internals: its cache folder
         folder.mkdir(parents=True, exist_ok=True)
         lock = open(folder / "phys2d-ahead.lock", "w")  # noqa: SIM115 (held until the child exits)
     except (ImportError, AttributeError, OSError):  # no fcntl (Windows) or no cache folder: no lock

@@ -155,7 +155,7 @@ class Pipeline:
         self.sweep_again = True  # the bodies or joints changed: the pairs must be found anew
         self.geometry: tuple = ()  # world_v, world_n, aabb, travel, rotation, fat
         self.undo = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 3)))  # x, theta, V1 to undo a failed step
-        self._begun = memoryview(np.empty(1))  # undo[1][0] (``context``): NaN until ``begin`` has run
+        self._begun = np.empty(1)  # undo[1][:1] (``context``): NaN until ``begin`` has run
         self.residuals = np.zeros((2, 16))  # per side: residuals[side, s] of the step that wrote that side
         self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
         self.rounded: bool | None = None  # True with capsules, segments or chains
@@ -315,7 +315,7 @@ class Pipeline:
         threads = threads_switch(self._threads)
         if self.undo[1].shape[0] != b.n:
             self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
-        self._begun = memoryview(self.undo[1] if b.n else np.empty(1))  # (a quick way to write its [0])
+        self._begun = self.undo[1][:1] if b.n else np.empty(1)  # (its [0], written without slicing each step)
         if self.part.shape[0] != b.n:
             self.part = np.zeros(b.n, np.int32)
             self.ordered = PAIR_ORDER
