@@ -39,6 +39,7 @@ running viewer while the simulation runs (``phys2d run --live``).
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import warnings
@@ -50,6 +51,7 @@ import numpy as np
 from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
 from .sample import Sample, Sampler, pack, window_parts
+from .settings import SinkSettings
 
 KEYFRAME_EVERY = 60  # ticks between keyframes, by default (``Recorder``)
 
@@ -114,10 +116,10 @@ def _native_of(recording: Any, path: Any, stream_to: str | None, background: Any
 class _Local:
     """The Sink in this process."""
 
-    def __init__(self, kwargs: dict[str, Any]) -> None:
+    def __init__(self, settings: SinkSettings, recording: Any) -> None:
         from .sink import Sink
 
-        self.sink = Sink(**kwargs)
+        self.sink = Sink(settings, recording)
 
     def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
         self.sink.add(label, s, info)
@@ -133,7 +135,7 @@ class _Background:
     (``arena``: one copy in, one copy out, no pickling) when a slot is free, else pickled, so a
     busy writer never holds up the simulation."""
 
-    def __init__(self, kwargs: dict[str, Any], window: int) -> None:
+    def __init__(self, settings: SinkSettings, window: int) -> None:
         import multiprocessing as mp
 
         from .arena import Arena
@@ -146,7 +148,7 @@ class _Background:
         self.freed, child_freed = ctx.Pipe(duplex=False)  # the writer hands slots back
         self.proc = ctx.Process(
             target=run,
-            args=(self.queue, child, kwargs, self.arena, child_freed),
+            args=(self.queue, child, settings, self.arena, child_freed),
             daemon=True,
             name="phys2d-recording-writer",
         )
@@ -307,23 +309,17 @@ class Recorder:
         self.keyframe_every = _check_every(keyframe_every)
         series_every = _check_count(series_every, "series_every")
         self.path = p
-        kwargs = dict(
-            path=p,
-            name=name,
-            scene=scene,
-            application_id=application_id,
-            recording_id=recording_id,
-            contact_series=bool(contact_series),
-            choice=choice,
-            flush_every=flush_every,
-            series_every=series_every,
-            blueprint=bool(blueprint),
-            stream_to=stream_to,
-            recording=native,
-        )
+        settings = SinkSettings(
+            p, name, scene, application_id, recording_id, bool(contact_series), choice, flush_every, series_every,
+            bool(blueprint), stream_to,
+        )  # fmt: skip
         self._samplers: dict[str | None, Sampler] = {}
         forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
-        backend = _Background({**kwargs, "long_chunks": True}, flush_every) if background and forks else _Local(kwargs)
+        backend: _Local | _Background
+        if background and forks:  # (a recording to log into comes without background: _native_of)
+            backend = _Background(dataclasses.replace(settings, long_chunks=True), flush_every)
+        else:
+            backend = _Local(settings, native)
         self._state = _State(backend)
         self._finalizer = weakref.finalize(self, _State.close, self._state)
 

@@ -12,9 +12,10 @@ from typing import Any
 
 from . import blueprint as bp
 from . import columns, schema
-from .buffer import ContactChoice, RunBuffer
+from .buffer import RunBuffer
 from .native import Stream
 from .sample import Sample
+from .settings import SinkSettings
 
 COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about this many bytes
 
@@ -22,28 +23,14 @@ COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about 
 class Sink:
     """The stream and the runs' buffers; closed once, by ``Recorder.close`` or a finalizer."""
 
-    def __init__(
-        self,
-        path: str | None,
-        name: str | None,
-        scene: str | None,
-        application_id: str,
-        recording_id: str | None,
-        contact_series: bool,
-        choice: ContactChoice,
-        flush_every: int,
-        series_every: int,
-        blueprint: bool,
-        stream_to: str | None,
-        long_chunks: bool = False,
-        recording: Any = None,
-    ) -> None:
-        self.scene = scene
-        self.contact_series = contact_series
-        self.choice = choice
-        self.flush_every = flush_every
-        self.series_every = series_every
-        self.blueprint = blueprint
+    def __init__(self, settings: SinkSettings, recording: Any = None) -> None:
+        """``recording``: the native side of a ``rerun.RecordingStream`` to log into, or None."""
+        self.scene = settings.scene
+        self.contact_series = settings.contact_series
+        self.choice = settings.choice
+        self.flush_every = settings.flush_every
+        self.series_every = settings.series_every
+        self.blueprint = settings.blueprint
         self.runs: dict[str | None, RunBuffer] = {}
         self.closed = False
         self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
@@ -52,12 +39,13 @@ class Sink:
         # series_every ticks. Only for a writer process: it outlives a killed simulation and still
         # writes what it holds, where an in-process writer loses it (then every window is written
         # at once: a hard kill loses at most flush_every ticks).
-        self.long_chunks = long_chunks and stream_to is None and recording is None
+        self.long_chunks = settings.long_chunks and settings.stream_to is None and recording is None
+        name = settings.name
         self.rec = Stream(
-            application_id,
-            recording_id,
-            path,
-            stream_to,
+            settings.application_id,
+            settings.recording_id,
+            settings.path,
+            settings.stream_to,
             coalesce_bytes=COALESCE_BYTES if self.long_chunks else 0,
             recording=recording,
         )
@@ -65,7 +53,7 @@ class Sink:
             self.rec.recording_name(name)
         from .. import __version__
 
-        self.rec.property(schema.PROPERTIES_ENGINE, engine_version=__version__, scene=scene, name=name)
+        self.rec.property(schema.PROPERTIES_ENGINE, engine_version=__version__, scene=self.scene, name=name)
 
     def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
         """One sampled tick of run ``label``; ``info`` (responder, ...) with a run's first tick."""

@@ -7,10 +7,13 @@ never loads rerun: the child loads its native layer (``native``, about 10 ms; th
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .settings import SinkSettings
 
 
-def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
+def serve(queue, conn, settings: SinkSettings, arena=None, freed=None) -> None:
     """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...],
     slot) and ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text).
     Packed arrays in a slot of ``arena`` are copied out and the slot number sent back on ``freed``.
@@ -24,7 +27,7 @@ def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
         from .sample import unpack
         from .sink import Sink  # rerun's native layer is loaded here, in the writer, not in the simulating process
 
-        sink = Sink(**kwargs)
+        sink = Sink(settings)
         layouts: dict[str | None, dict] = {}
         while True:
             try:
@@ -64,11 +67,11 @@ def serve(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
             pass
 
 
-def run(queue, conn, kwargs: dict[str, Any], arena=None, freed=None) -> None:
+def run(queue, conn, settings: SinkSettings, arena=None, freed=None) -> None:
     """The writer process's target: ``serve``, then exit at once. The file is complete and the
     reply sent by then; the interpreter's teardown (rerun's and arrow's threads and modules,
     20-40 ms) would only hold up the recorder, which joins this process in ``close``."""
     import os
 
-    serve(queue, conn, kwargs, arena, freed)
+    serve(queue, conn, settings, arena, freed)
     os._exit(0)
