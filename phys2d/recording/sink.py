@@ -25,12 +25,7 @@ class Sink:
 
     def __init__(self, settings: SinkSettings, recording: Any = None) -> None:
         """``recording``: the native side of a ``rerun.RecordingStream`` to log into, or None."""
-        self.scene = settings.scene
-        self.contact_series = settings.contact_series
-        self.choice = settings.choice
-        self.flush_every = settings.flush_every
-        self.series_every = settings.series_every
-        self.blueprint = settings.blueprint
+        self.settings = settings
         self.runs: dict[str | None, RunBuffer] = {}
         self.closed = False
         self.sent_views: list[bp.RunView] | None = None  # the runs the blueprint in the file shows
@@ -53,27 +48,26 @@ class Sink:
             self.rec.recording_name(name)
         from .. import __version__
 
-        self.rec.property(schema.PROPERTIES_ENGINE, engine_version=__version__, scene=self.scene, name=name)
+        self.rec.property(schema.PROPERTIES_ENGINE, engine_version=__version__, scene=self.settings.scene, name=name)
 
     def add(self, label: str | None, s: Sample, info: dict[str, Any] | None) -> None:
         """One sampled tick of run ``label``; ``info`` (responder, ...) with a run's first tick."""
         b = self.runs.get(label)
         if b is None:
-            b = self.runs[label] = RunBuffer(label, schema.run_prefix(label), self.choice)
+            b = self.runs[label] = RunBuffer(label, schema.run_prefix(label), self.settings.choice)
             columns.write_start(self.rec, b, schema.PALETTE[(len(self.runs) - 1) % len(schema.PALETTE)])
         if info is not None:
-            self.rec.property(
-                schema.run_property(label), scene=self.scene, run=label, plotted=repr(self.choice), **info
-            )
-        b.add(s, self.contact_series)
-        if len(b.samples) >= self.flush_every:
+            scene, plotted = self.settings.scene, repr(self.settings.choice)
+            self.rec.property(schema.run_property(label), scene=scene, run=label, plotted=plotted, **info)
+        b.add(s, self.settings.contact_series)
+        if len(b.samples) >= self.settings.flush_every:
             if self.sent_views is None:  # the layout goes before the data: the viewer draws it from the start
                 self.send_blueprint()
             columns.write_scene(self.rec, b)
-            if not self.long_chunks or b.stats_ticks >= self.series_every:
+            if not self.long_chunks or b.stats_ticks >= self.settings.series_every:
                 columns.write_stats(self.rec, b)
             self.rec.flush(timeout_sec=0)  # start writing this window now: a hard kill loses less
-        if b.series_ticks >= self.series_every:
+        if b.series_ticks >= self.settings.series_every:
             columns.write_series(self.rec, b)
 
     def flush(self) -> None:
@@ -93,7 +87,7 @@ class Sink:
         It is sent before the first window of data (a viewer without it builds a view per entity,
         slow to draw while the file loads) and again at the end only if the runs changed.
         """
-        if not self.blueprint:
+        if not self.settings.blueprint:
             return
         views = [
             bp.RunView(r.label, r.bounds, r.plotted or self._will_plot(r), r.has_joints) for r in self.runs.values()
@@ -103,7 +97,7 @@ class Sink:
             self.sent_views = views
 
     def _will_plot(self, r: RunBuffer) -> bool:
-        return self.contact_series and any(k.size for k in r.contacts.keys)
+        return self.settings.contact_series and any(k.size for k in r.contacts.keys)
 
     def plotted(self) -> dict[str | None, list[str]]:
         """Per run, the contacts whose series were written (entity names)."""
