@@ -176,8 +176,9 @@ TickContext = _record(
     """One step's context, handed to every stage (Box2D v3's ``b2StepContext``): the bodies, shapes
     and manifold store, both sides of the contact buffers (a tuple of two ContactRecords), the
     row buffers (a RowRecord at capacity), the positions to undo a failed step with, the residual
-    of each sweep, the forces on the bodies besides contacts (gravity_scale (N,), damping (N, 2)
-    1/s, force (N, 3) N and N m applied for this step), the joints (a JointRecord, or None in a
+    of each sweep (residuals[side, s]: per side of the contact buffers), the forces on the bodies
+    besides contacts (gravity_scale (N,), damping (N, 2) 1/s, force (N, 3) N and N m applied for
+    this step), the joints (a JointRecord, or None in a
     world without joints), the threads (a count, or None on one thread) and rounded (True in a
     world with capsules, segments or chains, else None). The None forms let numba compile the
     code of what is absent away (``pipeline.context``).""",
