@@ -51,7 +51,7 @@ import numpy as np
 from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
 from .sample import Sample, Sampler, pack, window_parts
-from .settings import SinkSettings
+from .sink_settings import SinkSettings
 
 KEYFRAME_EVERY = 60  # ticks between keyframes, by default (``Recorder``)
 

@@ -15,7 +15,7 @@ from . import columns, schema
 from .buffer import RunBuffer
 from .native import Stream
 from .sample import Sample
-from .settings import SinkSettings
+from .sink_settings import SinkSettings
 
 COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about this many bytes
 

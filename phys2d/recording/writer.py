@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .settings import SinkSettings
+    from .sink_settings import SinkSettings
 
 
 def serve(queue, conn, settings: SinkSettings, arena=None, freed=None) -> None:
