@@ -60,6 +60,7 @@ from .tick import tick
 
 BUFFER_NAMES = {"warm_started": "hit"}  # a field of ``Contacts`` by its name in the buffers
 BOUNCE_SWEEPS = 10  # sweeps of the restitution pass the world makes for a responder that leaves it the move
+NAN = float("nan")  # (a constant: ``np.nan`` is a module attribute looked up on every read)
 
 
 class SimulationError(RuntimeError):
@@ -155,7 +156,8 @@ class Pipeline:
         self.sweep_again = True  # the bodies or joints changed: the pairs must be found anew
         self.geometry: tuple = ()  # world_v, world_n, aabb, travel, rotation, fat
         self.undo = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 3)))  # x, theta, V1 to undo a failed step
-        self._begun = np.empty(1)  # undo[1][:1] (``context``): NaN until ``begin`` has run
+        self._begun: Any = np.empty(1).data  # undo[1][:1] (``context``): NaN until ``begin`` has run
+        self._residual_rows: tuple = ()  # residuals[0] and residuals[1] (``context``): a step's, lent to its report
         self.residuals = np.zeros((2, 16))  # per side: residuals[side, s] of the step that wrote that side
         self.sleep_masks: tuple | None = None  # (static, M_inv) with the sleeping bodies immovable, or None
         self.rounded: bool | None = None  # True with capsules, segments or chains
@@ -183,7 +185,7 @@ class Pipeline:
         code: made anew when needed."""
         state = self.__dict__.copy()
         state.update(ctx=None, _records=[], _over=-1, settings=None, solver=None, _made_from=(), _machine={})
-        state.update(_kernel=(None, None, None), _lent=[None, None], _begun=None)
+        state.update(_kernel=(None, None, None), _lent=[None, None], _begun=None, _residual_rows=())
         state.update(_solver_of=(None, -1, None))
         return state
 
@@ -315,7 +317,8 @@ class Pipeline:
         threads = threads_switch(self._threads)
         if self.undo[1].shape[0] != b.n:
             self.undo = (np.empty((b.n, 2)), np.empty(b.n), np.empty((b.n, 3)))
-        self._begun = self.undo[1][:1] if b.n else np.empty(1)  # (its [0], written without slicing each step)
+        self._begun = (self.undo[1][:1] if b.n else np.empty(1)).data  # (its [0] written without numpy's indexing)
+        self._residual_rows = (self.residuals[0], self.residuals[1])
         if self.part.shape[0] != b.n:
             self.part = np.zeros(b.n, np.int32)
             self.ordered = PAIR_ORDER
@@ -454,18 +457,18 @@ class Pipeline:
                     return None  # a child compiles the tick: this step goes stage by stage
                 child = self._compile_ahead(responder, args)
             if counts.resume == START:
-                self._begun[0] = np.nan  # undo_theta[0] NaN until ``begin`` fills the undo buffers
+                self._begun[0] = NAN  # undo_theta[0] NaN until ``begin`` fills the undo buffers
             self.began = True
-            result = _named(TickResult, kernel(*args))
+            result = kernel(*args)  # (a plain tuple, in TickResult's order)
             if child is not None:  # the tick is compiled: the child's work is done or no longer needed
                 child.kill()
                 child.wait()
             if kernel is tick:  # the next steps call its machine code for these types directly
                 self._machine[key] = compiled_for(tick, args)
                 self._kernel = (ctx, solver, self._machine[key])
-            if result.status == OK:
-                return result, self.residuals[result.side], None  # (its first ``solved``: the report's)
-            counts = self._stopped(result, counts, responder)
+            if result[0] == OK:  # (status)
+                return result, self._residual_rows[result[1]], None  # (side; its first ``solved``: the report's)
+            counts = self._stopped(_named(TickResult, result), counts, responder)
 
     def _in_stages(self, responder: Responder) -> tuple:
         """``before_solve``, the responder's ``respond`` from Python, ``after_solve``."""
