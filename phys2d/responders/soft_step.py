@@ -85,30 +85,6 @@ class SoftSettings(NamedTuple):
     block: bool
 
 
-@njit(cache=True, inline="always")  # into soft_step_solve, at its one call site (the sub-step's sweep loop)
-def solve(rows, contacts, V, h, sweep, springs, joints, system, threads, groups):
-    """One solve of a sub-step (with bias, or the relax pass without): joints first, contacts
-    last (they have the last word on overlap). contacts: (manifolds, inv_A_kk, points, M_inv),
-    what ``soft_sweep`` reads besides the rows; sweep: (use_bias, new_C: the bodies moved since
-    the last sweep, the points' separations to work out); springs: (contacts with a dynamic partner, with
-    a static one, joints) (``soft_constants``); on one thread (threads None) the contacts'
-    ``soft_sweep``, else its groups on several (``pipeline.parallel``, groups: ``groups_for``).
-    Returns the largest velocity correction (m/s)."""
-    use_bias, new_C = sweep
-    worst = 0.0
-    if joints is not None and rows.lam.shape[0] > first_joint_row_of(rows):
-        worst = solve_joints(rows, system, V, h, use_bias, springs[2])
-        worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
-    manifolds, inv_A_kk, points, M_inv = contacts
-    if threads is None:  # ``soft_sweep``'s two passes, called here (numba drops the branch not taken)
-        n = manifolds[0].shape[0] - 1
-        worst = max(
-            worst, soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
-        )
-        return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
-    return max(worst, soft_sweep_in_groups(groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, sweep, springs))
-
-
 @njit(cache=True)
 def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, threads):
     """The whole tick, Box2D v3's stages: prepare, then per sub-step integrate velocities,
@@ -129,7 +105,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     code is compiled), else (count, each body's part of the solve order, ``constraints.order``):
     the contacts' sweeps run on several (``pipeline.parallel``), with the same results.
     """
-    x, theta, V = bodies.x, bodies.theta, bodies.V
+    x, theta, V, M_inv = bodies.x, bodies.theta, bodies.V, bodies.M_inv
     substeps, relax, threshold = settings.substeps, settings.relax, settings.restitution_threshold
     n_rows = rows.lam.shape[0]
     n_contacts = rows.normal_row.shape[0]
@@ -147,8 +123,8 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     for k in range(n_rows):
         lam[k] /= substeps  # cached impulse per tick -> per sub-step
     total = np.zeros(n_rows)
-    manifolds = prepare_manifolds_on(threads, rows, bodies.M_inv, settings.block)
-    groups = groups_for(threads, manifolds[0], rows, bodies.M_inv)  # None on one thread
+    manifolds = prepare_manifolds_on(threads, rows, M_inv, settings.block)
+    groups = groups_for(threads, manifolds[0], rows, M_inv)  # None on one thread
     inv_A_kk = inverse_diagonal(rows.A_kk)  # the contact rows' A_kk hold over the tick (joint rows do not use it)
     x0 = x.copy()
     theta0 = theta.copy()
@@ -156,7 +132,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     moved = points.moved  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     system = joint_system(joints, rows, settings.direct_joints)
     dv = split_forces(bodies, substeps)
-    contacts = (manifolds, inv_A_kk, points, bodies.M_inv)  # what the contacts' sweeps read besides the rows
+    n_manifolds = manifolds[0].shape[0] - 1
     n_pending = n_contacts  # the points not yet met: their approach is still to come
     n_sweeps = 0
     for i in range(substeps):
@@ -170,11 +146,26 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             if with_bias:
                 integrate_velocities(V, dv)
                 if threads is None:  # ``warm_start``'s two parts
-                    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, bodies.M_inv, V)
+                    warm_start_manifolds(0, n_manifolds, manifolds[0], rows, M_inv, V)
                     warm_start_joints(rows, V)
                 else:
-                    warm_start_in_groups(groups, manifolds, rows, bodies.M_inv, V)
-            worst = solve(rows, contacts, V, h, (with_bias, new_C), springs, joints, system, threads, groups)
+                    warm_start_in_groups(groups, manifolds, rows, M_inv, V)
+            # solve: joints first, contacts last (they have the last word on overlap). Written out
+            # here: a function of its own would count a reference to each array it is handed, at
+            # every sweep, around each call that may raise
+            worst = 0.0
+            if joints is not None and n_rows > first_joint_row_of(rows):
+                worst = solve_joints(rows, system, V, h, with_bias, springs[2])
+                worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
+            if threads is None:  # ``soft_sweep``'s two passes (numba drops the branch not taken)
+                worst = max(worst, soft_normal_rows(
+                    0, n_manifolds, rows, manifolds, inv_A_kk, points, M_inv, V, h, with_bias, springs, new_C
+                ))  # fmt: skip
+                worst = max(worst, soft_friction_rows(0, n_manifolds, rows, manifolds, inv_A_kk, points, M_inv, V, h))
+            else:  # its groups on several threads (``pipeline.parallel``)
+                worst = max(worst, soft_sweep_in_groups(
+                    groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, (with_bias, new_C), springs
+                ))  # fmt: skip
             if n_pending > 0:  # relax stops what would close a gap in the next sub-step's motion: an impact too
                 n_pending = note_impacts_on(threads, rows, points, n_pending, dv, h, threshold)
             if with_bias:
@@ -182,7 +173,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             residuals[n_sweeps] = 0.0 if with_bias else worst  # the relax sweep's, when there is one
         n_sweeps += 1
         store_on(threads, rows, total, points)
-    restitution(rows, points, threshold, total, V, bodies.M_inv)
+    restitution(rows, points, threshold, total, V, M_inv)
     for k in range(n_rows):
         lam[k] = total[k]
     return n_sweeps
