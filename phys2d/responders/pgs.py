@@ -279,7 +279,10 @@ def contact_groups(threads, rows, M_inv):
 @njit(cache=True)
 def sweep_on(groups, rows_hat, V, visit, per_contact):
     """``sweep`` of the rows ``visit``: in one call (groups None), or group by group
-    (``sweep_in_groups``; a contact's rows are per_contact consecutive entries of visit)."""
+    (``sweep_in_groups``; a contact's rows are per_contact consecutive entries of visit).
+    A loop of sweeps on one thread calls ``sweep`` itself: through this function, which holds
+    its arguments across a call numba may see raise, each sweep would count a reference to
+    each array it is handed."""
     if groups is None:
         return sweep(rows_hat, V, visit)
     return sweep_in_groups(groups, rows_hat, V, visit, per_contact)
@@ -378,11 +381,17 @@ def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt, grou
         if mice:
             all_rows = swept_rows(rows.bound_row)
     joint_rows = all_rows[first_joint_row:]
-    for s in range(iterations):
-        if block is not None:
-            residuals[s] = block_sweep_on(groups, rows, rows_hat, V, joint_rows)
+    for s in range(iterations):  # (on one thread the sweeps are called here, not through ``sweep_on``: see it)
+        if groups is not None:
+            residuals[s] = (
+                block_sweep_on(groups, rows, rows_hat, V, joint_rows)
+                if block is not None
+                else sweep_on(groups, rows_hat, V, all_rows, 2)  # (a contact's two rows)
+            )
+        elif block is not None:
+            residuals[s] = block_sweep(rows, rows_hat, V, joint_rows)
         else:
-            residuals[s] = sweep_on(groups, rows_hat, V, all_rows, 2)  # (a contact's two rows)
+            residuals[s] = sweep(rows_hat, V, all_rows)
         if joints is not None:
             if mice:
                 residuals[s] = max(residuals[s], solve_mice(joints, first_joint_row, rows, V, dt, dt))
@@ -416,11 +425,17 @@ def push_out(rows, V_push, lam_push, iterations, tolerance, block, groups):
     target = with_target(rows, rows.push, lam_push, none)
     push_hat = per_unit_A(target)
     joint_visit = visit[rows.normal_row.shape[0] :]
-    for s in range(iterations):
-        if block is not None:
-            worst = block_sweep_on(groups, target, push_hat, V_push, joint_visit)
+    for s in range(iterations):  # (as ``pgs_solve``'s)
+        if groups is not None:
+            worst = (
+                block_sweep_on(groups, target, push_hat, V_push, joint_visit)
+                if block is not None
+                else sweep_on(groups, push_hat, V_push, visit, 1)  # (a contact's normal row)
+            )
+        elif block is not None:
+            worst = block_sweep(target, push_hat, V_push, joint_visit)
         else:
-            worst = sweep_on(groups, push_hat, V_push, visit, 1)  # (a contact's normal row)
+            worst = sweep(push_hat, V_push, visit)
         if worst <= tolerance:
             return s + 1
     return iterations
