@@ -196,7 +196,7 @@ def new_manifolds(rows):
         pair = c + 1 < n_contacts and body_a[normal_row[c + 1]] == body_a[k] and body_b[normal_row[c + 1]] == body_b[k]
         c += 2 if pair else 1
     start[n] = n_contacts
-    start = start[: n + 1].copy()
+    start = start[: n + 1]  # (a view: the rest of the buffer is freed with it)
     return start, np.empty(n, np.bool_), np.zeros(n), np.zeros(n, np.bool_), np.zeros(n)
 
 

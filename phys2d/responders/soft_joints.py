@@ -157,11 +157,12 @@ def joint_system(joints, rows, direct_joints):
     """What the joint rows keep over the tick: (eq, L, first, C, direct): eq the equality rows
     (``_equality_rows``), L and first their factor (``factor_joint_rows``) when ``direct``
     (``direct_joints`` and at most DIRECT_JOINT_ROWS_MAX of them), C each joint row's error.
-    Empty for a world without joints (joints None): then none of the joints' code is compiled."""
+    None for a world without joints (joints None): nothing to keep, nothing allocated, and
+    none of the joints' code compiled."""
+    if joints is None:
+        return None
     first_joint_row, n_rows = first_joint_row_of(rows), rows.lam.shape[0]
-    eq = np.zeros(0, np.int64)
-    if joints is not None:
-        eq = _equality_rows(first_joint_row, n_rows, rows.lo)
+    eq = _equality_rows(first_joint_row, n_rows, rows.lo)
     direct = direct_joints and 0 < eq.shape[0] <= DIRECT_JOINT_ROWS_MAX
     L = np.zeros((eq.shape[0], eq.shape[0])) if direct else np.zeros((0, 0))
     first = np.zeros(eq.shape[0], np.int64)
