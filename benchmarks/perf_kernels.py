@@ -67,11 +67,11 @@ def symbols_of(obj: bytes) -> dict[str, tuple[int, int]]:
     return found
 
 
-def write_perf_map() -> int:
-    """Write /tmp/perf-PID.map for every phys2d kernel compiled or loaded so far; returns the
-    number of functions named. Each library's functions are placed from its entry point's
-    address and its offset in the object."""
-    lines = set()
+def kernel_functions() -> set[tuple[int, int, str]]:
+    """(address, size, symbol) of every function in every phys2d kernel compiled or loaded so far.
+    Each library's functions are placed from its entry point's address and its offset in the
+    object."""
+    found = set()
     seen = set()
     for name, module in list(sys.modules.items()):
         if not name.startswith("phys2d"):
@@ -90,7 +90,14 @@ def write_perf_map() -> int:
                 if entry not in symbols:
                     continue
                 base = address - symbols[entry][0]
-                lines.update(f"{base + offset:x} {size:x} {symbol}" for symbol, (offset, size) in symbols.items())
+                found.update((base + offset, size, symbol) for symbol, (offset, size) in symbols.items())
+    return found
+
+
+def write_perf_map() -> int:
+    """Write /tmp/perf-PID.map for every phys2d kernel compiled or loaded so far
+    (``kernel_functions``); returns the number of functions named."""
+    lines = {f"{address:x} {size:x} {symbol}" for address, size, symbol in kernel_functions()}
     with open(f"/tmp/perf-{os.getpid()}.map", "w") as f:
         f.write("\n".join(sorted(lines)) + "\n")
     return len(lines)

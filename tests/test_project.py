@@ -182,7 +182,18 @@ DISTRIBUTION = {
     "Box2D": "box2d",
     "yaml": "pyyaml",
 }
-LOCAL = {"phys2d", "tests", "_common", "engines", "box2d_v3", "webview", "conftest", "strategies", "your_responder"}
+LOCAL = {
+    "phys2d",
+    "tests",
+    "_common",
+    "engines",
+    "box2d_v3",
+    "perf_kernels",
+    "webview",
+    "conftest",
+    "strategies",
+    "your_responder",
+}
 
 
 def third_party_imports(root: Path) -> set[str]:
