@@ -457,6 +457,8 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
     """
     K = rows.normal_row.shape[0]
     body_a, body_b = as_uint32(found.body_a[:K]), as_uint32(found.body_b[:K])
+    normal_row, friction_row = as_uint32(rows.normal_row), as_uint32(rows.friction_row)
+    indices = (as_uint32(found.order[:K]), normal_row, friction_row, body_a, body_b)  # (made here: see contact_rows_of)
     cached = np.empty(K, np.int64)
     hit = found.hit[:K]
     if settings.warm_start:
@@ -471,22 +473,18 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
     points_in_manifold = np.empty(0, np.int32) if coulomb else manifold_sizes(body_a, body_b)  # the lecture's bound
     found_cache = (cache[1], cache[2], cached, points_in_manifold)
     if threads is None:
-        return contact_rows_of(0, K, bodies, found, rows, settings, found_cache), hits
-    return contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache), hits
+        return contact_rows_of(0, K, bodies, found, rows, settings, found_cache, indices), hits
+    return contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache, indices), hits
 
 
 @njit(cache=True)
-def contact_rows_of(first, last, bodies, found, rows, settings, found_cache):
+def contact_rows_of(first, last, bodies, found, rows, settings, found_cache, indices):
     """The rows of the contacts visited first up to last (``contact_rows``): each contact's normal
     and friction rows, written in its own slots. found_cache = (cache_lambda_n, cache_lambda_t,
     each contact's cache entry or -1, its manifold's point count for the lecture's friction bound).
     Returns the deepest overlap among them, max(0, -min C) (m)."""
-    K = rows.normal_row.shape[0]
     dt, beta, slop, push_max = settings.dt, settings.beta, settings.slop, settings.push_max
-    order = as_uint32(found.order[:K])  # unsigned, as the rest (``unsigned_indices``)
-    normal_row, friction_row, body_a, body_b = unsigned_indices(
-        rows.normal_row, rows.friction_row, found.body_a[:K], found.body_b[:K]
-    )
+    order, normal_row, friction_row, body_a, body_b = indices
     x, V1, V, M_inv = bodies.x, bodies.V1, bodies.V, bodies.M_inv
     point, anchor, normal, separation = found.point, found.anchor, found.normal, found.separation
     mu, e = found.friction, found.restitution
@@ -565,14 +563,14 @@ def contact_rows_of(first, last, bodies, found, rows, settings, found_cache):
 
 
 @njit(cache=True, parallel=True)
-def contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache):
+def contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache, indices):
     """``contact_rows_of`` over all the contacts, a slice of them on each of ``threads`` threads
     (each contact writes its own rows: the same results as one call). Returns the deepest overlap (m)."""
     K = rows.normal_row.shape[0]
     deepest = np.empty(threads)  # per slice: no shared accumulator
     for t in prange(threads):
         deepest[t] = contact_rows_of(
-            K * t // threads, K * (t + 1) // threads, bodies, found, rows, settings, found_cache
+            K * t // threads, K * (t + 1) // threads, bodies, found, rows, settings, found_cache, indices
         )
     overall = 0.0  # (a loop: numba would make deepest.max() a parallel loop, one more wait for the threads)
     for t in range(threads):

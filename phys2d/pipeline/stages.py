@@ -134,26 +134,35 @@ def before_solve(ctx, settings, counts):
     when the state written between steps cannot be stepped (BAD_STATE, nothing changed), or
     when a buffer is short (NEED_PAIRS, NEED_ROOM): Python makes room and calls again with
     ``counts.resume`` where it stopped."""
+    return before_solve_rows(ctx, settings, counts)[0]
+
+
+@njit(cache=True)
+def before_solve_rows(ctx, settings, counts):
+    """``before_solve``, and the step's rows it wrote (``rows_of``; the whole buffers when it
+    stopped): the one-call tick hands them on to the solve."""
     n_pairs, ordered = counts.n_pairs, counts.ordered
     if counts.resume == START:
         if first_bad_body(ctx) >= 0:
-            return result(BAD_STATE, counts, n_pairs, ordered)
+            return result(BAD_STATE, counts, n_pairs, ordered), ctx.rows
         fits = begin(ctx, settings)
         if counts.sweep_again or not fits:
             n_pairs, ordered = -1, PAIR_ORDER  # (swept below)
     if n_pairs < 0 or counts.resume == SWEEP:
         n_pairs, ordered = pairs(ctx, counts.visit)
         if n_pairs < 0:
-            return result(NEED_PAIRS, counts, -n_pairs, PAIR_ORDER)
+            return result(NEED_PAIRS, counts, -n_pairs, PAIR_ORDER), ctx.rows
     if n_pairs > ctx.shapes.pair_order.shape[0] or not store_has_room(ctx, counts, n_pairs):
-        return result(NEED_ROOM, counts, n_pairs, ordered)
+        return result(NEED_ROOM, counts, n_pairs, ordered), ctx.rows
     if ordered != counts.visit:
         ordered = in_visit_order(ctx, n_pairs, counts.visit)
     k, n_new, recycled, rows_used, points_used = collide(ctx, settings, counts, n_pairs)
-    deepest, hits = rows(ctx, settings, counts, k)
-    return TickResult(
+    step_rows = rows_of(ctx, k)
+    deepest, hits = rows(ctx, settings, counts, k, step_rows)
+    done = TickResult(
         OK, 1 - counts.side, n_pairs, ordered, k, n_new, recycled, rows_used, points_used, hits, deepest, 0
     )
+    return done, step_rows
 
 
 @njit(cache=True, inline="always")
@@ -243,12 +252,12 @@ def collide(ctx, settings, counts, n_pairs):
 
 
 @njit(cache=True, inline="always")
-def rows(ctx, settings, counts, k):
-    """Contacts and cache -> constraint rows: the K contacts' rows, warm started from the cache the
-    last step left (``constraints.rows.contact_rows``), then the joints' rows. Returns (the
-    deepest overlap m, the contacts warm started)."""
+def rows(ctx, settings, counts, k, step_rows):
+    """Contacts and cache -> constraint rows: the K contacts' rows into ``step_rows``
+    (``rows_of``), warm started from the cache the last step left
+    (``constraints.rows.contact_rows``), then the joints' rows. Returns (the deepest overlap m,
+    the contacts warm started)."""
     old, new = ctx.sides[counts.side], ctx.sides[1 - counts.side]
-    step_rows = rows_of(ctx, k)
     kc = counts.contacts
     cache = (old.key[:kc], old.cache_lambda_n[:kc], old.cache_lambda_t[:kc], old.cache_pushed[:kc])
     deepest, hits = contact_rows(ctx.bodies, ctx.shapes, cache, new, step_rows, settings.rows, ctx.threads)

@@ -14,29 +14,30 @@ import numpy as np
 from ..jit import njit
 from ..responders.pgs import pgs_step
 from ..responders.soft_step import soft_step_solve
-from .stages import OK, after_solve, before_solve, flat, rows_of
+from .stages import OK, after_solve, before_solve_rows, flat
 
 
 @njit(cache=True)
 def tick(ctx, settings, solver, counts):
-    """One tick: ``before_solve``, the solve ``solver`` names (``context.Solver``), ``after_solve``.
+    """One tick: ``before_solve`` (with its rows), the solve ``solver`` names (``context.Solver``), ``after_solve``.
     Returns the step's ``TickResult`` as a plain tuple (``stages.flat``); a status other than OK
     says why it stopped (Python makes room and calls again, or undoes the step)."""
-    before = before_solve(ctx, settings, counts)
+    before, rows = before_solve_rows(ctx, settings, counts)
     if before.status != OK:
         return flat(before)
-    count = solve(ctx, settings.dt, solver.pgs, solver.soft, ctx.threads, before)
+    count = solve(ctx, settings.dt, solver.pgs, solver.soft, ctx.threads, before, rows)
     return flat(after_solve(ctx, settings, before, count))
 
 
 @njit(cache=True)
-def solve(ctx, dt, pgs, soft, threads, before):
-    """The responder's solve of the step's rows: PGS's (``pgs_step``) when ``pgs`` holds its
-    settings, the soft step's (``soft_step_solve``) when ``soft`` does; the other is None, and
-    numba compiles only the one given. On one thread (threads None), or on ``threads`` with each
-    body's part of the solve order (``pipeline.parallel``). Returns its sweeps or sub-steps."""
+def solve(ctx, dt, pgs, soft, threads, before, rows):
+    """The responder's solve of the step's rows (``stages.rows_of``): PGS's (``pgs_step``) when
+    ``pgs`` holds its settings, the soft step's (``soft_step_solve``) when ``soft`` does; the
+    other is None, and numba compiles only the one given. On one thread (threads None), or on
+    ``threads`` with each body's part of the solve order (``pipeline.parallel``). Returns its
+    sweeps or sub-steps."""
     k, found, b, joints = before.contacts, ctx.sides[before.side], ctx.bodies, ctx.joints
-    rows, residuals = rows_of(ctx, k), ctx.residuals[before.side]  # (the residuals of the side it writes)
+    residuals = ctx.residuals[before.side]  # (the residuals of the side it writes)
     if pgs is not None:
         separation = in_row_order(found.separation, found.order, k)
         if threads is None:  # (numba compiles one branch: the other's threads has another type)
