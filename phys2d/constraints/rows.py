@@ -481,8 +481,10 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
 def contact_rows_of(first, last, bodies, found, rows, settings, found_cache, indices):
     """The rows of the contacts visited first up to last (``contact_rows``): each contact's normal
     and friction rows, written in its own slots. found_cache = (cache_lambda_n, cache_lambda_t,
-    each contact's cache entry or -1, its manifold's point count for the lecture's friction bound).
-    Returns the deepest overlap among them, max(0, -min C) (m)."""
+    each contact's cache entry or -1, its manifold's point count for the lecture's friction bound);
+    indices = (order, normal_row, friction_row, body_a, body_b) as uint32 (``as_uint32``), made
+    by the caller: a view may raise, and numba keeps a reference count on every array a function
+    with such a path reads. Returns the deepest overlap among them, max(0, -min C) (m)."""
     dt, beta, slop, push_max = settings.dt, settings.beta, settings.slop, settings.push_max
     order, normal_row, friction_row, body_a, body_b = indices
     x, V1, V, M_inv = bodies.x, bodies.V1, bodies.V, bodies.M_inv
