@@ -185,16 +185,17 @@ def next_slot(cached_key, key, m):
     return m
 
 
-@njit(cache=True)
-def recycle_manifold(store, row, out, k, pair, x, turn, margin):
-    """Write the points of cached manifold ``row`` of the store into ``out``, moved with their
-    bodies (``recycled_point``), from point k on; returns the next k, or -1 if one of them lies
-    beyond ``margin`` (m) of its partner: the narrowphase would drop it, so the pair is collided
-    anew (over what was written). pair = (a, b, key, mu, e)."""
+@njit(cache=True, inline="always")
+def recycle_manifold(store_arrays, row, into, k, pair, x, turn, margin):
+    """Write the points of cached manifold ``row`` of the store into ``into`` (``point_arrays``),
+    moved with their bodies (``recycled_point``), from point k on; returns the next k, or -1 if
+    one of them lies beyond ``margin`` (m) of its partner: the narrowphase would drop it, so the
+    pair is collided anew (over what was written). pair = (a, b, key, mu, e); store_arrays =
+    the store's (span, anchor, normal, separation, feature), read once by the caller."""
     a, b = pair[0], pair[1]
-    found_as, into = (store.normal, store.feature, store.anchor), point_arrays(out)
-    cached_points = (store.anchor, store.normal, store.separation, store.feature)
-    for point in range(store.span[row, 0], store.span[row, 1]):
+    span, anchor, normal, separation, feature = store_arrays
+    found_as, cached_points = (normal, feature, anchor), (anchor, normal, separation, feature)
+    for point in range(span[row, 0], span[row, 1]):
         now = recycled_point(point, a, b, x, turn, cached_points)
         if now[2] > margin:
             return -1
@@ -282,6 +283,8 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
     look = np.int64(0)  # the cached slot looked at last (int64: next_slot compiles once)
     extent = body_extents(shapes) if recycle_distance > 0.0 else np.zeros(0)
     motion = (bodies.V, bodies.M_inv)  # (read once: a record's field read in a loop counts a reference)
+    # (read once, not reloaded from the records for each recycled manifold)
+    store_arrays, into = (store.span, store.anchor, store.normal, store.separation, store.feature), point_arrays(out)
     for q in range(n_pairs):
         pair_start[q] = k
         a, b = pairs[q, 0], pairs[q, 1]
@@ -300,7 +303,7 @@ def collide_recycling(bodies, shapes, store, cached, out, counts, margins, round
         if slot >= 0:
             turned = turn_since_cached(row, a, b, rotation, found_rotation)
             if may_recycle(row, a, b, x, rotation, extent, found_pose, turned, recycle_distance):
-                recycled = recycle_manifold(store, row, out, k, pair, x, turned, margin)
+                recycled = recycle_manifold(store_arrays, row, into, k, pair, x, turned, margin)
         if recycled >= 0:
             n_recycled += 1
             k = recycled
