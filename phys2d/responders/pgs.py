@@ -65,7 +65,7 @@ from ..validation import (
     optional_non_negative_float,
 )
 from .base import Responder, SolveResult, StepContext
-from .block import block_is_well_conditioned, inverse_diagonal, lcp2
+from .block import block_is_well_conditioned, lcp2
 from .mouse import has_mouse, solve_mice
 from .pgs_matrix import solve_matrix_form
 from .restitution import bouncing_contacts, restitution_pass
@@ -230,22 +230,35 @@ def with_target(rows, xi, lam, friction_row):
 def per_unit_A(rows):
     """The rows per unit A_kk, for ``sweep``: the same rows with J_hat_k = J_k / A_kk in J and
     xi_hat_k = xi_k / A_kk in xi (0 where A_kk = 0), their row map and bodies as uint32
-    (``unsigned_indices``)."""
+    (``unsigned_indices``). Made once a step: the push pass takes its target from them
+    (``per_unit_A_target``)."""
     normal_row, friction_row, body_a, body_b = unsigned_indices(
         rows.normal_row, rows.friction_row, rows.body_a, rows.body_b
     )
-    J, xi = rows.J, rows.xi
-    inv_A_kk = inverse_diagonal(rows.A_kk)
+    J, xi, A_kk = rows.J, rows.xi, rows.A_kk
     J_hat = np.empty_like(J)
     xi_hat = np.empty_like(xi)
     for k in range(J.shape[0]):
+        inv_A_kk = 1.0 / A_kk[k] if A_kk[k] > 0.0 else 0.0  # the sweeps multiply, never divide
         for c in range(6):
-            J_hat[k, c] = J[k, c] * inv_A_kk[k]
-        xi_hat[k] = xi[k] * inv_A_kk[k]
+            J_hat[k, c] = J[k, c] * inv_A_kk
+        xi_hat[k] = xi[k] * inv_A_kk
     return RowRecord(
-        normal_row, friction_row, body_a, body_b, J_hat, rows.JM, rows.A_kk, xi_hat, rows.push, rows.bounce,
+        normal_row, friction_row, body_a, body_b, J_hat, rows.JM, A_kk, xi_hat, rows.push, rows.bounce,
         rows.impact, rows.lo, rows.hi, rows.bound_row, rows.mu, rows.lam,
     )  # fmt: skip
+
+
+@njit(cache=True)
+def per_unit_A_target(rows_hat, xi, lam, friction_row):
+    """``per_unit_A`` of the same rows solved for the target xi from the impulses lam, with the
+    friction rows ``friction_row`` (``with_target``), from rows_hat, the rows per unit A_kk:
+    J_hat is theirs, xi_hat_k = xi_k / A_kk is new."""
+    A_kk = rows_hat.A_kk
+    xi_hat = np.empty_like(xi)
+    for k in range(xi.shape[0]):
+        xi_hat[k] = xi[k] * (1.0 / A_kk[k] if A_kk[k] > 0.0 else 0.0)  # as per_unit_A's
+    return with_target(rows_hat, xi_hat, lam, friction_row)
 
 
 @njit(cache=True)
@@ -363,16 +376,16 @@ def apply_impulses_in_groups(groups, rows, V):
 
 
 @njit(cache=True)
-def pgs_solve(rows, V, iterations, tolerance, residuals, block, joints, dt, groups):
+def pgs_solve(rows, rows_hat, V, iterations, tolerance, residuals, block, joints, dt, groups):
     """Warm start from rows.lam, then sweep all rows in solve order (rows are stored in it)
-    until the residual <= tolerance or out of sweeps. Returns the sweeps made;
+    until the residual <= tolerance or out of sweeps; rows_hat: the rows per unit A_kk
+    (``per_unit_A``), which the sweeps read. Returns the sweeps made;
     residuals[s] is sweep s's. ``block``: see ``PGSSettings``. ``joints``: the JointRecord, or
     None in a world without joints (then none of this joint code is compiled); its mouse
     joints' rows are solved after each sweep by their own soft solve (``solve_mice``, over dt).
     ``groups``: None on one thread, else the contacts' groups (``contact_groups``): the warm
     start and the sweeps run a group's segments on several threads, with the same results."""
     apply_impulses_on(groups, rows, V)
-    rows_hat = per_unit_A(rows)
     all_rows = np.arange(rows.lam.shape[0], dtype=np.uint32)  # unsigned, as rows_hat's row map: sweep compiles once
     first_joint_row = 2 * rows.normal_row.shape[0]
     mice = False
@@ -411,19 +424,20 @@ def pushes(rows, visit):
 
 
 @njit(cache=True)
-def push_out(rows, V_push, lam_push, iterations, tolerance, block, groups):
+def push_out(rows, rows_hat, V_push, lam_push, iterations, tolerance, block, groups):
     """Split impulses: sweep the rows that hold a position (``push_rows``) for pseudo-velocities
     V_push that reach J_k V_push = push_k (the Baumgarte push; >= for a contact or a joint
     limit, with lambda_p >= 0), from lam_push = 0 and V_push = 0: nothing is warm started.
     Leaves the impulses in ``lam_push``; returns the sweeps made (0 when nothing is to be pushed).
-    ``block``: see ``PGSSettings``; ``groups``: as ``pgs_solve``'s.
+    ``rows_hat``, ``block``, ``groups``: as ``pgs_solve``'s.
     """
     visit = push_rows(rows.normal_row, rows.lo, rows.hi, rows.bound_row)
     if not pushes(rows, visit):
         return 0
-    none = rows.normal_row[:0]  # no friction rows
-    target = with_target(rows, rows.push, lam_push, none)
-    push_hat = per_unit_A(target)
+    push_hat = per_unit_A_target(rows_hat, rows.push, lam_push, rows_hat.normal_row[:0])  # no friction rows
+    target = rows  # (what the block solver reads besides push_hat: J, not J_hat; made only for it)
+    if block is not None:
+        target = with_target(rows, rows.push, lam_push, rows.normal_row[:0])
     joint_visit = visit[rows.normal_row.shape[0] :]
     for s in range(iterations):  # (as ``pgs_solve``'s)
         if groups is not None:
@@ -480,11 +494,12 @@ def pgs_step(bodies, rows, separation, dt, settings, residuals, joints, threads)
     system = rows  # split: the push goes through pseudo-velocities of its own (push_out)
     if not split:  # the lecture: the push is part of the target
         system = with_target(rows, rows.xi + rows.push, rows.lam, rows.friction_row)
-    n = pgs_solve(system, V, iterations, tolerance, residuals, block, joints, dt, groups)
+    system_hat = per_unit_A(system)  # what the sweeps read
+    n = pgs_solve(system, system_hat, V, iterations, tolerance, residuals, block, joints, dt, groups)
     V_move = V
     if split:
         V_push, lam_push = np.zeros_like(V), np.zeros(rows.lam.shape[0])
-        if push_out(system, V_push, lam_push, iterations, tolerance, block, groups) > 0:
+        if push_out(system, system_hat, V_push, lam_push, iterations, tolerance, block, groups) > 0:
             V_move = V + V_push  # what the positions move with
             keep_joint_push(system, lam_push, V)  # the contacts' push is dropped, the joints' kept
     bouncing = bouncing_contacts(system, separation, V, dt)
@@ -656,6 +671,7 @@ __all__ = [
     "block_sweep",
     "lcp2",
     "per_unit_A",
+    "per_unit_A_target",
     "pgs_solve",
     "pgs_step",
     "sweep",
