@@ -372,32 +372,23 @@ class Pipeline:
     def rows_record(self) -> Any:
         return self._records[4]
 
-    def prepare(self, world: WorldSettings, responder: Responder, dt: float, one_call: bool) -> Solver | None:
-        """The step's settings (``settings``) and the solve it runs in one call (None: stage by
-        stage), made anew when the world's settings, the responder's or dt changed."""
-        kept = self._made_from
-        if (
-            not kept
-            or kept[0] is not world
-            or kept[1] is not responder
-            or kept[2] != responder.version
-            or kept[3] != dt
-            or kept[4] != one_call
-        ):
-            check_joints_supported(responder, bool(self.joints.handles), self.joints.mice > 0)
-            solver = self._solver(responder) if one_call else None
-            self.settings = step_settings(world, responder, dt, solver is not None)
-            self.solver = solver
-            self._names = (responder.name, responder.counts)
-            self._visit = responder.visit_order
-            self._n_residuals = 0
-            if solver is not None:
-                self._n_residuals = solver.pgs.iterations if solver.pgs is not None else solver.soft.substeps
-            if self._threads != world.threads:
-                self._threads, self.ctx = world.threads, None
-            self._room()  # (room for its sweeps' residuals)
-            self._made_from = (world, responder, responder.version, dt, one_call)
-        return self.solver
+    def prepare(self, world: WorldSettings, responder: Responder, dt: float, one_call: bool) -> None:
+        """The step's settings (``settings``) and the solve it runs in one call (``solver``; None:
+        stage by stage), made anew: ``step`` calls it when the world's settings, the responder's
+        or dt changed since the last (``_made_from``)."""
+        check_joints_supported(responder, bool(self.joints.handles), self.joints.mice > 0)
+        solver = self._solver(responder) if one_call else None
+        self.settings = step_settings(world, responder, dt, solver is not None)
+        self.solver = solver
+        self._names = (responder.name, responder.counts)
+        self._visit = responder.visit_order
+        self._n_residuals = 0
+        if solver is not None:
+            self._n_residuals = solver.pgs.iterations if solver.pgs is not None else solver.soft.substeps
+        if self._threads != world.threads:
+            self._threads, self.ctx = world.threads, None
+        self._room()  # (room for its sweeps' residuals)
+        self._made_from = (world, responder, responder.version, dt, one_call)
 
     def _solver(self, responder: Responder) -> Solver | None:
         kept_responder, version, solver = self._solver_of
@@ -417,7 +408,17 @@ class Pipeline:
     def step(self, world: WorldSettings, responder: Responder, dt: float, one_call: bool) -> StepReport:
         """One tick: in one call when the responder names its solve kernel and ``one_call``, else
         stage by stage. Returns the report; a step that fails leaves the world as it was."""
-        solver = self.prepare(world, responder, dt, one_call)
+        kept = self._made_from  # (checked here, not in a call: a small scene's step is a few microseconds)
+        if (
+            not kept
+            or kept[0] is not world
+            or kept[1] is not responder
+            or kept[2] != responder.version
+            or kept[3] != dt
+            or kept[4] != one_call
+        ):
+            self.prepare(world, responder, dt, one_call)
+        solver = self.solver
         self.began = False
         lent = self._lent[1 - self.side]  # the report lent the buffers of the side this step writes
         if lent is not None and (report := lent()) is not None:
@@ -437,14 +438,16 @@ class Pipeline:
             if self.began and (self.undo[1].shape[0] == 0 or np.isfinite(self.undo[1][0])):  # (begin ran)
                 self.bodies.restore(self.undo)
             raise
-        return self._commit(responder, dt, *done)
+        return self._commit(responder, dt, done)
 
     def _in_one_call(self, responder: Responder, solver: Solver) -> tuple | None:
         """The tick as one kernel call (``tick.tick``; again when it stopped for room); None,
         having changed nothing, while a child process compiles it (``_behind``)."""
         counts = self._counts(self._visit, START)
         while True:
-            ctx = self.context()  # (with room for the step: ``context``)
+            ctx = self.ctx
+            if ctx is None or self._over != self.joints.version:  # (``context``'s test, without its call)
+                ctx = self.context()  # (with room for the step)
             args = (ctx, self.settings, solver, counts)
             kept_ctx, kept_solver, kernel = self._kernel
             if kept_ctx is not ctx or kept_solver is not solver or kernel is tick:  # machine code for these types
@@ -630,11 +633,11 @@ class Pipeline:
         np.divide(b.V - self.undo[2], dt * M_inv, out=F, where=M_inv > 0.0)  # (a locked direction: 0)
         return F
 
-    def _commit(
-        self, responder: Responder, dt: float, done: TickResult, residuals: np.ndarray, result: Any
-    ) -> StepReport:
-        """A step that succeeded: its side of the buffers becomes the cache, and the report."""
-        _, side, n_pairs, ordered, k, manifolds, recycled, rows_used, points_used, hits, deepest, solved = done
+    def _commit(self, responder: Responder, dt: float, done: tuple) -> StepReport:
+        """A step that succeeded: its side of the buffers becomes the cache, and the report.
+        ``done``: (its TickResult, its residuals, the responder's SolveResult or None)."""
+        tick_result, residuals, result = done
+        _, side, n_pairs, ordered, k, manifolds, recycled, rows_used, points_used, hits, deepest, solved = tick_result
         if n_pairs != self.n_pairs or ordered != self.ordered or self.sweep_again:  # (``_keep_pairs``)
             self.n_pairs, self.ordered, self.sweep_again = n_pairs, ordered, False
         store = self.store
