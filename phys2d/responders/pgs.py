@@ -435,7 +435,7 @@ def push_out(rows, rows_hat, V_push, lam_push, iterations, tolerance, block, gro
     if not pushes(rows, visit):
         return 0
     push_hat = per_unit_A_target(rows_hat, rows.push, lam_push, rows_hat.normal_row[:0])  # no friction rows
-    target = rows  # (what the block solver reads besides push_hat: J, not J_hat; made only for it)
+    target = rows  # (read by the block solver alone, for J and lam_push: made only when it runs)
     if block is not None:
         target = with_target(rows, rows.push, lam_push, rows.normal_row[:0])
     joint_visit = visit[rows.normal_row.shape[0] :]
