@@ -414,6 +414,16 @@ def pgs_solve(rows, rows_hat, V, iterations, tolerance, residuals, block, joints
 
 
 @njit(cache=True)
+def any_push(push):
+    """Whether any row has a push (push_k != 0). A step with none (a scene at rest, every
+    overlap within slop) makes no push pass and allocates nothing for one."""
+    for k in range(push.shape[0]):
+        if push[k] != 0.0:
+            return True
+    return False
+
+
+@njit(cache=True)
 def pushes(rows, visit):
     """Whether any row in ``visit`` has a push: a contact point overlapping past slop (push_k > 0)
     or a joint off its constraint (push_k != 0); else there is nothing to push out."""
@@ -497,7 +507,7 @@ def pgs_step(bodies, rows, separation, dt, settings, residuals, joints, threads)
     system_hat = per_unit_A(system)  # what the sweeps read
     n = pgs_solve(system, system_hat, V, iterations, tolerance, residuals, block, joints, dt, groups)
     V_move = V
-    if split:
+    if split and any_push(system.push):
         V_push, lam_push = np.zeros_like(V), np.zeros(rows.lam.shape[0])
         if push_out(system, system_hat, V_push, lam_push, iterations, tolerance, block, groups) > 0:
             V_move = V + V_push  # what the positions move with
