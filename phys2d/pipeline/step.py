@@ -445,9 +445,7 @@ class Pipeline:
         having changed nothing, while a child process compiles it (``_behind``)."""
         counts = self._counts(self._visit, START)
         while True:
-            ctx = self.ctx
-            if ctx is None or self._over != self.joints.version:  # (``context``'s test, without its call)
-                ctx = self.context()  # (with room for the step)
+            ctx = self.context()  # (with room for the step: ``context``)
             args = (ctx, self.settings, solver, counts)
             kept_ctx, kept_solver, kernel = self._kernel
             if kept_ctx is not ctx or kept_solver is not solver or kernel is tick:  # machine code for these types
