@@ -42,8 +42,13 @@ def block_is_well_conditioned(K11, K12, K22):
 @njit(cache=True)
 def inverse_diagonal(A_kk):
     """1 / A_kk (0 where A_kk = 0), once per step: the sweeps multiply, never divide."""
-    inv_A_kk = np.zeros(A_kk.shape[0])
+    inv_A_kk = np.empty(A_kk.shape[0])
     for k in range(A_kk.shape[0]):
-        if A_kk[k] > 0.0:
-            inv_A_kk[k] = 1.0 / A_kk[k]
+        inv_A_kk[k] = inverse_or_zero(A_kk[k])
     return inv_A_kk
+
+
+@njit(cache=True, inline="always")
+def inverse_or_zero(A_kk_k):
+    """1 / A_kk for one row, 0 where A_kk = 0 (both bodies static: the row cannot move)."""
+    return 1.0 / A_kk_k if A_kk_k > 0.0 else 0.0

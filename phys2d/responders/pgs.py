@@ -65,7 +65,7 @@ from ..validation import (
     optional_non_negative_float,
 )
 from .base import Responder, SolveResult, StepContext
-from .block import block_is_well_conditioned, lcp2
+from .block import block_is_well_conditioned, inverse_or_zero, lcp2
 from .mouse import has_mouse, solve_mice
 from .pgs_matrix import solve_matrix_form
 from .restitution import bouncing_contacts, restitution_pass
@@ -239,7 +239,7 @@ def per_unit_A(rows):
     J_hat = np.empty_like(J)
     xi_hat = np.empty_like(xi)
     for k in range(J.shape[0]):
-        inv_A_kk = 1.0 / A_kk[k] if A_kk[k] > 0.0 else 0.0  # the sweeps multiply, never divide
+        inv_A_kk = inverse_or_zero(A_kk[k])  # the sweeps multiply, never divide
         for c in range(6):
             J_hat[k, c] = J[k, c] * inv_A_kk
         xi_hat[k] = xi[k] * inv_A_kk
@@ -257,7 +257,7 @@ def per_unit_A_target(rows_hat, xi, lam, friction_row):
     A_kk = rows_hat.A_kk
     xi_hat = np.empty_like(xi)
     for k in range(xi.shape[0]):
-        xi_hat[k] = xi[k] * (1.0 / A_kk[k] if A_kk[k] > 0.0 else 0.0)  # as per_unit_A's
+        xi_hat[k] = xi[k] * inverse_or_zero(A_kk[k])  # as per_unit_A's
     return with_target(rows_hat, xi_hat, lam, friction_row)
 
 
