@@ -40,7 +40,8 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, NoReturn, TextIO, cast
 
 import numpy as np
@@ -401,6 +402,48 @@ def _interrupt(*_: Any) -> NoReturn:
     raise KeyboardInterrupt
 
 
+class _HeldInterrupts:
+    """While a run steps: Ctrl-C (SIGINT) and SIGTERM raise KeyboardInterrupt, as Ctrl-C alone does
+    by default, so that a stopped run closes its recording and exits 130; but not while ``held``
+    (the recorder logging a tick or closing the file), where the interrupt would leave a tick
+    half-buffered: there it waits until the block ends. Off the main thread: nothing changes."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.holding = False
+        self.pending = False
+        self.former: dict[int, Any] = {}
+
+    def __enter__(self) -> _HeldInterrupts:
+        if threading.current_thread() is threading.main_thread():
+            self.former = {s: signal.signal(s, self._on_signal) for s in self.SIGNALS}
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for s, handler in self.former.items():
+            signal.signal(s, handler)
+        self.former = {}
+
+    def _on_signal(self, *_: Any) -> None:
+        if self.holding:
+            self.pending = True
+        else:
+            raise KeyboardInterrupt
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        """The block runs to its end; an interrupt that came meanwhile is raised after it."""
+        self.holding = True
+        try:
+            yield
+        finally:
+            self.holding = False
+        if self.pending:
+            self.pending = False
+            raise KeyboardInterrupt
+
+
 def _stop_on_sigterm() -> tuple[Any] | None:
     """SIGTERM raises KeyboardInterrupt, as Ctrl-C does, so the viewer we started is stopped
     with us; returns (the former handler,) to put back, or None off the main thread (where
@@ -623,32 +666,36 @@ def _step_run(
     step on (its compiling left out); (the seconds in all, the seconds after the first step)."""
     t0 = time.perf_counter()
     bar = None
-    try:
-        if rec is not None:
-            rec.log(w)  # tick 0: the scene as built
-        for k in range(args.steps):
-            try:
-                if k == 0:
-                    first_step([w], args.dt)
-                    t_first = time.perf_counter()
-                    bar = progress(args.steps, 1, _progress_enabled(args.progress, args.steps))
-                else:
-                    w.step(args.dt)
-            except SimulationError as e:
-                if bar is not None:
-                    bar.close()
-                saved = f"; ticks 0-{w.tick} are recorded in {path}" if path else ""
-                raise CLIError(f"step {k + 1} failed: {e}{saved}") from None
-            watch.observe()
+    with _HeldInterrupts() as interrupts:
+        try:
             if rec is not None:
-                rec.log(w)
-            if bar is not None and k:
-                bar.update(1)
-    finally:
-        if rec is not None:
-            rec.close()
-        if bar is not None:
-            bar.close()
+                with interrupts.held():
+                    rec.log(w)  # tick 0: the scene as built
+            for k in range(args.steps):
+                try:
+                    if k == 0:
+                        first_step([w], args.dt)
+                        t_first = time.perf_counter()
+                        bar = progress(args.steps, 1, _progress_enabled(args.progress, args.steps))
+                    else:
+                        w.step(args.dt)  # (a step interrupted midway leaves the world as it was)
+                except SimulationError as e:
+                    if bar is not None:
+                        bar.close()
+                    saved = f"; ticks 0-{w.tick} are recorded in {path}" if path else ""
+                    raise CLIError(f"step {k + 1} failed: {e}{saved}") from None
+                watch.observe()
+                if rec is not None:
+                    with interrupts.held():
+                        rec.log(w)
+                if bar is not None and k:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+            if rec is not None:
+                with interrupts.held():  # the file gets its footer, interrupted or not
+                    rec.close()
     elapsed = time.perf_counter() - t0
     steady = time.perf_counter() - t_first
     return elapsed, steady

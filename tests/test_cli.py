@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+import signal
 import socket
 import subprocess
 import sys
@@ -12,6 +13,7 @@ import urllib.request
 
 import numpy as np
 import pytest
+from rerun.chunk import RrdReader
 
 import phys2d
 import phys2d.recording
@@ -569,6 +571,51 @@ def test_a_live_web_run_stopped_midway_stops_its_viewer(tmp_path):
             run.kill()
     assert run.returncode == 130, (tmp_path / "stderr.txt").read_text()
     _wait_port_free(web)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no process groups, no SIGTERM handler")
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
+def test_a_recorded_run_stopped_midway_exits_130_with_its_recording_complete(tmp_path, how):
+    """Ctrl-C in a terminal sends SIGINT to the whole process group (the run and its recording's
+    writer process); SIGTERM goes to the run alone. Either way the run ends as interrupted (130) and
+    the file has its footer and every tick up to where it stopped, whole: the last is the state a
+    world stepped as many ticks has (it exited 1 with "writing the recording failed:
+    KeyboardInterrupt" on Ctrl-C, and died with no footer on SIGTERM)."""
+    env = {**os.environ, "PYTHONPATH": REPO}
+    cmd = [sys.executable, "-m", "phys2d", "run", "pyramid", "--size", "6", "--steps", "1000000", "--out", "p.rrd"]
+    run = subprocess.Popen(
+        [*cmd, "--no-progress"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        deadline = time.monotonic() + 300  # (a cold cache compiles first)
+        while not ((tmp_path / "p.rrd").exists() and (tmp_path / "p.rrd").stat().st_size > 200_000):
+            assert run.poll() is None and time.monotonic() < deadline, "the run never got going"
+            time.sleep(0.05)
+        if how == "ctrl-c":
+            os.killpg(run.pid, signal.SIGINT)
+        else:
+            run.terminate()
+        _, err = run.communicate(timeout=60)
+    finally:
+        if run.poll() is None:
+            os.killpg(run.pid, signal.SIGKILL)
+    assert run.returncode == 130, err
+    assert "interrupted" in err
+    RrdReader(str(tmp_path / "p.rrd")).store()  # only a file with its footer has a store
+    back = playback.load(tmp_path / "p.rrd")
+    assert back.tick[0] == 0 and back.tick[-1] > 60 and np.array_equal(back.tick, np.arange(back.tick[-1] + 1))
+    w = phys2d.scenes.pyramid(6)
+    for _ in range(int(back.tick[-1])):
+        w.step(1 / 60)
+    assert np.array_equal(back.x[-1], w.x) and np.array_equal(back.theta[-1], w.theta)
+    deadline = time.monotonic() + 10  # and the writer process is gone with the run
+    while True:
+        try:
+            os.killpg(run.pid, 0)
+        except ProcessLookupError:
+            break
+        assert time.monotonic() < deadline, "a process of the run outlived it"
+        time.sleep(0.05)
 
 
 VIEWER_WAIT_SCRIPT = """

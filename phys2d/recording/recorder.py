@@ -200,13 +200,17 @@ class _Background:
 
     def close(self) -> dict[str | None, list[str]]:
         reply: tuple = ("error", "the recording's writer process stopped")
+        told = False
         try:
             self._send()
             self.queue.put(("close",))
+            told = True
             reply = self.reply.recv()
         except (EOFError, OSError, RuntimeError):
             reply = ("error", "the recording's writer process stopped")
         finally:
+            if not told and self.proc.is_alive():  # whatever stopped the last window (an interrupt, say),
+                self.queue.put(("close",))  # the writer completes the file with the ticks it has
             # once the reply is in, the file is complete: the writer's exit (unmapping its memory,
             # ~20 ms) need not be waited for; multiprocessing reaps it at the latest at exit
             self.proc.join(0 if reply[0] == "closed" else 60)

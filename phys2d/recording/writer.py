@@ -20,8 +20,13 @@ def serve(queue, conn, settings: SinkSettings, arena=None, freed=None) -> None:
     When the simulating process dies, the file is closed too, so every tick sent is readable."""
     import os
     import queue as queues
+    import signal
 
     parent = os.getppid()
+    # the writer ends when its recorder says so or dies, not on a signal: Ctrl-C in a terminal
+    # reaches the whole process group, and the recorder, interrupted, closes the file through it
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
     sink = None
     try:
         from .sample import unpack
