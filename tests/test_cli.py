@@ -322,9 +322,27 @@ def test_one_sweep_is_singular(tmp_path):
 
 
 def test_version():
+    import rerun
+
     out = phys2d_cmd("--version", cwd=REPO)
     assert out.returncode == 0
-    assert out.stdout.startswith(f"phys2d {phys2d.__version__} (rerun-sdk 0.41")
+    assert out.stdout.startswith(f"phys2d {phys2d.__version__} (rerun-sdk {rerun.__version__},")
+    assert rerun.__version__.startswith("0.41.")
+
+
+def test_the_version_and_a_run_that_records_nothing_never_import_rerun(tmp_path):
+    """rerun takes 0.4 s to import: a command that writes no recording never pays it (a recording
+    is written by a writer process of its own, which loads rerun's native layer alone)."""
+    env = {**os.environ, "PYTHONPATH": REPO, "PYTHONPROFILEIMPORTTIME": "1"}  # each import on stderr
+    for args in (["--version"], ["run", "pyramid", "--size", "2", "--steps", "2", "--no-record"]):
+        out = subprocess.run(
+            [sys.executable, "-m", "phys2d", *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        )
+        assert out.returncode == 0, out.stderr[-2000:]
+        lines = [line for line in out.stderr.splitlines() if line.startswith("import time:")]
+        imported = {line.rsplit("|", 1)[-1].strip() for line in lines}
+        assert "numpy" in imported  # (the listing works)
+        assert not {name for name in imported if name.split(".")[0] in ("rerun", "rerun_bindings")}, args
 
 
 def test_a_first_step_that_compiles_gets_one_notice_and_a_cached_one_none():
