@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any, NoReturn, TextIO, cast
 import numpy as np
 
 from . import scenes
+from .recording.sink_settings import STREAM_FLUSH_S, StreamError
 from .responders import REGISTRY
 from .responders.base import Responder
 from .verdict import Watch, watch_for
@@ -1023,7 +1024,8 @@ def add_run(sub: Any) -> None:
         metavar="spawn|web|URL",
         help="stream to a viewer while the simulation runs: a spawned native viewer, the web viewer "
         "on 127.0.0.1, or a running viewer's rerun+http://... URL (default: spawn if there is a "
-        "display, else web)",
+        f"display, else web); a viewer that has not taken the whole stream {STREAM_FLUSH_S:g} s after "
+        "the last step is given up on (exit 1; a file recorded beside it is complete)",
     )
     r.add_argument("--web-port", type=_port, default=9090, help="web viewer port for --live web (default 9090)")
     r.add_argument("--port", type=_port, default=9876, help="viewer data (gRPC) port for --live (default 9876)")
@@ -1152,7 +1154,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args))
     except CLIError as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
-    except (ValueError, TypeError, OSError) as e:
+    except (ValueError, TypeError, OSError, StreamError) as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)

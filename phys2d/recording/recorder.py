@@ -51,7 +51,7 @@ import numpy as np
 from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
 from .sample import Sample, Sampler, pack, window_parts
-from .sink_settings import SinkSettings
+from .sink_settings import SinkSettings, StreamError
 
 KEYFRAME_EVERY = 60  # ticks between keyframes, by default (``Recorder``)
 
@@ -217,6 +217,8 @@ class _Background:
             self.reply.close()
             self.freed.close()
             self.queue.close()
+        if reply[0] == "lost":
+            raise StreamError(reply[1])
         if reply[0] == "error":
             raise RuntimeError(f"writing the recording failed: {reply[1]}")
         return reply[1]

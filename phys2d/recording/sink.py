@@ -15,7 +15,7 @@ from . import columns, schema
 from .buffer import RunBuffer
 from .native import Stream
 from .sample import Sample
-from .sink_settings import SinkSettings
+from .sink_settings import STREAM_FLUSH_S, SinkSettings, StreamError
 
 COALESCE_BYTES = 8 << 20  # windows of an entity are sent as one chunk of about this many bytes
 
@@ -107,12 +107,22 @@ class Sink:
         if self.closed:
             return
         self.closed = True
+        stream_to, lost = self.settings.stream_to, None
         try:
             for r in self.runs.values():
                 columns.write_scene(self.rec, r)
                 columns.write_stats(self.rec, r)
                 columns.write_series(self.rec, r)
             self.send_blueprint()
-            self.rec.flush()
+            if stream_to is None:
+                self.rec.flush()
+            else:  # a viewer may never take it all (unreached, gone): rerun's flush would wait forever
+                try:
+                    self.rec.flush(timeout_sec=STREAM_FLUSH_S)
+                except RuntimeError as e:
+                    lost = str(e)
         finally:
             self.rec.close()  # writes the footer: the file is complete and readable
+        if lost is not None:
+            kept = f"; {self.settings.path} is complete" if self.settings.path else ""
+            raise StreamError(f"the viewer at {stream_to} did not take the whole recording ({lost}){kept}")

@@ -11,6 +11,15 @@ from dataclasses import dataclass
 from .buffer import ContactChoice
 
 
+class StreamError(RuntimeError):
+    """The viewer a recording streamed to (``stream_to``) did not take all of it: never reached,
+    gone, or not done within ``STREAM_FLUSH_S`` of the close. A file written beside the stream
+    is complete all the same."""
+
+
+STREAM_FLUSH_S = 30.0  # s: how long a close waits for the viewer streamed to to take the rest
+
+
 @dataclass(frozen=True)
 class SinkSettings:
     """What a ``Recorder`` tells its sink, checked by the recorder (its arguments of the same

@@ -15,7 +15,8 @@ if TYPE_CHECKING:
 
 def serve(queue, conn, settings: SinkSettings, arena=None, freed=None) -> None:
     """A writer process: a Sink fed from ``queue`` with ("add", [(label, packed samples, info), ...],
-    slot) and ("close",) messages; answers on ``conn`` ("closed", plotted) or ("error", text).
+    slot) and ("close",) messages; answers on ``conn`` ("closed", plotted), ("lost", text) when the viewer
+    streamed to did not take it all (``sink_settings.StreamError``), or ("error", text).
     Packed arrays in a slot of ``arena`` are copied out and the slot number sent back on ``freed``.
     When the simulating process dies, the file is closed too, so every tick sent is readable."""
     import os
@@ -61,13 +62,18 @@ def serve(queue, conn, settings: SinkSettings, arena=None, freed=None) -> None:
         sink.close()
         conn.send(("closed", sink.plotted()))
     except BaseException as e:  # report it to the recorder: one line
+        from .sink_settings import StreamError
+
         if sink is not None:
             try:
                 sink.close()
             except Exception:
                 pass
         try:
-            conn.send(("error", f"{type(e).__name__}: {e}"))
+            if isinstance(e, StreamError):  # the file, if any, is complete: the viewer went without
+                conn.send(("lost", str(e)))
+            else:
+                conn.send(("error", f"{type(e).__name__}: {e}"))
         except Exception:
             pass
 
