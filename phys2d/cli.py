@@ -407,13 +407,15 @@ class _HeldInterrupts:
     """While a run steps: Ctrl-C (SIGINT) and SIGTERM raise KeyboardInterrupt, as Ctrl-C alone does
     by default, so that a stopped run closes its recording and exits 130; but not while ``held``
     (the recorder logging a tick or closing the file), where the interrupt would leave a tick
-    half-buffered: there it waits until the block ends. Off the main thread: nothing changes."""
+    half-buffered: there it waits until the block ends. A second interrupt is not held (a close
+    waiting on a slow viewer, say). Off the main thread: nothing changes."""
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
         self.holding = False
         self.pending = False
+        self.raised = False  # an interrupt has already been raised: the next is not held
         self.former: dict[int, Any] = {}
 
     def __enter__(self) -> _HeldInterrupts:
@@ -427,9 +429,10 @@ class _HeldInterrupts:
         self.former = {}
 
     def _on_signal(self, *_: Any) -> None:
-        if self.holding:
+        if self.holding and not (self.pending or self.raised):
             self.pending = True
         else:
+            self.raised = True
             raise KeyboardInterrupt
 
     @contextmanager
@@ -441,7 +444,7 @@ class _HeldInterrupts:
         finally:
             self.holding = False
         if self.pending:
-            self.pending = False
+            self.pending, self.raised = False, True
             raise KeyboardInterrupt
 
 
@@ -492,8 +495,11 @@ class Viewer:
                     stderr=subprocess.STDOUT,
                     start_new_session=kind != "web",
                 )
-            if kind == "web" or not files:
-                _wait_listening(self.proc, web_port if kind == "web" else port, self.log)
+            if kind == "web":  # the page, and the gRPC proxy a live run streams to
+                _wait_listening(self.proc, web_port, self.log)
+                _wait_listening(self.proc, port, self.log)
+            elif not files:
+                _wait_listening(self.proc, port, self.log)
         except BaseException:
             self.stop()
             raise

@@ -861,37 +861,20 @@ def test_a_background_writer_takes_windows_too_big_for_its_arena(tmp_path, monke
     assert np.array_equal(a.contacts.key, b.contacts.key)
 
 
-def test_a_viewer_never_reached_ends_the_close_with_a_stream_error_and_the_file_complete(tmp_path, monkeypatch):
-    """A stream to a viewer that is not there: rerun's flush waits forever once a flush has
-    reported the failed connection, so the close waits at most ``STREAM_FLUSH_S`` (1 s here),
-    says which viewer did not take the recording, and leaves the file beside it complete (it
-    hung, and ``phys2d run --live URL`` with it, before). A writer process of its own, as
-    ``phys2d run`` records; in-process, ``Sink.close`` is the same. About 11 s: rerun takes
-    5 s to give up connecting when the sink is made, and 5 s more at the close."""
+def test_a_stream_to_a_port_nobody_listens_on_is_refused_at_once(tmp_path):
+    """With nobody at the port, rerun's gRPC sink would hold every message until its queue is
+    full and then block the recording, file and all, for good (``phys2d run --live URL`` hung):
+    the recorder refuses such a ``stream_to`` before it makes the file."""
     import socket
     import time
 
-    from phys2d.recording import sink
-    from phys2d.recording.sink_settings import StreamError
-
-    monkeypatch.setattr(sink, "STREAM_FLUSH_S", 1.0)  # (the writer process is forked: it has it too)
-    with socket.socket() as s:  # a port nothing listens on
+    with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         url = f"rerun+http://127.0.0.1:{s.getsockname()[1]}/proxy"
-    path = tmp_path / "beside.rrd"
-    rec = Recorder(path, stream_to=url, background=True, flush_every=6)
-    w = phys2d.scenes.vertical_stack(3)
-    rec.log(w)
-    for _ in range(12):
-        w.step(1 / 60)
-        rec.log(w)
     start = time.monotonic()
-    said = re.escape(f"the viewer at {url} did not take the whole recording") + ".*is complete"
-    with pytest.raises(StreamError, match=said):
-        rec.close()
-    assert time.monotonic() - start < 30  # 1 s of flushing, then rerun's 5 s for a last connection
-    assert rec.closed
-    RrdReader(str(path)).store()  # only a file with its footer has a store
-    back = playback.load(path)
-    assert list(back.tick) == list(range(13))
-    assert np.array_equal(back.x[-1], w.x)
+    with pytest.raises(ValueError, match=re.escape(f"stream_to: no viewer listens at {url}")):
+        Recorder(tmp_path / "never.rrd", stream_to=url, background=True)
+    assert time.monotonic() - start < 10
+    assert not (tmp_path / "never.rrd").exists()
+    with pytest.raises(ValueError, match="stream_to 'rerun\\+http://\\[::1/proxy' is not a viewer URL"):
+        Recorder(None, stream_to="rerun+http://[::1/proxy")

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import socket
 import sys
 import warnings
 import weakref
@@ -97,6 +98,28 @@ def _check_label(run: Any) -> str:
     if not run or not all(ch.isalnum() or ch in "-_." for ch in run):
         raise ValueError(f"run must be a non-empty name of letters, digits, '-', '_' or '.', got {run!r}")
     return run
+
+
+VIEWER_CONNECT_S = 2.0  # s: how long the check of a viewer's port waits for an answer
+
+
+def _check_listening(stream_to: str) -> None:
+    """A ValueError unless something listens at ``stream_to``'s host and port: with no viewer there,
+    rerun's gRPC sink holds every message it cannot send until its queue is full, and then blocks
+    the recording, file and all, for good."""
+    from urllib.parse import urlsplit
+
+    try:
+        where = urlsplit(stream_to.split("+", 1)[-1])
+        host, port = where.hostname, where.port or {"http": 80, "https": 443}.get(where.scheme)
+    except ValueError as e:
+        raise ValueError(f"stream_to {stream_to!r} is not a viewer URL: {e}") from None
+    if not host or port is None:
+        raise ValueError(f"stream_to {stream_to!r} names no host and port (like 'rerun+http://127.0.0.1:9876/proxy')")
+    try:
+        socket.create_connection((host, port), timeout=VIEWER_CONNECT_S).close()
+    except OSError as e:
+        raise ValueError(f"stream_to: no viewer listens at {stream_to} ({e}); start one (`rerun`) first") from None
 
 
 def _native_of(recording: Any, path: Any, stream_to: str | None, background: Any) -> Any:
@@ -301,7 +324,6 @@ class Recorder:
                 f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', got {stream_to!r}"
             )
         native = _native_of(recording, path, stream_to, background)
-        p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
         for value, arg in ((name, "name"), (scene, "scene"), (recording_id, "recording_id")):
             if value is not None and not isinstance(value, str):
                 raise TypeError(f"{arg} must be a str or None, got {type(value).__name__}")
@@ -314,6 +336,9 @@ class Recorder:
         flush_every = _check_count(flush_every, "flush_every")
         self.keyframe_every = _check_every(keyframe_every)
         series_every = _check_count(series_every, "series_every")
+        if stream_to is not None:  # (last of the checks that make nothing; then the file is made)
+            _check_listening(stream_to)
+        p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
         self.path = p
         settings = SinkSettings(
             p, name, scene, application_id, recording_id, bool(contact_series), choice, flush_every, series_every,
