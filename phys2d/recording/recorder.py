@@ -278,7 +278,8 @@ class Recorder:
                   recorder loses at most these)
     series_every  ticks buffered before the plotted series are written
     blueprint     store a layout (world beside the plots) in the file
-    stream_to     a viewer's ``rerun+http://HOST:PORT/proxy`` URL to stream to as well
+    stream_to     a viewer's ``rerun+http://HOST:PORT/proxy`` URL to stream to as well; a ValueError
+                  at once if nothing listens there
     keyframe_every  re-enterable recordings (``playback.world_at``, ``phys2d replay``, ``phys2d branch``):
                   a keyframe (the world's snapshot, zlib-compressed) on a run's first tick and
                   then every this many ticks (0: none), besides every tick's state hash, dt and

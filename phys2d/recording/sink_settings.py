@@ -12,9 +12,9 @@ from .buffer import ContactChoice
 
 
 class StreamError(RuntimeError):
-    """The viewer a recording streamed to (``stream_to``) did not take all of it: never reached,
-    gone, or not done within ``STREAM_FLUSH_S`` of the close. A file written beside the stream
-    is complete all the same."""
+    """The viewer a recording streamed to (``stream_to``) did not take all of it: gone, or not
+    done within ``STREAM_FLUSH_S`` of the close. A file written beside the stream is complete
+    all the same. (A ``stream_to`` where nothing listens is refused when the recorder is made.)"""
 
 
 STREAM_FLUSH_S = 30.0  # s: how long a close waits for the viewer streamed to to take the rest
