@@ -878,3 +878,34 @@ def test_a_stream_to_a_port_nobody_listens_on_is_refused_at_once(tmp_path):
     assert not (tmp_path / "never.rrd").exists()
     with pytest.raises(ValueError, match="stream_to 'rerun\\+http://\\[::1/proxy' is not a viewer URL"):
         Recorder(None, stream_to="rerun+http://[::1/proxy")
+
+
+def test_a_stream_only_close_ends_when_the_viewer_takes_the_connection_but_never_the_data(monkeypatch):
+    """A port that accepts connections and never answers (a hung viewer, or no viewer at all):
+    rerun can block the writer process for good, so a recorder with no file to finish waits
+    ``STREAM_FLUSH_S`` + ``STUCK_S`` (1 + 2 s here) for its writer's answer, then stops the writer
+    and raises a StreamError naming the viewer (it waited forever before)."""
+    import socket
+    import time
+
+    from phys2d.recording import recorder, sink
+    from phys2d.recording.sink_settings import StreamError
+
+    for module in (recorder, sink):  # (the writer process is forked: it has sink's too)
+        monkeypatch.setattr(module, "STREAM_FLUSH_S", 1.0)
+    monkeypatch.setattr(recorder, "STUCK_S", 2.0)
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(16)  # connections complete in the backlog; nothing is read or answered
+        url = f"rerun+http://127.0.0.1:{silent.getsockname()[1]}/proxy"
+        rec = Recorder(None, stream_to=url, background=True, flush_every=6)
+        writer = rec._state.backend.proc
+        w = phys2d.scenes.vertical_stack(3)
+        for _ in range(120):
+            w.step(1 / 60)
+            rec.log(w)
+        start = time.monotonic()
+        with pytest.raises(StreamError, match=re.escape(f"the viewer at {url} did not take the recording")):
+            rec.close()
+        assert time.monotonic() - start < 20
+    assert rec.closed and not writer.is_alive()

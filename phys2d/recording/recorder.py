@@ -52,7 +52,7 @@ import numpy as np
 from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
 from .sample import Sample, Sampler, pack, window_parts
-from .sink_settings import SinkSettings, StreamError
+from .sink_settings import STREAM_FLUSH_S, SinkSettings, StreamError
 
 KEYFRAME_EVERY = 60  # ticks between keyframes, by default (``Recorder``)
 
@@ -101,6 +101,7 @@ def _check_label(run: Any) -> str:
 
 
 VIEWER_CONNECT_S = 2.0  # s: how long the check of a viewer's port waits for an answer
+STUCK_S = 15.0  # s: after STREAM_FLUSH_S, how much longer a stream-only close waits for its writer
 
 
 def _check_listening(stream_to: str) -> None:
@@ -179,6 +180,7 @@ class _Background:
         child.close()
         child_freed.close()
         self.window = window
+        self.settings = settings
         self.free = list(range(self.arena.slots))
         self.pending: list[tuple[str | None, Sample, dict[str, Any] | None]] = []
         self.sent: dict[str | None, set[int]] = {}  # per run, the layout versions the writer has
@@ -221,6 +223,18 @@ class _Background:
             self.pending = []
             self.sent.update(sent)
 
+    def _answer(self) -> tuple:
+        """The writer's answer to "close". A file is waited for as long as it takes. A stream
+        alone is not: rerun can block the writer for good on a peer that takes the connection
+        but never the data, so after ``STREAM_FLUSH_S`` and ``STUCK_S`` more with no answer,
+        ("stuck", why): ``close`` stops the writer (the viewer would not take the rest)."""
+        stream_to = self.settings.stream_to
+        if self.settings.path is None and stream_to is not None:
+            waited = STREAM_FLUSH_S + STUCK_S
+            if not self.reply.poll(waited):
+                return ("stuck", f"the viewer at {stream_to} did not take the recording ({waited:g} s without end)")
+        return self.reply.recv()
+
     def close(self) -> dict[str | None, list[str]]:
         reply: tuple = ("error", "the recording's writer process stopped")
         told = False
@@ -228,19 +242,22 @@ class _Background:
             self._send()
             self.queue.put(("close",))
             told = True
-            reply = self.reply.recv()
+            reply = self._answer()
         except (EOFError, OSError, RuntimeError):
             reply = ("error", "the recording's writer process stopped")
         finally:
             if not told and self.proc.is_alive():  # whatever stopped the last window (an interrupt, say),
                 self.queue.put(("close",))  # the writer completes the file with the ticks it has
+            if reply[0] == "stuck":  # blocked in rerun for good: there is no file to finish
+                self.proc.kill()
+                self.queue.cancel_join_thread()  # what it never read is dropped at exit
             # once the reply is in, the file is complete: the writer's exit (unmapping its memory,
             # ~20 ms) need not be waited for; multiprocessing reaps it at the latest at exit
             self.proc.join(0 if reply[0] == "closed" else 60)
             self.reply.close()
             self.freed.close()
             self.queue.close()
-        if reply[0] == "lost":
+        if reply[0] in ("lost", "stuck"):
             raise StreamError(reply[1])
         if reply[0] == "error":
             raise RuntimeError(f"writing the recording failed: {reply[1]}")
