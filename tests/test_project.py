@@ -188,6 +188,7 @@ LOCAL = {
     "_common",
     "engines",
     "box2d_v3",
+    "floor",
     "perf_kernels",
     "webview",
     "conftest",
