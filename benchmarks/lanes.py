@@ -1,6 +1,6 @@
 """The soft step's normal rows in lanes (issue 45 item 2), measured against the scalar sweep.
 
-    python benchmarks/lanes.py                 # large_pyramid: bits, then µs per pass, ~1 min
+    python benchmarks/lanes.py                 # large_pyramid: bits, then µs per pass (~20 s cached)
     python benchmarks/lanes.py --base 40       # a smaller pyramid
     python benchmarks/lanes.py --asm           # also count packed and scalar float64 instructions
 
