@@ -5,6 +5,10 @@
     python benchmarks/scale.py --box2d-v3 ~/src/box2d        # plus Box2D v3, 1 and 2 workers
     python benchmarks/scale.py --box2d-v3 ~/src/box2d --repeats 5 --scenes pyramid_20,large_pyramid,many_pyramids
                                    # issue 28's ratios, each taken within a round, and their medians
+    python benchmarks/scale.py --box2d-v3 ~/src/box2d --scenes large_pyramid \\
+        --engines phys2d-soft4,box2d-v3-1w --paired 30 --steps 10 --warmup 60
+                                   # both engines in one process, 30 blocks of 10 steps in turn:
+                                   # the ratio per block (a drift of the host falls on both alike)
 
 Engines:
 
@@ -46,6 +50,8 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 BENCH_DIR = Path(__file__).resolve().parent
@@ -240,9 +246,20 @@ def peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def measure(scene: str, engine: str, steps: int, warmup: int, v3_library: str | None) -> dict:
-    """Build ``scene`` in ``engine``, run ``warmup`` then ``steps`` timed steps: one result row."""
-    row: dict = {"scene": scene, "engine": engine}
+@dataclass
+class Built:
+    """A scene built in an engine: its step, and what a result row reports of it."""
+
+    step: Callable[[], None]
+    bodies: int
+    contacts: Callable[[], int]
+    build_s: float
+    base_mb: float  # resident memory before the scene was built
+    contact_pairs: Callable[[], int] | None = None  # Box2D v3's own count
+
+
+def build(scene: str, engine: str, v3_library: str | None) -> Built:
+    """``scene`` built in ``engine``, ready to step (Unsupported if it cannot be)."""
     if engine in PHYS2D_ENGINES:
         import phys2d  # noqa: F401  (imported before the baseline is read)
 
@@ -250,11 +267,8 @@ def measure(scene: str, engine: str, steps: int, warmup: int, v3_library: str | 
         t0 = time.perf_counter()
         w = build_phys2d(scene, make_responder(engine))
         w.threads = THREADS.get(engine, 1)
-        row["build_s"] = time.perf_counter() - t0
-        step = lambda: w.step(DT)  # noqa: E731
-        bodies = len(w)
-        contacts = lambda: len(w.contacts)  # noqa: E731
-    elif engine == "pymunk":
+        return Built(lambda: w.step(DT), len(w), lambda: len(w.contacts), time.perf_counter() - t0, base)
+    if engine == "pymunk":
         import pymunk  # noqa: F401
 
         import phys2d  # noqa: F401
@@ -263,43 +277,80 @@ def measure(scene: str, engine: str, steps: int, warmup: int, v3_library: str | 
         base = resident_mb()
         t0 = time.perf_counter()
         space = pymunk_space(w)
-        row["build_s"] = time.perf_counter() - t0
+        build_s = time.perf_counter() - t0
         del w
-        step = lambda: space.step(DT)  # noqa: E731
-        bodies = len(space.shapes)  # one shape per body, as in phys2d
-        contacts = lambda: pymunk_contacts(space)  # noqa: E731
-    else:
-        if scene not in V3_SCENES:
-            raise Unsupported("Box2D v3 runs its own benchmark scenes only")
-        if v3_library is None:
-            raise Unsupported("no --box2d-v3")
-        lib = load_v3(v3_library)
-        base = resident_mb()
-        t0 = time.perf_counter()
-        h = lib.scale_create(V3_SCENES[scene], V3_ENGINES[engine], V3_SUBSTEPS)
-        if not h:
-            raise MemoryError("scale_create failed")
-        row["build_s"] = time.perf_counter() - t0
-        step = lambda: lib.scale_step(h, DT)  # noqa: E731
-        bodies = lib.scale_body_count(h)
-        contacts = lambda: -1  # noqa: E731  (filled from phys2d-soft4's count)
-        row["contact_pairs"] = None
+        # one shape per body, as in phys2d
+        return Built(lambda: space.step(DT), len(space.shapes), lambda: pymunk_contacts(space), build_s, base)
+    if scene not in V3_SCENES:
+        raise Unsupported("Box2D v3 runs its own benchmark scenes only")
+    if v3_library is None:
+        raise Unsupported("no --box2d-v3")
+    lib = load_v3(v3_library)
+    base = resident_mb()
+    t0 = time.perf_counter()
+    h = lib.scale_create(V3_SCENES[scene], V3_ENGINES[engine], V3_SUBSTEPS)
+    if not h:
+        raise MemoryError("scale_create failed")
+    build_s = time.perf_counter() - t0
+    # contacts: -1, filled from phys2d-soft4's count (the harness does not count v3's points)
+    return Built(
+        lambda: lib.scale_step(h, DT), lib.scale_body_count(h), lambda: -1, build_s, base,
+        lambda: lib.scale_contact_pairs(h),
+    )  # fmt: skip
+
+
+def measure(scene: str, engine: str, steps: int, warmup: int, v3_library: str | None) -> dict:
+    """Build ``scene`` in ``engine``, run ``warmup`` then ``steps`` timed steps: one result row."""
+    row: dict = {"scene": scene, "engine": engine}
+    built = build(scene, engine, v3_library)
+    row["build_s"] = built.build_s
     for _ in range(warmup):
-        step()
+        built.step()
     times = []
     for _ in range(steps):
         t = time.perf_counter()
-        step()
+        built.step()
         times.append(time.perf_counter() - t)
-    row["bodies"] = bodies
-    row["contacts"] = contacts()
-    if engine in V3_ENGINES:
-        row["contact_pairs"] = lib.scale_contact_pairs(h)
+    row["bodies"] = built.bodies
+    row["contacts"] = built.contacts()
+    if built.contact_pairs is not None:
+        row["contact_pairs"] = built.contact_pairs()
     row["us_per_step"] = 1e6 * sum(times) / len(times)
     row["median_us"] = 1e6 * sorted(times)[len(times) // 2]
     row["peak_mb"] = peak_mb()
-    row["scene_mb"] = peak_mb() - base
+    row["scene_mb"] = peak_mb() - built.base_mb
     return row
+
+
+# -- two engines in one process, block by block ----------------------------------------------
+def paired(scene: str, engines: list[str], blocks: int, steps: int, warmup: int, v3_library: str | None) -> str:
+    """``scene`` in two engines in this process, stepped in turn: ``warmup`` steps of each, then
+    ``blocks`` blocks of ``steps`` timed steps of each, the first engine first in every other
+    block. Each block starts with one untimed step (the engine's data back in the caches after
+    the other's block), so both engines take the same steps. The ratio is taken block by
+    block: a drift of the host within a second falls on both alike. Returns a Markdown table."""
+    a, b = (build(scene, e, v3_library) for e in engines)
+    for _ in range(warmup):
+        a.step()
+        b.step()
+    per: list[list[float]] = [[], []]
+    for i in range(blocks):
+        for j in (0, 1) if i % 2 == 0 else (1, 0):
+            built = (a, b)[j]
+            built.step()
+            t0 = time.perf_counter()
+            for _ in range(steps):
+                built.step()
+            per[j].append(1e6 * (time.perf_counter() - t0) / steps)
+    ratio = sorted(x / y for x, y in zip(per[0], per[1], strict=True))
+    q = statistics.quantiles(ratio, n=4) if len(ratio) > 1 else [ratio[0]] * 3
+    head = f"| scene | {engines[0]}, median us | {engines[1]}, median us | ratio: median | quartiles | range |"
+    return "\n".join([
+        head,
+        "| --- | ---: | ---: | ---: | --- | --- |",
+        f"| {scene} | {statistics.median(per[0]):,.0f} | {statistics.median(per[1]):,.0f} | {q[1]:.2f}x "
+        f"| {q[0]:.2f}-{q[2]:.2f}x | {ratio[0]:.2f}-{ratio[-1]:.2f}x |",
+    ])  # fmt: skip
 
 
 def run_child(args: argparse.Namespace) -> int:
@@ -440,13 +491,18 @@ def header(args: argparse.Namespace, v3_label: str | None) -> str:
             f"{os.cpu_count()} CPUs, Python {platform.python_version()}, numpy {numpy.__version__}, "
             f"numba {numba.__version__}, phys2d {getattr(phys2d, '__version__', '?')}, pymunk {pm}",
             f"- Box2D v3: {v3_label}" if v3_label else "- Box2D v3: not run (no --box2d-v3)",
-            f"- {args.warmup} warm-up steps, then {args.steps} timed steps of 1/60 s; each (scene, engine) "
-            "in a fresh process"
+            (
+                f"- both engines in this process: {args.warmup} warm-up steps of each, then {args.paired} blocks "
+                f"of 1 + {args.steps} steps of each in turn (the first untimed), the order swapped every block"
+                if args.paired
+                else f"- {args.warmup} warm-up steps, then {args.steps} timed steps of 1/60 s; each (scene, engine) "
+                "in a fresh process"
+            )
             + (" (--quick)" if args.quick else "")
             + (
                 f"; {args.repeats} rounds, the engines in reverse order every other round: each figure is the "
                 "median over the rounds (peak MB: the largest)"
-                if args.repeats > 1
+                if args.repeats > 1 and not args.paired
                 else ""
             ),
             "",
@@ -465,6 +521,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default=None, help="also write the tables to this Markdown file")
     p.add_argument("--repeats", type=int, default=1, help="rounds of every (scene, engine); medians, ratios per round")
     p.add_argument("--timeout", type=float, default=3600.0, help="seconds per (scene, engine)")
+    p.add_argument("--paired", type=int, default=0, metavar="BLOCKS",
+                   help="two --engines in one process, BLOCKS blocks of --steps steps each in turn;\n"
+                   "the ratio per block, its median and quartiles (``paired``)")  # fmt: skip
     p.add_argument("--one", nargs=2, metavar=("SCENE", "ENGINE"), help=argparse.SUPPRESS)
     p.add_argument("--v3-library", default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
@@ -486,6 +545,15 @@ def main(argv: list[str] | None = None) -> int:
     engines = ["phys2d-pgs", "phys2d-soft4", "pymunk", *(V3_ENGINES if v3_library else ())]
     if args.engines is not None:
         engines = args.engines.split(",")
+    if args.paired:
+        if len(engines) != 2:
+            p.error("--paired takes two --engines")
+        tables = [paired(scene, engines, args.paired, args.steps, args.warmup, v3_library) for scene in names]
+        text = header(args, v3_label) + "\n" + "\n\n".join(tables) + "\n"
+        print(text)
+        if args.out:
+            Path(args.out).write_text(text)
+        return 0
     rounds: list[list[dict]] = []
     for i in range(args.repeats):
         rows = []
