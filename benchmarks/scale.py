@@ -535,6 +535,8 @@ def main(argv: list[str] | None = None) -> int:
         p.error("--steps and --warmup must be >= 1 (the first step compiles)")
     if args.repeats < 1:
         p.error("--repeats must be >= 1")
+    if args.paired < 0:
+        p.error("--paired must be >= 1 blocks (0: not paired)")
     if args.one:
         return run_child(args)
     v3_library = v3_label = None
