@@ -375,6 +375,36 @@ def lanes_only(run_start, L, lanes_in, lanes_out, h, new_C):
 
 
 @njit(cache=True)
+def block_lanes(n, L, lanes_in, lanes_out, h, use_bias):
+    """``normal_lanes`` for a run of blocks only: the block's answer alone (no rows one by one,
+    no separations worked out), to measure what the other path costs. Not used by the sweep."""
+    for i in range(n):
+        V_ab = lane6(lanes_in, V_AB, i)
+        J_1, J_2, M_ab = lane6(L, J1, i), lane6(L, J2, i), lane6(L, MA, i)
+        soft = (lane(L, RATE, i), lane(L, MASS_SCALE, i), lane(L, IMPULSE_SCALE, i), lane(L, PUSH_MAX, i))
+        K_11, K_22, K_12 = lane(L, K11, i), lane(L, K22, i), lane(L, K12, i)
+        a1, a2 = lane(lanes_in, LAM1, i), lane(lanes_in, LAM2, i)
+        bias1, ms1, is1 = soft_push_by_selects(lane(lanes_in, C1, i), h, use_bias, soft)
+        bias2, ms2, is2 = soft_push_by_selects(lane(lanes_in, C2, i), h, use_bias, soft)
+        b1 = ms1 * (row_velocity_of(J_1, V_ab) + bias1) + is1 * K_11 * a1 - (K_11 * a1 + K_12 * a2)
+        b2 = ms2 * (row_velocity_of(J_2, V_ab) + bias2) + is2 * K_22 * a2 - (K_12 * a1 + K_22 * a2)
+        x1, x2 = lcp2_by_selects(K_11, K_12, K_22, lane(L, INV_DET, i), b1, b2)
+        V_block = row_impulse_of(J_2, M_ab, x2 - a2, row_impulse_of(J_1, M_ab, x1 - a1, V_ab))
+        for q in range(6):
+            lanes_out[(V_AB + q) * LANES + i] = V_block[q]
+        lanes_out[X1 * LANES + i] = x1
+        lanes_out[X2 * LANES + i] = x2
+        lanes_out[WORST * LANES + i] = max(abs(x1 - a1) * K_11, abs(x2 - a2) * K_22)
+
+
+@njit(cache=True)
+def block_lanes_only(run_start, L, lanes_in, lanes_out, h):
+    """``block_lanes`` over every run, on whatever the lanes hold."""
+    for r in range(run_start.shape[0] - 1):
+        block_lanes(run_start[r + 1] - run_start[r], L[r], lanes_in, lanes_out, h, True)
+
+
+@njit(cache=True)
 def gather_and_scatter(run_start, start, rows, V, lanes):
     """The lanes' gather and scatter of V_ab and the two lambdas alone, run by run."""
     normal_row, body_a, body_b, lam = rows.normal_row, rows.body_a, rows.body_b, rows.lam
@@ -498,6 +528,8 @@ def main(argv: list[str] | None = None) -> int:
     for new_C in (False, True):
         t = best_of(lambda new_C=new_C: lanes_only(run_start, L, lanes_in, lanes_out, h, new_C), args.repeats)
         print(f"  of which the solve loops alone (new_C {new_C}): {t:,.0f} µs")
+    t = best_of(lambda: block_lanes_only(run_start, L, lanes_in, lanes_out, h), args.repeats)
+    print(f"  the solve loops of blocks only (no rows one by one, no separations), for comparison: {t:,.0f} µs")
     rows_g, _, V_g, _, _ = fresh()
     t = best_of(lambda: gather_and_scatter(run_start, manifolds[0], rows_g, V_g, lanes_in), args.repeats)
     print(f"  the gather and scatter of V_ab and a lambda alone: {t:,.0f} µs")
