@@ -179,12 +179,9 @@ def normal_lanes(n, L, lanes_in, lanes_out, h, use_bias, new_C):
             s1, s2 = lane(lanes_in, C1, i), lane(lanes_in, C2, i)
         bias1, ms1, is1 = soft_push_by_selects(s1, h, use_bias, soft)
         bias2, ms2, is2 = soft_push_by_selects(s2, h, use_bias, soft)
-        # as a block
-        b1 = ms1 * (row_velocity_of(J_1, V_ab) + bias1) + is1 * K_11 * a1 - (K_11 * a1 + K_12 * a2)
-        b2 = ms2 * (row_velocity_of(J_2, V_ab) + bias2) + is2 * K_22 * a2 - (K_12 * a1 + K_22 * a2)
-        x1, x2 = lcp2_by_selects(K_11, K_12, K_22, lane(L, INV_DET, i), b1, b2)
-        V_block = row_impulse_of(J_2, M_ab, x2 - a2, row_impulse_of(J_1, M_ab, x1 - a1, V_ab))
-        worst_block = max(abs(x1 - a1) * K_11, abs(x2 - a2) * K_22)
+        x1, x2, V_block, worst_block = block_answer(
+            J_1, J_2, M_ab, V_ab, (K_11, K_12, K_22, lane(L, INV_DET, i)), a1, a2, (bias1, ms1, is1), (bias2, ms2, is2)
+        )
         # row by row: relax leaves a point still apart alone
         on1 = (K_11 > 0.0) & (use_bias | (s1 <= MET))
         on2 = (K_22 > 0.0) & (use_bias | (s2 <= MET))
@@ -198,6 +195,21 @@ def normal_lanes(n, L, lanes_in, lanes_out, h, use_bias, new_C):
         lanes_out[NEW_C1 * LANES + i] = s1
         lanes_out[NEW_C2 * LANES + i] = s2
         lanes_out[WORST * LANES + i] = worst_block if block else max(w1, w2)
+
+
+@njit(cache=True, inline="always")
+def block_answer(J_1, J_2, M_ab, V_ab, K, a1, a2, push1, push2):
+    """A manifold's two normal rows solved as a block (``soft_normal_rows``): b from each row's
+    push (bias, mass_scale, impulse_scale: ``soft_push_by_selects``), the 2x2 LCP
+    (``lcp2_by_selects``; K = (K11, K12, K22, 1 / det K)), both impulses onto V_ab. Returns
+    (lambda_1, lambda_2, V_ab, the larger |delta lambda| A_kk)."""
+    K_11, K_12, K_22, inv_det = K
+    (bias1, ms1, is1), (bias2, ms2, is2) = push1, push2
+    b1 = ms1 * (row_velocity_of(J_1, V_ab) + bias1) + is1 * K_11 * a1 - (K_11 * a1 + K_12 * a2)
+    b2 = ms2 * (row_velocity_of(J_2, V_ab) + bias2) + is2 * K_22 * a2 - (K_12 * a1 + K_22 * a2)
+    x1, x2 = lcp2_by_selects(K_11, K_12, K_22, inv_det, b1, b2)
+    V_block = row_impulse_of(J_2, M_ab, x2 - a2, row_impulse_of(J_1, M_ab, x1 - a1, V_ab))
+    return x1, x2, V_block, max(abs(x1 - a1) * K_11, abs(x2 - a2) * K_22)
 
 
 @njit(cache=True, inline="always")
@@ -384,17 +396,16 @@ def block_lanes(n, L, lanes_in, lanes_out, h, use_bias):
         soft = (lane(L, RATE, i), lane(L, MASS_SCALE, i), lane(L, IMPULSE_SCALE, i), lane(L, PUSH_MAX, i))
         K_11, K_22, K_12 = lane(L, K11, i), lane(L, K22, i), lane(L, K12, i)
         a1, a2 = lane(lanes_in, LAM1, i), lane(lanes_in, LAM2, i)
-        bias1, ms1, is1 = soft_push_by_selects(lane(lanes_in, C1, i), h, use_bias, soft)
-        bias2, ms2, is2 = soft_push_by_selects(lane(lanes_in, C2, i), h, use_bias, soft)
-        b1 = ms1 * (row_velocity_of(J_1, V_ab) + bias1) + is1 * K_11 * a1 - (K_11 * a1 + K_12 * a2)
-        b2 = ms2 * (row_velocity_of(J_2, V_ab) + bias2) + is2 * K_22 * a2 - (K_12 * a1 + K_22 * a2)
-        x1, x2 = lcp2_by_selects(K_11, K_12, K_22, lane(L, INV_DET, i), b1, b2)
-        V_block = row_impulse_of(J_2, M_ab, x2 - a2, row_impulse_of(J_1, M_ab, x1 - a1, V_ab))
+        push1 = soft_push_by_selects(lane(lanes_in, C1, i), h, use_bias, soft)
+        push2 = soft_push_by_selects(lane(lanes_in, C2, i), h, use_bias, soft)
+        x1, x2, V_block, worst = block_answer(
+            J_1, J_2, M_ab, V_ab, (K_11, K_12, K_22, lane(L, INV_DET, i)), a1, a2, push1, push2
+        )
         for q in range(6):
             lanes_out[(V_AB + q) * LANES + i] = V_block[q]
         lanes_out[X1 * LANES + i] = x1
         lanes_out[X2 * LANES + i] = x2
-        lanes_out[WORST * LANES + i] = max(abs(x1 - a1) * K_11, abs(x2 - a2) * K_22)
+        lanes_out[WORST * LANES + i] = worst
 
 
 @njit(cache=True)
