@@ -166,11 +166,8 @@ def normal_lanes(n, L, lanes_in, lanes_out, h, use_bias, new_C):
     LLVM see that the loop's stores never meet its loads, and a lane index from 0 spares
     numba's wraparound select on a negative index, which would make every load a gather."""
     for i in range(n):
-        V_ab = lane6(lanes_in, V_AB, i)
-        J_1, J_2, M_ab = lane6(L, J1, i), lane6(L, J2, i), lane6(L, MA, i)
-        soft = (lane(L, RATE, i), lane(L, MASS_SCALE, i), lane(L, IMPULSE_SCALE, i), lane(L, PUSH_MAX, i))
-        K_11, K_22, K_12 = lane(L, K11, i), lane(L, K22, i), lane(L, K12, i)
-        a1, a2 = lane(lanes_in, LAM1, i), lane(lanes_in, LAM2, i)
+        V_ab, J_1, J_2, M_ab, soft, K, a1, a2 = manifold_of_lane(L, lanes_in, i)
+        K_11, K_12, K_22, _ = K
         if new_C:  # the bodies moved since the last sweep
             moved_a, moved_b = lane4(lanes_in, MOVED_A, i), lane4(lanes_in, MOVED_B, i)
             s1 = separation_of(lane(lanes_in, C0_1, i), J_1, lane(L, T1, i), lane(L, T1 + 1, i), moved_a, moved_b)
@@ -180,7 +177,7 @@ def normal_lanes(n, L, lanes_in, lanes_out, h, use_bias, new_C):
         bias1, ms1, is1 = soft_push_by_selects(s1, h, use_bias, soft)
         bias2, ms2, is2 = soft_push_by_selects(s2, h, use_bias, soft)
         x1, x2, V_block, worst_block = block_answer(
-            J_1, J_2, M_ab, V_ab, (K_11, K_12, K_22, lane(L, INV_DET, i)), a1, a2, (bias1, ms1, is1), (bias2, ms2, is2)
+            J_1, J_2, M_ab, V_ab, K, a1, a2, (bias1, ms1, is1), (bias2, ms2, is2)
         )
         # row by row: relax leaves a point still apart alone
         on1 = (K_11 > 0.0) & (use_bias | (s1 <= MET))
@@ -195,6 +192,18 @@ def normal_lanes(n, L, lanes_in, lanes_out, h, use_bias, new_C):
         lanes_out[NEW_C1 * LANES + i] = s1
         lanes_out[NEW_C2 * LANES + i] = s2
         lanes_out[WORST * LANES + i] = worst_block if block else max(w1, w2)
+
+
+@njit(cache=True, inline="always")
+def manifold_of_lane(L, lanes_in, i):
+    """What lane i holds of its manifold: (V_ab, J of both normal rows, the pair's M^-1, its
+    spring, K = (K11, K12, K22, 1 / det K), both lambdas)."""
+    soft = (lane(L, RATE, i), lane(L, MASS_SCALE, i), lane(L, IMPULSE_SCALE, i), lane(L, PUSH_MAX, i))
+    K = (lane(L, K11, i), lane(L, K12, i), lane(L, K22, i), lane(L, INV_DET, i))
+    return (
+        lane6(lanes_in, V_AB, i), lane6(L, J1, i), lane6(L, J2, i), lane6(L, MA, i), soft, K,
+        lane(lanes_in, LAM1, i), lane(lanes_in, LAM2, i),
+    )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -391,16 +400,10 @@ def block_lanes(n, L, lanes_in, lanes_out, h, use_bias):
     """``normal_lanes`` for a run of blocks only: the block's answer alone (no rows one by one,
     no separations worked out), to measure what the other path costs. Not used by the sweep."""
     for i in range(n):
-        V_ab = lane6(lanes_in, V_AB, i)
-        J_1, J_2, M_ab = lane6(L, J1, i), lane6(L, J2, i), lane6(L, MA, i)
-        soft = (lane(L, RATE, i), lane(L, MASS_SCALE, i), lane(L, IMPULSE_SCALE, i), lane(L, PUSH_MAX, i))
-        K_11, K_22, K_12 = lane(L, K11, i), lane(L, K22, i), lane(L, K12, i)
-        a1, a2 = lane(lanes_in, LAM1, i), lane(lanes_in, LAM2, i)
+        V_ab, J_1, J_2, M_ab, soft, K, a1, a2 = manifold_of_lane(L, lanes_in, i)
         push1 = soft_push_by_selects(lane(lanes_in, C1, i), h, use_bias, soft)
         push2 = soft_push_by_selects(lane(lanes_in, C2, i), h, use_bias, soft)
-        x1, x2, V_block, worst = block_answer(
-            J_1, J_2, M_ab, V_ab, (K_11, K_12, K_22, lane(L, INV_DET, i)), a1, a2, push1, push2
-        )
+        x1, x2, V_block, worst = block_answer(J_1, J_2, M_ab, V_ab, K, a1, a2, push1, push2)
         for q in range(6):
             lanes_out[(V_AB + q) * LANES + i] = V_block[q]
         lanes_out[X1 * LANES + i] = x1
