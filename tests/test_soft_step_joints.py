@@ -3,10 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
-import textwrap
 
 import numba
 import numpy as np
@@ -192,32 +188,13 @@ def test_redundant_pins_are_solved_without_blowing_up():
 
 @pytest.mark.skipif(numba.config.DISABLE_JIT, reason="uncompiled kernels have no overloads")
 @pytest.mark.fresh_numba_cache
-def test_a_world_without_joints_compiles_none_of_their_code(tmp_path):
-    # joints=None (SoftStep.respond's for a world without joints): numba drops the `joints is not None`
-    # branches, so no joint kernel is compiled; with a JointRecord they are. A fresh process and
-    # cache: a kernel loaded from the cache does not list the kernels compiled into it.
-    code = textwrap.dedent("""
-        import numpy as np
-        from phys2d.constraints import joints
-        from phys2d.constraints.rows import Rows
-        from phys2d.pipeline import records
-        from phys2d.responders import soft_joints, soft_step
-        x, theta, V = np.array([[0.0, 1.0]]), np.zeros(1), np.array([[0.0, -0.1, 0.0]])
-        bodies = records.new_bodies((x, theta, V, np.ones((1, 3)), V.copy()))
-        rows = Rows(0)
-        found = (rows.order, np.zeros(0), np.zeros(0), np.zeros((0, 4)))
-        settings = soft_step.SoftStep().settings
-        kernels = [soft_joints.prepare_joints, soft_joints.solve_joints, soft_joints.factor_joint_rows,
-                   soft_joints.solve_factored, soft_joints._equality_rows, joints.joint_rows]
-        for jointed in (False, True):
-            joint_record = records.record_of_joints(joints.JointArrays([]), np.zeros(0)) if jointed else None
-            n = soft_step.soft_step_solve(bodies, records.record_of_rows(rows), found, joint_record, 1 / 60, settings,
-                                          np.zeros(settings.substeps), None)
-            print(n, [len(k.overloads) for k in kernels])
-    """)
-    env = dict(os.environ, PYTHONPATH=os.getcwd(), NUMBA_CACHE_DIR=str(tmp_path))
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=900)
-    assert res.returncode == 0, res.stderr
-    without, with_joints = res.stdout.splitlines()
-    assert without == "4 [0, 0, 0, 0, 0, 0]"
-    assert with_joints == "4 [1, 1, 1, 1, 1, 1]"
+@pytest.mark.xdist_group("fresh_cache")
+def test_a_world_without_joints_compiles_none_of_their_code(fresh_cache_compiles):
+    """joints=None (SoftStep.respond's for a world without joints): numba drops the `joints is not None`
+    branches, so no joint kernel is compiled; with a JointRecord they are. Counted in a fresh process
+    and cache (a kernel loaded from the cache does not list the kernels compiled into it), the child
+    shared with tests/test_ahead.py: ``tests/fresh_cache.py``, where the soft step's solve is called
+    on its own, without joints and then with them, after a pyramid under PGS (no joints either)."""
+    calls = fresh_cache_compiles["soft_step_solve"]
+    assert calls["without"] == {"substeps": 4, "overloads": [0, 0, 0, 0, 0, 0]}
+    assert calls["with"] == {"substeps": 4, "overloads": [1, 1, 1, 1, 1, 1]}
