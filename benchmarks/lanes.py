@@ -249,6 +249,15 @@ def separation_of(C0, J_k, t2, t5, moved_a, moved_b):
 
 
 @njit(cache=True, inline="always")
+def manifold_at(m, start, normal_row, body_a, body_b):
+    """Manifold m's first point c, whether it has two points, its first normal row k and its
+    bodies a, b: what the gather and the scatter both look up."""
+    c = start[m]
+    k = normal_row[c]
+    return c, start[m + 1] - c == 2, k, body_a[k], body_b[k]
+
+
+@njit(cache=True, inline="always")
 def lane(A, row, i):
     """Lane i of a row of a flat lanes array."""
     return A[row * LANES + i]
@@ -337,10 +346,7 @@ def soft_normal_rows_in_lanes(
         m0 = run_start[r]
         n = run_start[r + 1] - m0
         for i in range(n):  # gather
-            c = start[m0 + i]
-            two = start[m0 + i + 1] - c == 2
-            k = normal_row[c]
-            a, b = body_a[k], body_b[k]
+            c, two, k, a, b = manifold_at(m0 + i, start, normal_row, body_a, body_b)
             for q in range(3):
                 lanes_in[(V_AB + q) * W + i] = V[a, q]
                 lanes_in[(V_AB + 3 + q) * W + i] = V[b, q]
@@ -357,10 +363,7 @@ def soft_normal_rows_in_lanes(
                 lanes_in[C2 * W + i] = C[c + 1] if two else 0.0
         normal_lanes(n, L[r], lanes_in, lanes_out, h, use_bias, new_C)
         for i in range(n):  # scatter
-            c = start[m0 + i]
-            two = start[m0 + i + 1] - c == 2
-            k = normal_row[c]
-            a, b = body_a[k], body_b[k]
+            c, two, k, a, b = manifold_at(m0 + i, start, normal_row, body_a, body_b)
             for q in range(3):
                 V[a, q] = lanes_out[(V_AB + q) * W + i]
                 V[b, q] = lanes_out[(V_AB + 3 + q) * W + i]
