@@ -293,6 +293,9 @@ def test_bad_arguments_are_named(tmp_path):
         Recorder(tmp_path / "a.rrd", flush_every=0)
     with pytest.raises(TypeError, match="contact_series"):
         Recorder(tmp_path / "b.rrd", contact_series="yes")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'flush_evry'"):
+        Recorder(tmp_path / "sub" / "d.rrd", flush_evry=3)  # a misspelt keyword: nothing is made
+    assert not (tmp_path / "sub").exists()
     rec = Recorder(tmp_path / "c.rrd")
     with pytest.raises(TypeError, match="world"):
         rec.log("not a world")

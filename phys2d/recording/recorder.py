@@ -45,7 +45,7 @@ import socket
 import sys
 import warnings
 import weakref
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
@@ -53,6 +53,9 @@ from .arena import SlotWriter
 from .buffer import ContactChoice, as_choice
 from .sample import Sample, Sampler, pack, window_parts
 from .sink_settings import STREAM_FLUSH_S, SinkSettings, StreamError
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack  # typing.Unpack from Python 3.11; annotations only
 
 KEYFRAME_EVERY = 60  # ticks between keyframes, by default (``Recorder``)
 
@@ -278,6 +281,53 @@ class _State:
             self.plotted = self.backend.close()
 
 
+class SinkOptions(TypedDict, total=False):
+    """``Recorder``'s keywords that become its sink's ``SinkSettings`` (``Recorder`` says what each
+    means; ``SINK_DEFAULTS`` gives the defaults)."""
+
+    name: str | None
+    scene: str | None
+    application_id: str
+    recording_id: str | None
+    contact_series: bool
+    plot: ContactChoice | str | None
+    flush_every: int
+    series_every: int
+    blueprint: bool
+    stream_to: str | None
+
+
+SINK_DEFAULTS: dict[str, Any] = {
+    "name": None, "scene": None, "application_id": "phys2d", "recording_id": None, "contact_series": True,
+    "plot": None, "flush_every": 60, "series_every": 600, "blueprint": True, "stream_to": None,
+}  # fmt: skip
+
+
+def _checked_settings(path: Any, native: Any, sink: dict[str, Any]) -> SinkSettings:
+    """``sink`` (``SinkOptions``, defaults filled) checked, a TypeError or ValueError naming the
+    first bad one, then ``path`` checked and its folders made: the sink's settings."""
+    for arg in ("name", "scene", "recording_id"):
+        if sink[arg] is not None and not isinstance(sink[arg], str):
+            raise TypeError(f"{arg} must be a str or None, got {type(sink[arg]).__name__}")
+    application_id = sink["application_id"]
+    if not isinstance(application_id, str) or not application_id:
+        raise TypeError(f"application_id must be a non-empty str, got {application_id!r}")
+    for arg in ("contact_series", "blueprint"):
+        if not isinstance(sink[arg], (bool, np.bool_)):
+            raise TypeError(f"{arg} must be True or False, got {sink[arg]!r}")
+    choice = as_choice(sink["plot"])
+    flush_every = _check_count(sink["flush_every"], "flush_every")
+    series_every = _check_count(sink["series_every"], "series_every")
+    stream_to = sink["stream_to"]
+    if stream_to is not None:  # (last of the checks that make nothing; then the file is made)
+        _check_listening(stream_to)
+    p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
+    return SinkSettings(
+        p, sink["name"], sink["scene"], application_id, sink["recording_id"], bool(sink["contact_series"]), choice,
+        flush_every, series_every, bool(sink["blueprint"]), stream_to,
+    )  # fmt: skip
+
+
 class Recorder:
     """Records a World's ticks to a Rerun ``.rrd`` file.
 
@@ -323,50 +373,31 @@ class Recorder:
         self,
         path: str | os.PathLike | None,
         *,
-        name: str | None = None,
-        scene: str | None = None,
-        application_id: str = "phys2d",
-        recording_id: str | None = None,
-        contact_series: bool = True,
-        plot: ContactChoice | str | None = None,
-        flush_every: int = 60,
-        series_every: int = 600,
-        blueprint: bool = True,
-        stream_to: str | None = None,
         background: bool = False,
         keyframe_every: int = KEYFRAME_EVERY,
         recording: Any = None,
+        **options: Unpack[SinkOptions],
     ) -> None:
+        sink = {**SINK_DEFAULTS, **options}
+        unknown = sorted(set(options) - set(SINK_DEFAULTS))
+        if unknown:
+            raise TypeError(f"Recorder() got an unexpected keyword argument {unknown[0]!r}")
+        stream_to = sink["stream_to"]
         if stream_to is not None and (not isinstance(stream_to, str) or "://" not in stream_to):
             raise TypeError(
                 f"stream_to must be a viewer URL like 'rerun+http://127.0.0.1:9876/proxy', got {stream_to!r}"
             )
         native = _native_of(recording, path, stream_to, background)
-        for value, arg in ((name, "name"), (scene, "scene"), (recording_id, "recording_id")):
-            if value is not None and not isinstance(value, str):
-                raise TypeError(f"{arg} must be a str or None, got {type(value).__name__}")
-        if not isinstance(application_id, str) or not application_id:
-            raise TypeError(f"application_id must be a non-empty str, got {application_id!r}")
-        for flag, arg in ((contact_series, "contact_series"), (blueprint, "blueprint"), (background, "background")):
-            if not isinstance(flag, (bool, np.bool_)):
-                raise TypeError(f"{arg} must be True or False, got {flag!r}")
-        choice = as_choice(plot)
-        flush_every = _check_count(flush_every, "flush_every")
+        if not isinstance(background, (bool, np.bool_)):
+            raise TypeError(f"background must be True or False, got {background!r}")
         self.keyframe_every = _check_every(keyframe_every)
-        series_every = _check_count(series_every, "series_every")
-        if stream_to is not None:  # (last of the checks that make nothing; then the file is made)
-            _check_listening(stream_to)
-        p = None if path is None and (stream_to is not None or native is not None) else _checked_path(path)
-        self.path = p
-        settings = SinkSettings(
-            p, name, scene, application_id, recording_id, bool(contact_series), choice, flush_every, series_every,
-            bool(blueprint), stream_to,
-        )  # fmt: skip
+        settings = _checked_settings(path, native, sink)
+        self.path = settings.path
         self._samplers: dict[str | None, Sampler] = {}
         forks = sys.platform.startswith("linux")  # fork is safe there; macOS and Windows write in-process
         backend: _Local | _Background
         if background and forks:  # (a recording to log into comes without background: _native_of)
-            backend = _Background(dataclasses.replace(settings, long_chunks=True), flush_every)
+            backend = _Background(dataclasses.replace(settings, long_chunks=True), settings.flush_every)
         else:
             backend = _Local(settings, native)
         self._state = _State(backend)
