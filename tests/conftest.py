@@ -28,7 +28,7 @@ os.environ.setdefault("PHYS2D_COMPILE_AHEAD", "0")
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 # the tests' child processes (the CLI as typed, the lessons, the sweeps' workers: about a hundred) keep
 # phys2d's bytecode beside numba's cache in its __pycache__: with PYTHONDONTWRITEBYTECODE set, as on
-# machines built to keep no .pyc, each child compiled phys2d's sources again (0.22 s of a 1.1 s run)
+# machines built to keep no .pyc, each child would compile phys2d's sources again (benchmarks/TESTS.md)
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 _COMMON = dict(deadline=None, print_blob=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
