@@ -60,6 +60,7 @@ from .sat import (
     REFERENCE_FACE_TOL,
     REFERENCE_SHIFT,
     VERTEX_BIT,
+    incident_edge,
     max_separation,
 )
 
@@ -173,14 +174,7 @@ def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     else:
         sr, nr, ref_edge, si, ni, flip = sa, na, edge_a, sb, nb, 0
     nx, ny = world_n[sr + ref_edge, 0], world_n[sr + ref_edge, 1]
-    # incident edge: the one most anti-parallel to the reference normal
-    inc = 0
-    most = np.inf
-    for e in range(ni):
-        d = world_n[si + e, 0] * nx + world_n[si + e, 1] * ny
-        if d < most:
-            most = d
-            inc = e
+    inc = incident_edge(world_n, si, ni, nx, ny)  # the edge of the other polygon that meets the face
     # The incident edge runs against the reference edge r1 -> r2, so its second
     # vertex lies on r1's side and its first on r2's. Each clip point is named by
     # its end (0: r1's side, 1: r2's) whether or not clipping moved it: a hair of

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .sat import FLIP_BIT, REFERENCE_FACE_TOL, VERTEX_BIT, max_separation
+from .sat import FLIP_BIT, REFERENCE_FACE_TOL, VERTEX_BIT, incident_edge, max_separation
 
 CLOSEST_BIT = VERTEX_BIT  # a polygon-pair feature from the cores' closest features
 A_EDGE_BIT = 1 << 14  # ... whose point on a lies inside a's edge
@@ -179,13 +179,7 @@ def collide_rounded(world_v, world_n, a, b, radii, margin):
     else:
         sr, nr, ref_edge, si, ni, flip, r_ref, r_inc = sa, na, edge_a, sb, nb, 0, ra, rb
     nx, ny = world_n[sr + ref_edge, 0], world_n[sr + ref_edge, 1]
-    inc = 0  # the incident edge: most anti-parallel to the reference normal
-    most = np.inf
-    for e in range(ni):
-        d = world_n[si + e, 0] * nx + world_n[si + e, 1] * ny
-        if d < most:
-            most = d
-            inc = e
+    inc = incident_edge(world_n, si, ni, nx, ny)  # the edge of the other polygon that meets the face
     ok, e1x, e1y, e0x, e0y = clip_incident(world_v, sr, nr, ref_edge, si, ni, inc)
     base = (flip << 15) | (ref_edge << 8) | (inc << 1)
     o = (world_v[sr + ref_edge, 0], world_v[sr + ref_edge, 1])
@@ -416,13 +410,7 @@ def face_manifold(world_v, world_n, c, o, r_o, margin):
     Normal from the chain to o; features as polygons with the chain's edge 0 the reference."""
     so, no = o
     nx, ny = world_n[c, 0], world_n[c, 1]
-    inc = 0
-    most = np.inf
-    for e in range(no):
-        d = world_n[so + e, 0] * nx + world_n[so + e, 1] * ny
-        if d < most:
-            most = d
-            inc = e
+    inc = incident_edge(world_n, so, no, nx, ny)
     ok, e1x, e1y, e0x, e0y = clip_incident(world_v, c, 2, 0, so, no, inc)
     if not ok:
         return (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0)

@@ -38,3 +38,17 @@ def max_separation(world_v, world_n, sa, na, sb, nb, margin):
             if best > margin:
                 break  # a separating axis: no contact, whatever the other edges say
     return best_edge, best
+
+
+@njit(cache=True)
+def incident_edge(world_n, si, ni, nx, ny):
+    """Edge of polygon I (vertices si..si+ni) most anti-parallel to the reference normal (nx, ny):
+    the one that meets the reference face, to be clipped against it."""
+    inc = 0
+    most = np.inf
+    for e in range(ni):
+        d = world_n[si + e, 0] * nx + world_n[si + e, 1] * ny
+        if d < most:
+            most = d
+            inc = e
+    return inc
