@@ -72,14 +72,23 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
-    return value
+def _whole(least: int, what: str) -> Callable[[str], int]:
+    """An argparse type: a whole number >= ``least``, refused as "must be ``what``"."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}") from None
+        if value < least:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        return value
+
+    return parse
+
+
+_count = _whole(1, "a whole number >= 1")
+_tick = _whole(0, "a tick number >= 0")
 
 
 def _seconds(text: str) -> float:
@@ -951,21 +960,23 @@ def cmd_branch(args: argparse.Namespace) -> int:
 
 
 # -- the parser ------------------------------------------------------------------------
-def _common(q: argparse.ArgumentParser, default_steps: int) -> None:
-    q.add_argument("scene", help="a stock scene (see 'phys2d scenes')")
-    q.add_argument("--size", type=_size, default=None, help="the scene's main count (see 'phys2d scenes')")
-    q.add_argument("--steps", type=_count, default=default_steps, help="ticks to run (default %(default)s)")
-    q.add_argument("--dt", type=_seconds, default=1 / 60, help="tick length in s (default 1/60)")
+def _work_per_tick(q: argparse.ArgumentParser, whose: str) -> None:
+    """--sweeps, --passes, --substeps and their alias --iterations (``requested_count`` reads them)."""
     counts = q.add_argument_group("work per tick (each accepted only by responders that take it)")
     counts.add_argument("--sweeps", type=_count, default=None, help="PGS sweeps per tick (default 10)")
     counts.add_argument("--passes", type=_count, default=None, help="iterative passes per tick (default 10)")
     counts.add_argument("--substeps", type=_count, default=None, help="soft-step sub-steps per tick (default 4)")
     counts.add_argument(
-        "--iterations",
-        type=_count,
-        default=None,
-        help="alias: the sweeps, passes or sub-steps of whichever responder runs",
+        "--iterations", type=_count, default=None, help=f"alias: the sweeps, passes or sub-steps of {whose}"
     )
+
+
+def _common(q: argparse.ArgumentParser, default_steps: int) -> None:
+    q.add_argument("scene", help="a stock scene (see 'phys2d scenes')")
+    q.add_argument("--size", type=_size, default=None, help="the scene's main count (see 'phys2d scenes')")
+    q.add_argument("--steps", type=_count, default=default_steps, help="ticks to run (default %(default)s)")
+    q.add_argument("--dt", type=_seconds, default=1 / 60, help="tick length in s (default 1/60)")
+    _work_per_tick(q, "whichever responder runs")
     q.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -1069,16 +1080,6 @@ def add_replay(sub: Any) -> None:
     r.set_defaults(func=cmd_replay)
 
 
-def _tick(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a tick number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a tick number >= 0, got {text!r}")
-    return value
-
-
 def add_branch(sub: Any) -> None:
     b = sub.add_parser("branch", help="the future from a recorded tick under another responder, beside the original")
     b.add_argument("path")
@@ -1092,13 +1093,7 @@ def add_branch(sub: Any) -> None:
     b.add_argument("--steps", type=_count, default=None, help="ticks to run (default: to the recording's end)")
     b.add_argument("-o", "--out", default=None, help="recording path (default PATH-branch-TICK-NAME.rrd beside it)")
     b.add_argument("--run", default=None, help="the run to branch, in a file of several (phys2d compare's)")
-    counts = b.add_argument_group("work per tick (each accepted only by responders that take it)")
-    counts.add_argument("--sweeps", type=_count, default=None, help="PGS sweeps per tick (default 10)")
-    counts.add_argument("--passes", type=_count, default=None, help="iterative passes per tick (default 10)")
-    counts.add_argument("--substeps", type=_count, default=None, help="soft-step sub-steps per tick (default 4)")
-    counts.add_argument(
-        "--iterations", type=_count, default=None, help="alias: the sweeps, passes or sub-steps of the responder"
-    )
+    _work_per_tick(b, "the responder")
     b.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar on stderr")
     b.set_defaults(func=cmd_branch)
 
