@@ -6,6 +6,7 @@ import gc
 import os
 import re
 import subprocess
+import sys
 
 import numpy as np
 import pyarrow.compute as pc
@@ -429,9 +430,21 @@ def test_outline_column_has_rerun_own_arrow_type(mixed):
     assert types and all(t.value_type == want for t in types)
 
 
+def killed_child(script: str) -> subprocess.CompletedProcess:
+    """``script`` run by a child Python on this checkout's phys2d (it ends with ``os._exit(1)``: a
+    hard kill, no clean-up)."""
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    return subprocess.run(
+        [sys.executable, "-c", script],
+        env={**os.environ, "PYTHONPATH": repo},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
 def test_a_hard_kill_leaves_the_windows_already_written(tmp_path):
     """os._exit skips every finalizer: no footer, but each flushed window of ticks is readable."""
-    import sys
     import textwrap
 
     path = tmp_path / "killed.rrd"
@@ -446,14 +459,7 @@ def test_a_hard_kill_leaves_the_windows_already_written(tmp_path):
         time.sleep(1.0)  # the writer thread catches up with the windows already sent
         os._exit(1)
     """)
-    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    out = subprocess.run(
-        [sys.executable, "-c", script],
-        env={**os.environ, "PYTHONPATH": repo},
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    out = killed_child(script)
     assert out.returncode == 1, out.stderr
     back = playback.load(path)
     assert list(back.tick) == list(range(1, 91))  # 9 whole windows; the last 5 ticks were still buffered
@@ -732,7 +738,6 @@ def test_the_blueprint_has_rerun_s_own_components_and_types():
 def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path):
     """os._exit in the simulating process: the writer sees it gone, writes every window it was
     sent and the footer."""
-    import sys
     import textwrap
 
     path = tmp_path / "orphan.rrd"
@@ -747,14 +752,7 @@ def test_a_background_writer_finishes_the_file_when_the_simulation_dies(tmp_path
         import time; time.sleep(0.5)  # the queue's feeder thread hands over the windows sent
         os._exit(1)
     """)
-    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    out = subprocess.run(
-        [sys.executable, "-c", script],
-        env={**os.environ, "PYTHONPATH": repo},
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    out = killed_child(script)
     assert out.returncode == 1, out.stderr
     for _ in range(100):  # the writer notices within a second or so
         try:

@@ -373,23 +373,15 @@ def test_lesson_11_table_on_the_local_pool_and_a_local_dask_cluster(tmp_path):
 
 
 # -- the command line -----------------------------------------------------------------------------------
+# four small runs: two scenes under two responders, on this process
+SMALL_SWEEP = (
+    "--scenes", "vertical_stack,mass_ratio", "--responders", "pgs,naive", "--size", "2", "--steps", "30",
+    "--mass-ratio", "10", "--workers", "1",
+)  # fmt: skip
+
+
 def test_the_command_prints_a_summary_and_refuses_bad_input_in_one_line(tmp_path, capsys, monkeypatch):
-    ok = cli(
-        "--scenes",
-        "vertical_stack,mass_ratio",
-        "--responders",
-        "pgs,naive",
-        "--size",
-        "2",
-        "--steps",
-        "30",
-        "--mass-ratio",
-        "10",
-        "--workers",
-        "1",
-        "--csv",
-        cwd=tmp_path,
-    )
+    ok = cli(*SMALL_SWEEP, "--csv", cwd=tmp_path)
     assert ok.returncode == 0, ok.stderr
     assert "sweep: 4 runs, 4 run now on this process" in ok.stdout
     assert "table: sweeps/sweep.parquet (4 rows); csv: sweeps/sweep.csv" in ok.stdout
@@ -403,26 +395,7 @@ def test_the_command_prints_a_summary_and_refuses_bad_input_in_one_line(tmp_path
     from phys2d.cli import main
 
     monkeypatch.chdir(tmp_path)
-    assert (
-        main(
-            [
-                "sweep",
-                "--scenes",
-                "vertical_stack,mass_ratio",
-                "--responders",
-                "pgs,naive",
-                "--size",
-                "2",
-                "--steps",
-                "30",
-                "--mass-ratio",
-                "10",
-                "--workers",
-                "1",
-            ]
-        )
-        == 0
-    )
+    assert main(["sweep", *SMALL_SWEEP]) == 0
     out = capsys.readouterr().out
     assert "0 run now" in out and "4 already in the table" in out
     for args, code, words in (
