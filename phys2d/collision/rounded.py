@@ -306,9 +306,9 @@ def collide_capsules(world_v, world_n, sa, sb, radii, margin):
         sep_a = side_separation(p1, u1, b0, b1)[2]
         sep_b = side_separation(p2, u2, a0, a1)[2]
         if sep_a + REFERENCE_FACE_TOL >= sep_b:
-            m = lying_on(world_v, world_n, sa, sb, radii, margin, 0)
+            m = lying_on(world_v, world_n, sa, sb, radii, margin, np.int64(0))  # (int64 flips: one compile)
         else:
-            m = lying_on(world_v, world_n, sb, sa, radii, margin, 1)
+            m = lying_on(world_v, world_n, sb, sa, radii, margin, np.int64(1))
         # points no further apart than the closest ones (and a slop): the cores lie along each other
         if m[0] == 2 or (m[0] == 1 and m[5] <= d - ra - rb + 0.005):
             return m
@@ -411,7 +411,7 @@ def face_manifold(world_v, world_n, c, o, r_o, margin):
     so, no = o
     nx, ny = world_n[c, 0], world_n[c, 1]
     inc = incident_edge(world_n, so, no, nx, ny)
-    ok, e1x, e1y, e0x, e0y = clip_incident(world_v, c, 2, 0, so, no, inc)
+    ok, e1x, e1y, e0x, e0y = clip_incident(world_v, c, np.int64(2), np.int64(0), so, no, inc)  # (int64s: one compile)
     if not ok:
         return (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0)
     o1 = (world_v[c, 0], world_v[c, 1])
