@@ -17,7 +17,7 @@ from phys2d.responders.pgs_matrix import SparseMatrix
 DT = 1 / 60
 
 
-def state(w) -> np.ndarray:
+def state(w: phys2d.World) -> np.ndarray:
     """Positions, angles, velocities, contact impulses and joint impulses in one vector."""
     return np.concatenate(
         [

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 import phys2d
 from tests.strategies import dts, reals
+from tests.test_matrix_form import state
 
 G = 10.0
 DT = 1.0 / 60.0
@@ -82,19 +83,6 @@ def build(case, form: str) -> tuple[phys2d.World, phys2d.MouseJoint]:
             w.add_mouse_joint(other, target=other.position, max_force=20.0).target = (-1.0, 1.5)
             w.add_distance_joint(dragged, other)  # the two mice's blocks couple through the rod
     return w, joint
-
-
-def state(w: phys2d.World) -> np.ndarray:
-    return np.concatenate(
-        [
-            w.x.ravel(),
-            w.theta,
-            w.V.ravel(),
-            w.contacts.normal_impulse,
-            w.contacts.tangent_impulse,
-            w.last_step.joint_impulses,
-        ]
-    )
 
 
 @given(case=dragged_scenes(), dt=dts)

@@ -221,16 +221,21 @@ def test_outlines_drawn_are_the_bodies_vertices(mixed):
         assert_drawn(strip, want, schema.DRAW_GRID)
 
 
-def test_static_geometry_is_written_once(mixed):
-    """The ground never moves: one row on world/sim/static, none of it on world/sim/bodies."""
-    path, snaps, rec, w = mixed
-    rows = sum(
+def static_strip_rows(path) -> int:
+    """How many timed rows of outlines the file holds under world/sim/static."""
+    return sum(
         ch.num_rows
         for ch in RrdReader(str(path))
         .store()
         .stream()
         .filter(content="/world/sim/static", is_static=False, components="LineStrips2D:strips")
     )
+
+
+def test_static_geometry_is_written_once(mixed):
+    """The ground never moves: one row on world/sim/static, none of it on world/sim/bodies."""
+    path, snaps, rec, w = mixed
+    rows = static_strip_rows(path)
     assert rows == 1
     ground = [b for b in w.bodies if b.static]
     assert len(ground) == 1 and len(strips_at_last_tick(path, "/world/sim/static")) == 1
@@ -580,13 +585,7 @@ def test_a_static_body_moved_by_hand_is_written_again(tmp_path):
             w.step(1 / 60)
             rec.log(w)
             xs.append(ground.position)
-    rows = sum(
-        ch.num_rows
-        for ch in RrdReader(str(path))
-        .store()
-        .stream()
-        .filter(content="/world/sim/static", is_static=False, components="LineStrips2D:strips")
-    )
+    rows = static_strip_rows(path)
     assert rows == 2
     back = playback.load(path)
     assert np.array_equal(back.x[:, list(back.body_uid).index(0)], np.stack(xs))

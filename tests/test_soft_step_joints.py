@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 import pytest
@@ -14,40 +12,23 @@ from phys2d.constraints.joints import JointArrays, joint_rows
 from phys2d.constraints.rows import Rows
 from phys2d.pipeline import records
 from phys2d.responders.soft_joints import factor_joint_rows, solve_factored
-from tests.test_joints import G, amplitude_factor, measured_period, swing
+from tests.test_joints import G, distance_pendulum, pin_pendulum
 
 
 @pytest.mark.parametrize("direct", [True, False], ids=["direct", "sweep"])
 def test_soft_step_distance_pendulum_period(direct):
     # T = 2 pi sqrt(L/g) times the amplitude factor (the exact period), as for PGS
-    L, theta_0, dt = 1.5, 0.5, 1 / 60
-    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep(direct_joints=direct))
-    pivot = np.array([0.0, 5.0])
-    anchor = w.add_circle(position=pivot, radius=0.05, static=True)
-    bob = w.add_circle(position=pivot + L * np.array([math.sin(theta_0), -math.cos(theta_0)]), radius=0.1)
-    joint = w.add_distance_joint(anchor, bob, anchor_a=pivot, anchor_b=bob.position)
-    t, angle = swing(w, bob, pivot, dt, 8.0)
-    expected = 2 * math.pi * math.sqrt(L / G) * amplitude_factor(theta_0)
-    assert measured_period(t, angle) == pytest.approx(expected, rel=0.01)
-    assert angle.max() == pytest.approx(theta_0, abs=0.02)
-    assert joint.gap() < 1e-3
+    period, expected, largest, gap = distance_pendulum(phys2d.SoftStep(direct_joints=direct), 1 / 60)
+    assert period == pytest.approx(expected, rel=0.01)
+    assert largest == pytest.approx(0.5, abs=0.02)
+    assert gap < 1e-3
 
 
 def test_soft_step_pin_pendulum_period():
-    # a rod pinned at one end: T = 2 pi sqrt(I_p / (m g d)), I_p = I_cm + m d^2
-    hx, hy, theta_0, dt = 0.5, 0.05, 0.4, 1 / 60
-    w = phys2d.World(gravity=(0.0, -G), responder=phys2d.SoftStep())
-    pivot = np.array([0.0, 5.0])
-    base = w.add_circle(position=pivot, radius=0.05, static=True)
-    direction = np.array([math.sin(theta_0), -math.cos(theta_0)])
-    rod = w.add_box(position=pivot + hx * direction, half_extents=(hx, hy), angle=theta_0 + math.pi / 2)
-    pin = w.add_pin_joint(base, rod, anchor=pivot)
-    m = rod.mass
-    I_p = m * ((2 * hx) ** 2 + (2 * hy) ** 2) / 12 + m * hx**2
-    t, angle = swing(w, rod, pivot, dt, 8.0)
-    expected = 2 * math.pi * math.sqrt(I_p / (m * G * hx)) * amplitude_factor(theta_0)
-    assert measured_period(t, angle) == pytest.approx(expected, rel=0.01)
-    assert pin.gap() < 1e-3
+    # a rod pinned at one end: T = 2 pi sqrt(I_p / (m g d)), I_p = I_cm + m d^2, as for PGS
+    period, expected, gap = pin_pendulum(phys2d.SoftStep(), 1 / 60)
+    assert period == pytest.approx(expected, rel=0.01)
+    assert gap < 1e-3
 
 
 def test_heavy_chain_keeps_every_joint_within_a_centimetre():

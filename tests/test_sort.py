@@ -52,25 +52,37 @@ def test_lower_bound_is_searchsorted(keys, key):
     assert lower_bound(keys, np.int64(key)) == np.searchsorted(keys, key)
 
 
-@given(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20), st.integers(1, 4), st.integers(1, 4)), max_size=30))
-def test_sweep_pairs_are_every_overlap_sorted_by_pair(boxes):
-    # second method: every pair of boxes whose closed intervals overlap on both axes, by brute force
-    aabb = np.array([(x, y, x + w, y + h) for x, y, w, h in boxes], float).reshape(-1, 4)
+def swept_pairs(aabb: np.ndarray, static: np.ndarray) -> list[tuple[int, int]]:
+    """The pairs sweep_and_prune finds among boxes ``aabb`` (no collision filter)."""
     n = aabb.shape[0]
-    static = np.zeros(n, np.bool_)
     pairs = np.zeros((n * n + 1, 2), np.int32)
     no_filter = (np.ones(n, np.uint64), np.full(n, np.iinfo(np.uint64).max, np.uint64), np.zeros(n, np.int32))
     count = sweep_and_prune(aabb, static, np.zeros(0, np.int64), pairs, no_filter)
-    expected = [
+    return [tuple(p) for p in pairs[:count].tolist()]
+
+
+def overlapping_pairs(aabb: np.ndarray, static: np.ndarray) -> list[tuple[int, int]]:
+    """The second method: by brute force, every pair a < b of boxes whose closed intervals overlap
+    on both axes, but two static ones, in pair order."""
+    n = aabb.shape[0]
+    return [
         (a, b)
         for a in range(n)
         for b in range(a + 1, n)
-        if aabb[a, 0] <= aabb[b, 2]
+        if not (static[a] and static[b])
+        and aabb[a, 0] <= aabb[b, 2]
         and aabb[b, 0] <= aabb[a, 2]
         and aabb[a, 1] <= aabb[b, 3]
         and aabb[b, 1] <= aabb[a, 3]
     ]
-    assert [tuple(p) for p in pairs[:count].tolist()] == expected
+
+
+@given(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20), st.integers(1, 4), st.integers(1, 4)), max_size=30))
+def test_sweep_pairs_are_every_overlap_sorted_by_pair(boxes):
+    # second method: every pair of boxes whose closed intervals overlap on both axes, by brute force
+    aabb = np.array([(x, y, x + w, y + h) for x, y, w, h in boxes], float).reshape(-1, 4)
+    static = np.zeros(aabb.shape[0], np.bool_)
+    assert swept_pairs(aabb, static) == overlapping_pairs(aabb, static)
 
 
 @given(
@@ -85,22 +97,8 @@ def test_the_strips_find_every_overlap_once_in_tall_and_flat_piles(boxes):
     # second method: brute force over all pairs, less those of two static boxes; boxes of very
     # different heights make strips that a box spans many of, and pairs that share several strips
     aabb = np.array([(x, y, x + width, y + height) for x, y, height, width, _ in boxes], float).reshape(-1, 4)
-    n = aabb.shape[0]
     static = np.array([s for *_, s in boxes], np.bool_)
-    pairs = np.zeros((n * n + 1, 2), np.int32)
-    no_filter = (np.ones(n, np.uint64), np.full(n, np.iinfo(np.uint64).max, np.uint64), np.zeros(n, np.int32))
-    count = sweep_and_prune(aabb, static, np.zeros(0, np.int64), pairs, no_filter)
-    expected = [
-        (a, b)
-        for a in range(n)
-        for b in range(a + 1, n)
-        if not (static[a] and static[b])
-        and aabb[a, 0] <= aabb[b, 2]
-        and aabb[b, 0] <= aabb[a, 2]
-        and aabb[a, 1] <= aabb[b, 3]
-        and aabb[b, 1] <= aabb[a, 3]
-    ]
-    assert [tuple(p) for p in pairs[:count].tolist()] == expected
+    assert swept_pairs(aabb, static) == overlapping_pairs(aabb, static)
 
 
 @given(st.data(), st.integers(2, 60), st.booleans())
