@@ -185,18 +185,25 @@ TickContext = _record(
 )
 
 
-@njit(cache=True)
 def new_context(bodies, shapes, store, sides, rest):
     """A TickContext over the arrays of each record (tuples in the order of their ``*_FIELDS``;
     sides: one per side; rest: the rows' arrays, undo_x, undo_theta, residuals, forces, then
     joints, threads and rounded as they are), and the records it holds: (context, bodies,
-    shapes, store, (side 0, side 1), rows)."""
+    shapes, store, (side 0, side 1), rows). The records are made in one compiled call
+    (``new_records``, the same types whatever the world holds); the context, whose type
+    changes with joints, threads and rounded, here (a small constructor per type)."""
     row_arrays, undo_x, undo_theta, residuals, forces, joints, threads, rounded = rest
-    records = (
+    records = new_records(bodies, shapes, store, sides, row_arrays)
+    return (TickContext(*records, undo_x, undo_theta, residuals, forces, joints, threads, rounded), *records)
+
+
+@njit(cache=True)
+def new_records(bodies, shapes, store, sides, row_arrays):
+    """(bodies, shapes, store, (side 0, side 1), rows): the records ``new_context`` holds."""
+    return (
         BodyRecord(*bodies),
         ShapeRecord(*shapes),
         ManifoldRecord(*store),
         (ContactRecord(*sides[0]), ContactRecord(*sides[1])),
         RowRecord(*row_arrays),
     )
-    return (TickContext(*records, undo_x, undo_theta, residuals, forces, joints, threads, rounded), *records)
