@@ -432,7 +432,7 @@ def collide_chain(world_v, world_n, c, pose, shape_o, margin):
     if no == 2:
         m = collide_capsules(world_v, world_n, c, so, (0.0, r_o), margin)
     else:
-        m = collide_rounded(world_v, world_n, (c, 2), (so, no), (0.0, r_o), margin)
+        m = collide_rounded(world_v, world_n, (c, np.int32(2)), (so, no), (0.0, r_o), margin)  # (int32s, as polygons')
     if m[0] == 0:
         return none
     edge1, normal0, _, normal2, convex1, convex2 = gauss_map(g0, p1, p2, g3)
