@@ -60,8 +60,7 @@ def _root(parent, b):
 @njit(cache=True)
 def lost_a_load(cache_keys, cache_pushed, keys):
     """True if a pair that pushed last tick has no contact now (a merge of the sorted keys by pair)."""
-    # (np.int64(0), not 0: numba would compile it again for Literal[int](0), beside the threads' int64)
-    return lost_a_load_of(np.int64(0), cache_keys.shape[0], cache_keys, cache_pushed, keys)
+    return lost_a_load_of(0, cache_keys.shape[0], cache_keys, cache_pushed, keys)
 
 
 @njit(cache=True)
@@ -125,7 +124,7 @@ def find_in_cache(cache_keys, cache_pushed, keys, body_a, body_b, uid, static, c
     the cache, per thread (``look_up_in_slices``), with the same results. Returns the hits."""
     k = keys.shape[0]
     if threads is None:
-        hits = look_up(np.int64(0), k, cache_keys, keys, cached)  # (np.int64(0): as lost_a_load's)
+        hits = look_up(0, k, cache_keys, keys, cached)
         lost = lost_a_load(cache_keys, cache_pushed, keys)
     else:
         hits, lost = look_up_in_slices(threads, cache_keys, cache_pushed, keys, cached)
@@ -165,7 +164,7 @@ def impulses_to_contacts_and_cache(rows, found, k, threads):
     them, into ``found`` (a ContactRecord): ``impulses_of`` every row pair, on one thread
     (threads None) or a slice per thread (threads a count), with the same results."""
     if threads is None:
-        impulses_of(np.int64(0), k, rows, found)  # (np.int64(0): as lost_a_load's)
+        impulses_of(0, k, rows, found)
     else:
         impulses_in_slices(threads, rows, found, k)
 

@@ -306,9 +306,9 @@ def collide_capsules(world_v, world_n, sa, sb, radii, margin):
         sep_a = side_separation(p1, u1, b0, b1)[2]
         sep_b = side_separation(p2, u2, a0, a1)[2]
         if sep_a + REFERENCE_FACE_TOL >= sep_b:
-            m = lying_on(world_v, world_n, sa, sb, radii, margin, np.int64(0))  # (int64 flips: one compile)
+            m = lying_on(world_v, world_n, sa, sb, radii, margin, 0)
         else:
-            m = lying_on(world_v, world_n, sb, sa, radii, margin, np.int64(1))
+            m = lying_on(world_v, world_n, sb, sa, radii, margin, 1)
         # points no further apart than the closest ones (and a slop): the cores lie along each other
         if m[0] == 2 or (m[0] == 1 and m[5] <= d - ra - rb + 0.005):
             return m
@@ -411,7 +411,7 @@ def face_manifold(world_v, world_n, c, o, r_o, margin):
     so, no = o
     nx, ny = world_n[c, 0], world_n[c, 1]
     inc = incident_edge(world_n, so, no, nx, ny)
-    ok, e1x, e1y, e0x, e0y = clip_incident(world_v, c, np.int64(2), np.int64(0), so, no, inc)  # (int64s: one compile)
+    ok, e1x, e1y, e0x, e0y = clip_incident(world_v, c, 2, 0, so, no, inc)
     if not ok:
         return (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0)
     o1 = (world_v[c, 0], world_v[c, 1])
@@ -432,7 +432,7 @@ def collide_chain(world_v, world_n, c, pose, shape_o, margin):
     if no == 2:
         m = collide_capsules(world_v, world_n, c, so, (0.0, r_o), margin)
     else:
-        m = collide_rounded(world_v, world_n, (c, np.int32(2)), (so, no), (0.0, r_o), margin)  # (int32s, as polygons')
+        m = collide_rounded(world_v, world_n, (c, 2), (so, no), (0.0, r_o), margin)
     if m[0] == 0:
         return none
     edge1, normal0, _, normal2, convex1, convex2 = gauss_map(g0, p1, p2, g3)

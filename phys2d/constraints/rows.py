@@ -473,8 +473,7 @@ def contact_rows(bodies, shapes, cache, found, rows, settings, threads):
     points_in_manifold = np.empty(0, np.int32) if coulomb else manifold_sizes(body_a, body_b)  # the lecture's bound
     found_cache = (cache[1], cache[2], cached, points_in_manifold)
     if threads is None:
-        first = np.int64(0)  # (not 0: numba would compile it again for Literal[int](0), beside the threads' int64)
-        return contact_rows_of(first, K, bodies, found, rows, settings, found_cache, indices), hits
+        return contact_rows_of(0, K, bodies, found, rows, settings, found_cache, indices), hits
     return contact_rows_in_slices(threads, bodies, found, rows, settings, found_cache, indices), hits
 
 

@@ -270,8 +270,7 @@ def note_impacts_in_slices(n_slices, rows, points, n_pending, dv, h, threshold):
 def integrate_positions_on(threads, bodies, h, x0, theta0, moved):
     """``soft_integrate.integrate_positions`` of every body."""
     if threads is None:
-        # (np.int64(0), not 0: numba would compile it again for Literal[int](0), beside the threads' int64)
-        integrate_positions(np.int64(0), x0.shape[0], bodies, h, x0, theta0, moved)
+        integrate_positions(0, x0.shape[0], bodies, h, x0, theta0, moved)
     else:
         integrate_positions_in_slices(threads[0], bodies, h, x0, theta0, moved)
 

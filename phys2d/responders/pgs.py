@@ -399,7 +399,7 @@ def pgs_solve(rows, rows_hat, V, iterations, tolerance, residuals, block, joints
             residuals[s] = (
                 block_sweep_on(groups, rows, rows_hat, V, joint_rows)
                 if block is not None
-                else sweep_on(groups, rows_hat, V, all_rows, np.int64(2))  # (a contact's two rows; int64: one compile)
+                else sweep_on(groups, rows_hat, V, all_rows, 2)  # (a contact's two rows)
             )
         elif block is not None:
             residuals[s] = block_sweep(rows, rows_hat, V, joint_rows)
@@ -454,7 +454,7 @@ def push_out(rows, rows_hat, V_push, lam_push, iterations, tolerance, block, gro
             worst = (
                 block_sweep_on(groups, target, push_hat, V_push, joint_visit)
                 if block is not None
-                else sweep_on(groups, push_hat, V_push, visit, np.int64(1))  # (its normal row; int64: one compile)
+                else sweep_on(groups, push_hat, V_push, visit, 1)  # (a contact's normal row)
             )
         elif block is not None:
             worst = block_sweep(target, push_hat, V_push, joint_visit)

@@ -69,10 +69,9 @@ def soft_sweep(rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs
 
     Returns the largest |delta lambda| A_kk of the sweep (m/s).
     """
-    # (np.int64(0), not 0: numba would compile the rows again for Literal[int](0), beside the threads' int64)
-    first, n = np.int64(0), manifolds[0].shape[0] - 1
-    worst = soft_normal_rows(first, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
-    return max(worst, soft_friction_rows(first, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
+    n = manifolds[0].shape[0] - 1
+    worst = soft_normal_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
+    return max(worst, soft_friction_rows(0, n, rows, manifolds, inv_A_kk, points, M_inv, V, h))
 
 
 @njit(cache=True)
@@ -177,7 +176,7 @@ def prepare_manifolds(rows, M_inv, block):
         inv_det      (M,)      1 / det K of a block (``lcp2``), 0 elsewhere
     """
     manifolds = new_manifolds(rows)
-    manifold_constants(np.int64(0), manifolds[0].shape[0] - 1, manifolds, rows, M_inv, block)  # (as soft_sweep's)
+    manifold_constants(0, manifolds[0].shape[0] - 1, manifolds, rows, M_inv, block)
     return manifolds
 
 
@@ -226,7 +225,7 @@ def manifold_constants(first, last, manifolds, rows, M_inv, block):
 def warm_start(manifolds, rows, M_inv, V):
     """Apply last sub-step's impulses (N s) to V: manifold by manifold (``warm_start_manifolds``),
     then the joint rows (``warm_start_joints``)."""
-    warm_start_manifolds(np.int64(0), manifolds[0].shape[0] - 1, manifolds[0], rows, M_inv, V)  # (as soft_sweep's)
+    warm_start_manifolds(0, manifolds[0].shape[0] - 1, manifolds[0], rows, M_inv, V)
     warm_start_joints(rows, V)
 
 

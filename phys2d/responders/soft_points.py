@@ -99,8 +99,7 @@ def note_impacts(rows, points, n_pending, dv, h, threshold):
     only restitution reads, and only of a point with e > 0. landed[c]: it was still apart
     and met its partner faster than the threshold.
     Returns how many points are still to meet theirs (kept in order in pending)."""
-    # (np.int64(0), not 0: numba would compile it again for Literal[int](0), beside the threads' int64)
-    return note_impacts_of(np.int64(0), n_pending, rows, points, dv, h, threshold)
+    return note_impacts_of(0, n_pending, rows, points, dv, h, threshold)
 
 
 @njit(cache=True)
@@ -137,7 +136,7 @@ def gather_contacts(order, separation, restitution):
     arms are read from the contact's rows (``separation_now``)."""
     n = order.shape[0]
     C0, e = np.empty(n), np.empty(n)
-    gather_contacts_of(np.int64(0), n, (order, separation, restitution), (C0, e))  # (as note_impacts')
+    gather_contacts_of(0, n, (order, separation, restitution), (C0, e))
     return C0, e
 
 
@@ -179,7 +178,7 @@ def store(rows, total, points):
     """Add the sub-step's impulses to the tick's; an impact is an event, not a load: it is
     not warm started into the next sub-step. The contacts' rows (``store_of``), then the joints'."""
     lam = rows.lam
-    store_of(np.int64(0), rows.normal_row.shape[0], rows, total, points)  # (as note_impacts')
+    store_of(0, rows.normal_row.shape[0], rows, total, points)
     for k in range(2 * rows.normal_row.shape[0], lam.shape[0]):  # the joint rows follow the contacts' 2K
         total[k] += lam[k]
 

@@ -132,8 +132,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
     moved = points.moved  # per body: dx, dy, cos dtheta, sin dtheta since the tick began
     system = joint_system(joints, rows, settings.direct_joints)
     dv = split_forces(bodies, substeps)
-    # (np.int64(0), not 0: numba would compile the sweeps again for Literal[int](0), beside the threads' int64)
-    first, n_manifolds = np.int64(0), manifolds[0].shape[0] - 1
+    n_manifolds = manifolds[0].shape[0] - 1
     n_pending = n_contacts  # the points not yet met: their approach is still to come
     n_sweeps = 0
     for i in range(substeps):
@@ -147,7 +146,7 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
             if with_bias:
                 integrate_velocities(V, dv)
                 if threads is None:  # ``warm_start``'s two parts
-                    warm_start_manifolds(first, n_manifolds, manifolds[0], rows, M_inv, V)
+                    warm_start_manifolds(0, n_manifolds, manifolds[0], rows, M_inv, V)
                     warm_start_joints(rows, V)
                 else:
                     warm_start_in_groups(groups, manifolds, rows, M_inv, V)
@@ -160,11 +159,9 @@ def soft_step_solve(bodies, rows, found, joints, dt, settings, residuals, thread
                 worst = max(worst, solve_mice(joints, first_joint_row_of(rows), rows, V, h, 1.0))  # (rows of dt = 1)
             if threads is None:  # ``soft_sweep``'s two passes (numba drops the branch not taken)
                 worst = max(worst, soft_normal_rows(
-                    first, n_manifolds, rows, manifolds, inv_A_kk, points, M_inv, V, h, with_bias, springs, new_C
+                    0, n_manifolds, rows, manifolds, inv_A_kk, points, M_inv, V, h, with_bias, springs, new_C
                 ))  # fmt: skip
-                worst = max(worst, soft_friction_rows(
-                    first, n_manifolds, rows, manifolds, inv_A_kk, points, M_inv, V, h
-                ))  # fmt: skip
+                worst = max(worst, soft_friction_rows(0, n_manifolds, rows, manifolds, inv_A_kk, points, M_inv, V, h))
             else:  # its groups on several threads (``pipeline.parallel``)
                 worst = max(worst, soft_sweep_in_groups(
                     groups, rows, manifolds, inv_A_kk, points, M_inv, V, h, (with_bias, new_C), springs
