@@ -40,6 +40,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -50,11 +51,24 @@ sys.path.insert(0, str(BENCH_DIR.parent))  # the phys2d of this checkout
 import floor  # noqa: E402
 
 import phys2d  # noqa: E402
-from phys2d.constraints.rows import MET, unsigned_rows  # noqa: E402
+from phys2d.constraints.rows import (  # noqa: E402
+    MET,
+    pair_inverse_mass,
+    pair_row_impulse_of,
+    pair_row_velocity,
+    pair_velocity,
+    store_pair_velocity,
+    unsigned_rows,
+)
 from phys2d.jit import njit  # noqa: E402
 from phys2d.pipeline import records  # noqa: E402
-from phys2d.responders.block import inverse_diagonal  # noqa: E402
-from phys2d.responders.soft_contacts import prepare_manifolds, soft_constants, soft_normal_rows  # noqa: E402
+from phys2d.responders.block import inverse_diagonal, lcp2  # noqa: E402
+from phys2d.responders.soft_contacts import (  # noqa: E402
+    prepare_manifolds,
+    soft_constants,
+    soft_normal_rows,
+    soft_push,
+)
 from phys2d.responders.soft_points import Points  # noqa: E402
 
 LANES = 32  # the most manifolds in a run: a run's lanes (~13 kB) stay in L1
@@ -379,6 +393,69 @@ def soft_normal_rows_in_lanes(
     return worst
 
 
+# -- two manifolds at a time, no lanes (``--pairs``) --------------------------------------------------
+@njit(cache=True, inline="always")
+def block_of(k, k2, m, J, A_kk, lam, s1, s2, K12, inv_det, V_ab, h, use_bias, soft):
+    """``soft_normal_rows``' block (``lcp2``) of manifold m, rows k and k2, on V_ab in hand:
+    (x1, x2, lambda_1, lambda_2, K11, K22), nothing stored."""
+    K11, K22 = A_kk[k], A_kk[k2]
+    bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
+    bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
+    a1, a2 = lam[k], lam[k2]
+    b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
+    b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
+    x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
+    return x1, x2, a1, a2, K11, K22
+
+
+@njit(cache=True)
+def soft_normal_rows_in_pairs(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C):
+    """``soft_contacts.soft_normal_rows`` with two consecutive blocks that share no body (not even
+    a static one) solved side by side: both pairs' V_ab loaded before either is stored, so that
+    the two chains of dependent arithmetic (FLOOR.md) are in flight at once. Sweeps with the push
+    on the positions the tick began with only (use_bias and not new_C); the rest, one manifold
+    at a time. The same arguments and bits."""
+    normal_row, body_a, body_b = rows.normal_row, rows.body_a, rows.body_b
+    J, A_kk, lam = rows.J, rows.A_kk, rows.lam
+    soft_dyn, soft_static = springs[0], springs[1]
+    C = points.C
+    start, static_pair, K12, as_block, inv_det = manifolds
+    worst = 0.0
+    m = first
+    while m < last:
+        c, d = start[m], start[m + 1]
+        k = normal_row[c]
+        a, b = body_a[k], body_b[k]
+        if use_bias and not new_C and m + 1 < last and as_block[m] and as_block[m + 1]:
+            l = normal_row[d]
+            e, f = body_a[l], body_b[l]
+            if e != a and e != b and f != a and f != b:
+                k2, l2 = normal_row[c + 1], normal_row[d + 1]
+                V_ab, V_ef = pair_velocity(a, b, V), pair_velocity(e, f, V)
+                M_ab, M_ef = pair_inverse_mass(a, b, M_inv), pair_inverse_mass(e, f, M_inv)
+                soft_m = soft_static if static_pair[m] else soft_dyn
+                soft_n = soft_static if static_pair[m + 1] else soft_dyn
+                x1, x2, a1, a2, K11, K22 = block_of(
+                    k, k2, m, J, A_kk, lam, C[c], C[c + 1], K12, inv_det, V_ab, h, use_bias, soft_m
+                )
+                y1, y2, e1, e2, L11, L22 = block_of(
+                    l, l2, m + 1, J, A_kk, lam, C[d], C[d + 1], K12, inv_det, V_ef, h, use_bias, soft_n
+                )
+                V_ab = pair_row_impulse_of(k2, J, M_ab, x2 - a2, pair_row_impulse_of(k, J, M_ab, x1 - a1, V_ab))
+                V_ef = pair_row_impulse_of(l2, J, M_ef, y2 - e2, pair_row_impulse_of(l, J, M_ef, y1 - e1, V_ef))
+                lam[k], lam[k2], lam[l], lam[l2] = x1, x2, y1, y2
+                worst = max(worst, abs(x1 - a1) * K11, abs(x2 - a2) * K22, abs(y1 - e1) * L11, abs(y2 - e2) * L22)
+                store_pair_velocity(a, b, V_ab, V)
+                store_pair_velocity(e, f, V_ef, V)
+                m += 2
+                continue
+        worst = max(
+            worst, soft_normal_rows(m, m + 1, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C)
+        )
+        m += 1
+    return worst
+
+
 # -- the measurement --------------------------------------------------------------------------------
 def best_of(call: Callable[[], object], repeats: int) -> float:
     """µs of the best of ``repeats`` calls (after one untimed: compiled or loaded)."""
@@ -466,6 +543,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--settle", type=int, default=60, help="steps before the tick is taken (default 60)")
     p.add_argument("--repeats", type=int, default=21, help="calls of each pass; the best is kept (default 21)")
     p.add_argument("--asm", action="store_true", help="count normal_lanes' packed and scalar instructions")
+    p.add_argument("--pairs", action="store_true", help="also two blocks side by side, no lanes (LANES.md)")
     args = p.parse_args(argv)
     scene = floor.measure_scene(args.base, args.settle, 1, 1)
     soft = phys2d.SoftStep(floor.SUBSTEPS)
@@ -555,7 +633,50 @@ def main(argv: list[str] | None = None) -> int:
     print(f"per tick: lane_runs {t:,.0f} µs, prepare_lanes {t2:,.0f} µs")
     if args.asm:
         print("normal_lanes' machine code:", instruction_counts())
+    if args.pairs:
+        same = same and pairs(args, fresh, rows, manifolds, inv_A_kk, M_inv, h, springs)
     return 0 if same else 1
+
+
+def pairs(args: argparse.Namespace, fresh: Callable[[], tuple], rows: Any, manifolds: tuple, *consts: object) -> bool:
+    """``soft_normal_rows_in_pairs`` against the scalar sweep: its bits over eight sweeps, then
+    rounds of each one's best call with the push, in turn. True if the bits are the same."""
+    inv_A_kk, M_inv, h, springs = consts
+    n = manifolds[0].shape[0] - 1
+    out = {}
+    for way, sweep in (("scalar", soft_normal_rows), ("pairs", soft_normal_rows_in_pairs)):
+        record, lam, V, points, C = fresh()
+        worst = [
+            sweep(0, n, record, manifolds, inv_A_kk, points, M_inv, V, h, s % 2 == 0, springs, s % 2 == 1)
+            for s in range(8)
+        ]
+        out[way] = (lam.tobytes(), V.tobytes(), C.tobytes(), worst)
+    same = out["scalar"] == out["pairs"]
+    print(f"two blocks side by side, the same bits as the scalar sweep (8 sweeps): {'yes' if same else 'NO'}")
+    start, as_block = manifolds[0], manifolds[3]
+    k = rows.normal_row[start[:-1]]
+    ends = np.stack([rows.body_a[k], rows.body_b[k]], axis=1)
+    paired, m = 0, 0
+    while m < n:  # the pairs the sweep forms, greedily, as it does
+        if m + 1 < n and as_block[m] and as_block[m + 1] and not set(ends[m]) & set(ends[m + 1]):
+            paired, m = paired + 2, m + 2
+        else:
+            m += 1
+    print(f"  {paired:,} of {n:,} manifolds solved two at a time")
+    states = {way: fresh() for way in ("scalar", "pairs")}
+    for r in range(3):
+        t = {}
+        for way, sweep in (("scalar", soft_normal_rows), ("pairs", soft_normal_rows_in_pairs)):
+            record, _, V, points, _ = states[way]
+            t[way] = best_of(
+                lambda sweep=sweep, record=record, V=V, points=points: sweep(
+                    0, n, record, manifolds, inv_A_kk, points, M_inv, V, h, True, springs, False
+                ),
+                args.repeats,
+            )
+        print(f"round {r + 1}, normal rows with the push: scalar {t['scalar']:,.0f} µs, pairs {t['pairs']:,.0f} µs, "
+              f"scalar / pairs {t['scalar'] / t['pairs']:.2f}")  # fmt: skip
+    return same
 
 
 if __name__ == "__main__":
