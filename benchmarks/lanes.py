@@ -55,19 +55,18 @@ from phys2d.constraints.rows import (  # noqa: E402
     MET,
     pair_inverse_mass,
     pair_row_impulse_of,
-    pair_row_velocity,
     pair_velocity,
     store_pair_velocity,
     unsigned_rows,
 )
 from phys2d.jit import njit  # noqa: E402
 from phys2d.pipeline import records  # noqa: E402
-from phys2d.responders.block import inverse_diagonal, lcp2  # noqa: E402
+from phys2d.responders.block import inverse_diagonal  # noqa: E402
 from phys2d.responders.soft_contacts import (  # noqa: E402
     prepare_manifolds,
+    soft_block,
     soft_constants,
     soft_normal_rows,
-    soft_push,
 )
 from phys2d.responders.soft_points import Points  # noqa: E402
 
@@ -394,20 +393,6 @@ def soft_normal_rows_in_lanes(
 
 
 # -- two manifolds at a time, no lanes (``--pairs``) --------------------------------------------------
-@njit(cache=True, inline="always")
-def block_of(k, k2, m, J, A_kk, lam, s1, s2, K12, inv_det, V_ab, h, use_bias, soft):
-    """``soft_normal_rows``' block (``lcp2``) of manifold m, rows k and k2, on V_ab in hand:
-    (x1, x2, lambda_1, lambda_2, K11, K22), nothing stored."""
-    K11, K22 = A_kk[k], A_kk[k2]
-    bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
-    bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
-    a1, a2 = lam[k], lam[k2]
-    b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
-    b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
-    x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
-    return x1, x2, a1, a2, K11, K22
-
-
 @njit(cache=True)
 def soft_normal_rows_in_pairs(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h, use_bias, springs, new_C):
     """``soft_contacts.soft_normal_rows`` with two consecutive blocks that share no body (not even
@@ -435,11 +420,11 @@ def soft_normal_rows_in_pairs(first, last, rows, manifolds, inv_A_kk, points, M_
                 M_ab, M_ef = pair_inverse_mass(a, b, M_inv), pair_inverse_mass(e, f, M_inv)
                 soft_m = soft_static if static_pair[m] else soft_dyn
                 soft_n = soft_static if static_pair[m + 1] else soft_dyn
-                x1, x2, a1, a2, K11, K22 = block_of(
-                    k, k2, m, J, A_kk, lam, C[c], C[c + 1], K12, inv_det, V_ab, h, use_bias, soft_m
+                x1, x2, a1, a2, K11, K22 = soft_block(
+                    k, k2, K12[m], inv_det[m], J, A_kk, lam, C[c], C[c + 1], V_ab, h, use_bias, soft_m
                 )
-                y1, y2, e1, e2, L11, L22 = block_of(
-                    l, l2, m + 1, J, A_kk, lam, C[d], C[d + 1], K12, inv_det, V_ef, h, use_bias, soft_n
+                y1, y2, e1, e2, L11, L22 = soft_block(
+                    l, l2, K12[m + 1], inv_det[m + 1], J, A_kk, lam, C[d], C[d + 1], V_ef, h, use_bias, soft_n
                 )
                 V_ab = pair_row_impulse_of(k2, J, M_ab, x2 - a2, pair_row_impulse_of(k, J, M_ab, x1 - a1, V_ab))
                 V_ef = pair_row_impulse_of(l2, J, M_ef, y2 - e2, pair_row_impulse_of(l, J, M_ef, y1 - e1, V_ef))

@@ -104,14 +104,9 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
         M_ab = pair_inverse_mass(a, b, M_inv)  # and its M^-1: M^-1 J^T formed from J
         if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
             k2 = normal_row[c + 1]
-            s2 = C[c + 1]
-            K11, K22 = A_kk[k], A_kk[k2]
-            bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
-            bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
-            a1, a2 = lam[k], lam[k2]
-            b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12[m] * a2)
-            b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12[m] * a1 + K22 * a2)
-            x1, x2 = lcp2(K11, K12[m], K22, inv_det[m], b1, b2)
+            x1, x2, a1, a2, K11, K22 = soft_block(
+                k, k2, K12[m], inv_det[m], J, A_kk, lam, s1, C[c + 1], V_ab, h, use_bias, soft
+            )
             lam[k] = x1
             lam[k2] = x2
             V_ab = pair_row_impulse_of(k2, J, M_ab, x2 - a2, pair_row_impulse_of(k, J, M_ab, x1 - a1, V_ab))
@@ -130,6 +125,23 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
                     worst = max(worst, abs(d) * A_kk[k])
         store_pair_velocity(a, b, V_ab, V)
     return worst
+
+
+@njit(cache=True, inline="always")
+def soft_block(k, k2, K12, inv_det, J, A_kk, lam, s1, s2, V_ab, h, use_bias, soft):
+    """A two-point manifold's normal rows k and k2 solved together (``lcp2``) on the pair's
+    velocities V_ab, each row scaled by its softness at its separation s1, s2 (m); K12 =
+    J_k M^-1 J_k2^T and inv_det = 1 / det K (``manifold_constants``); J, A_kk, lam: the rows'
+    (``RowRecord``). Returns (x1, x2) the new accumulated lambdas (N s), (a1, a2) the old, and
+    (K11, K22) = (A_kk, A_k2k2); stores nothing."""
+    K11, K22 = A_kk[k], A_kk[k2]
+    bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
+    bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
+    a1, a2 = lam[k], lam[k2]
+    b1 = ms1 * (pair_row_velocity(k, J, V_ab) + bias1) + is1 * K11 * a1 - (K11 * a1 + K12 * a2)
+    b2 = ms2 * (pair_row_velocity(k2, J, V_ab) + bias2) + is2 * K22 * a2 - (K12 * a1 + K22 * a2)
+    x1, x2 = lcp2(K11, K12, K22, inv_det, b1, b2)
+    return x1, x2, a1, a2, K11, K22
 
 
 @njit(cache=True)
