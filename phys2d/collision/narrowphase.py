@@ -60,6 +60,7 @@ from .sat import (
     REFERENCE_FACE_TOL,
     REFERENCE_SHIFT,
     VERTEX_BIT,
+    clip_incident,
     incident_edge,
     max_separation,
 )
@@ -179,30 +180,10 @@ def collide_polygons(world_v, world_n, sa, na, sb, nb, margin):
     # vertex lies on r1's side and its first on r2's. Each clip point is named by
     # its end (0: r1's side, 1: r2's) whether or not clipping moved it: a hair of
     # sideways motion must not rename a point, or its cached impulse would be lost.
-    p1x, p1y = world_v[si + inc, 0], world_v[si + inc, 1]  # end 1
-    p2x, p2y = world_v[si + (inc + 1) % ni, 0], world_v[si + (inc + 1) % ni, 1]  # end 0
+    ok, p1x, p1y, p2x, p2y = clip_incident(world_v, sr, nr, ref_edge, si, ni, inc)  # end 1, end 0
+    if not ok:
+        return none
     r1 = sr + ref_edge
-    r2 = sr + (ref_edge + 1) % nr
-    tx, ty = world_v[r2, 0] - world_v[r1, 0], world_v[r2, 1] - world_v[r1, 1]
-    tl = np.sqrt(tx * tx + ty * ty)
-    tx, ty = tx / tl, ty / tl
-    # clip against the side planes at r1 (keep t . p >= t . r1) and at r2 (t . p <= t . r2)
-    for side in range(2):
-        if side == 0:
-            ox, oy, sx, sy = world_v[r1, 0], world_v[r1, 1], tx, ty
-        else:
-            ox, oy, sx, sy = world_v[r2, 0], world_v[r2, 1], -tx, -ty
-        d1 = sx * (p1x - ox) + sy * (p1y - oy)
-        d2 = sx * (p2x - ox) + sy * (p2y - oy)
-        if d1 < 0.0 and d2 < 0.0:
-            return none
-        if d1 < 0.0 or d2 < 0.0:
-            u = d1 / (d1 - d2)
-            cx, cy = p1x + u * (p2x - p1x), p1y + u * (p2y - p1y)
-            if d1 < 0.0:
-                p1x, p1y = cx, cy
-            else:
-                p2x, p2y = cx, cy
     base = (flip << 15) | (ref_edge << 8) | (inc << 1)
     ox, oy = world_v[r1, 0], world_v[r1, 1]
     sep0 = nx * (p2x - ox) + ny * (p2y - oy)

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .sat import FLIP_BIT, REFERENCE_FACE_TOL, VERTEX_BIT, incident_edge, max_separation
+from .sat import FLIP_BIT, REFERENCE_FACE_TOL, VERTEX_BIT, clip_incident, incident_edge, max_separation
 
 CLOSEST_BIT = VERTEX_BIT  # a polygon-pair feature from the cores' closest features
 A_EDGE_BIT = 1 << 14  # ... whose point on a lies inside a's edge
@@ -88,36 +88,6 @@ def closest_feature(f, vertex_first, edge_bit, shift):
     if f >= 1.0:
         return (1 - vertex_first) << shift
     return edge_bit
-
-
-@njit(cache=True)
-def clip_incident(world_v, sr, nr, ref_edge, si, ni, inc):
-    """The incident edge inc of polygon si clipped to the side planes of reference edge ref_edge
-    of polygon sr: (ok, end-1 point x, y, end-0 point x, y); ok False when nothing is left."""
-    p1x, p1y = world_v[si + inc, 0], world_v[si + inc, 1]  # lies towards the reference edge's end 1
-    p2x, p2y = world_v[si + (inc + 1) % ni, 0], world_v[si + (inc + 1) % ni, 1]  # towards end 0
-    r1 = sr + ref_edge
-    r2 = sr + (ref_edge + 1) % nr
-    tx, ty = world_v[r2, 0] - world_v[r1, 0], world_v[r2, 1] - world_v[r1, 1]
-    tl = np.sqrt(tx * tx + ty * ty)
-    tx, ty = tx / tl, ty / tl
-    for side in range(2):  # keep t . p >= t . r1, then t . p <= t . r2
-        if side == 0:
-            ox, oy, sx, sy = world_v[r1, 0], world_v[r1, 1], tx, ty
-        else:
-            ox, oy, sx, sy = world_v[r2, 0], world_v[r2, 1], -tx, -ty
-        d1 = sx * (p1x - ox) + sy * (p1y - oy)
-        d2 = sx * (p2x - ox) + sy * (p2y - oy)
-        if d1 < 0.0 and d2 < 0.0:
-            return False, p1x, p1y, p2x, p2y
-        if d1 < 0.0 or d2 < 0.0:
-            u = d1 / (d1 - d2)
-            cx, cy = p1x + u * (p2x - p1x), p1y + u * (p2y - p1y)
-            if d1 < 0.0:
-                p1x, p1y = cx, cy
-            else:
-                p2x, p2y = cx, cy
-    return True, p1x, p1y, p2x, p2y
 
 
 @njit(cache=True)
