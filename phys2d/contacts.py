@@ -176,8 +176,9 @@ def impulses_of(first, last, rows, found):
     row's ``impact``: an event, not a load), and whether it pushed."""
     order, lam, impact, pushed = found.order, rows.lam, rows.impact, found.cache_pushed
     lambda_n, lambda_t, cache_n, cache_t = found.lambda_n, found.lambda_t, found.cache_lambda_n, found.cache_lambda_t
+    normal_row, friction_row = rows.normal_row, rows.friction_row
     for q in range(first, last):
-        c, kn, kt = order[q], rows.normal_row[q], rows.friction_row[q]
+        c, kn, kt = order[q], normal_row[q], friction_row[q]
         lambda_n[c] = lam[kn]
         lambda_t[c] = lam[kt]
         cache_n[c] = 0.0 if impact[kn] else lam[kn]

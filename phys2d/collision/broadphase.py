@@ -46,6 +46,7 @@ def geometry_of(first, last, bodies, shapes, dt, margin):
     """``update_geometry`` of bodies first up to last: each writes only its own entries."""
     x, theta, V = bodies.x, bodies.theta, bodies.V
     vstart, vcount, local_v, local_n = shapes.vstart, shapes.vcount, shapes.local_v, shapes.local_n
+    kind, radius = shapes.kind, shapes.radius
     world_v, world_n, aabb, travel, rotation = (
         shapes.world_v,
         shapes.world_n,
@@ -59,8 +60,8 @@ def geometry_of(first, last, bodies, shapes, dt, margin):
         rotation[b, 0] = c
         rotation[b, 1] = s
         speed = np.sqrt(V[b, 0] * V[b, 0] + V[b, 1] * V[b, 1])
-        if shapes.kind[b] == CIRCLE:
-            r = shapes.radius[b]
+        if kind[b] == CIRCLE:
+            r = radius[b]
             travel[b] = dt * (speed + abs(V[b, 2]) * r)
             grow = r + margin + travel[b]
             aabb[b, 0] = px - grow

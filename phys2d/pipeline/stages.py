@@ -187,9 +187,10 @@ def begin(ctx, settings):
     external forces to V, and update the geometry (on the context's threads); returns whether
     last step's pairs still hold (every tight box inside its fat box)."""
     b = ctx.bodies
-    for i in range(b.x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
-        ctx.undo_x[i, 0], ctx.undo_x[i, 1], ctx.undo_theta[i] = b.x[i, 0], b.x[i, 1], b.theta[i]
-        b.V1[i, 0], b.V1[i, 1], b.V1[i, 2] = b.V[i, 0], b.V[i, 1], b.V[i, 2]
+    x, theta, V, V1, undo_x, undo_theta = b.x, b.theta, b.V, b.V1, ctx.undo_x, ctx.undo_theta
+    for i in range(x.shape[0]):  # loops, not slice copies: those compile a shape check with its message
+        undo_x[i, 0], undo_x[i, 1], undo_theta[i] = x[i, 0], x[i, 1], theta[i]
+        V1[i, 0], V1[i, 1], V1[i, 2] = V[i, 0], V[i, 1], V[i, 2]
     apply_external_forces(b.V, b.M_inv, ctx.forces, settings.gravity, settings.dt)
     return update_geometry_on(ctx.threads, b, ctx.shapes, settings.dt, settings.contact_margin)
 
@@ -212,8 +213,9 @@ def in_visit_order(ctx, n_pairs, visit):
     shapes = ctx.shapes
     if visit != PAIR_ORDER:
         ordered = order_pairs(shapes.pairs, n_pairs, shapes.static, ctx.bodies.x, shapes.part, visit)
+        pair_order = shapes.pair_order
         for p in range(n_pairs):
-            shapes.pair_order[p] = ordered[p]
+            pair_order[p] = ordered[p]
     return visit
 
 
@@ -237,17 +239,19 @@ def collide(ctx, settings, counts, n_pairs):
         ctx.threads, ctx.bodies, ctx.shapes, ctx.store, old, new, now, margins, ctx.rounded
     )
     if not ascends:  # pairs come sorted by (a, b), so their keys ascend; if not, sort for the look-up
-        by_key = stable_argsort(new.manifold_key[:n_new])
-        keys, store_rows = new.manifold_key[:n_new].copy(), new.manifold_row[:n_new].copy()
+        manifold_key, manifold_row = new.manifold_key, new.manifold_row
+        by_key = stable_argsort(manifold_key[:n_new])
+        keys, store_rows = manifold_key[:n_new].copy(), manifold_row[:n_new].copy()
         for i in range(n_new):
-            new.manifold_key[i], new.manifold_row[i] = keys[by_key[i]], store_rows[by_key[i]]
+            manifold_key[i], manifold_row[i] = keys[by_key[i]], store_rows[by_key[i]]
+    order = new.order
     if counts.visit != PAIR_ORDER:  # the pairs' order, point by point
         in_order = solve_order(ctx.shapes.pair_order[:n_pairs], new.pair_start[: n_pairs + 1])
         for q in range(k):
-            new.order[q] = in_order[q]
+            order[q] = in_order[q]
     else:
         for q in range(k):
-            new.order[q] = q
+            order[q] = q
     return k, n_new, recycled, rows_used, points_used
 
 

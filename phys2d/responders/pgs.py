@@ -427,8 +427,9 @@ def any_push(push):
 def pushes(rows, visit):
     """Whether any row in ``visit`` has a push: a contact point overlapping past slop (push_k > 0)
     or a joint off its constraint (push_k != 0); else there is nothing to push out."""
+    push = rows.push
     for k in visit:
-        if rows.push[k] != 0.0:
+        if push[k] != 0.0:
             return True
     return False
 
