@@ -42,16 +42,34 @@ def merge_runs(keys, src, dst, lo, mid, hi):
 @njit(cache=True)
 def stable_argsort(keys):
     """Indices that sort the 1-D array keys ascending, equal keys in index order, NaN last:
-    np.argsort(keys, kind="stable"). Bottom-up merge sort: runs of 1, 2, 4, ... merged in pairs."""
+    np.argsort(keys, kind="stable"). A natural merge sort: the runs in which keys already ascend
+    (boxes arrive row by row, bodies much as last tick) are found first, then merged in pairs,
+    pass after pass, until one is left."""
     n = keys.shape[0]
     src = np.arange(n)
     dst = np.empty(n, np.int64)
-    width = 1
-    while width < n:
-        for lo in range(0, n, 2 * width):
-            merge_runs(keys, src, dst, lo, min(lo + width, n), min(lo + 2 * width, n))
+    bounds = np.empty(n + 1, np.int64)  # run r is src[bounds[r]:bounds[r + 1]]
+    bounds[0] = 0
+    runs = 0
+    for i in range(1, n):
+        u, v = keys[i], keys[i - 1]
+        if u < v or (v != v and u == u):  # keys[i] sorts before keys[i - 1]: a run ends
+            runs += 1
+            bounds[runs] = i
+    if n > 0:
+        runs += 1
+        bounds[runs] = n
+    while runs > 1:
+        merged = 0
+        for r in range(0, runs, 2):  # (writes bounds[merged], merged <= r: read already)
+            lo, mid = bounds[r], bounds[r + 1]
+            hi = bounds[r + 2] if r + 2 <= runs else mid  # a last run alone is copied
+            merge_runs(keys, src, dst, lo, mid, hi)
+            bounds[merged] = lo
+            merged += 1
+        bounds[merged] = n
+        runs = merged
         src, dst = dst, src
-        width *= 2
     return src
 
 
