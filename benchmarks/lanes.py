@@ -420,11 +420,12 @@ def soft_normal_rows_in_pairs(first, last, rows, manifolds, inv_A_kk, points, M_
                 M_ab, M_ef = pair_inverse_mass(a, b, M_inv), pair_inverse_mass(e, f, M_inv)
                 soft_m = soft_static if static_pair[m] else soft_dyn
                 soft_n = soft_static if static_pair[m + 1] else soft_dyn
+                block_rows = (J, A_kk, lam)
                 x1, x2, a1, a2, K11, K22 = soft_block(
-                    k, k2, K12[m], inv_det[m], J, A_kk, lam, C[c], C[c + 1], V_ab, h, use_bias, soft_m
+                    k, k2, (K12[m], inv_det[m]), (C[c], C[c + 1]), V_ab, block_rows, (h, use_bias, soft_m)
                 )
                 y1, y2, e1, e2, L11, L22 = soft_block(
-                    l, l2, K12[m + 1], inv_det[m + 1], J, A_kk, lam, C[d], C[d + 1], V_ef, h, use_bias, soft_n
+                    l, l2, (K12[m + 1], inv_det[m + 1]), (C[d], C[d + 1]), V_ef, block_rows, (h, use_bias, soft_n)
                 )
                 V_ab = pair_row_impulse_of(k2, J, M_ab, x2 - a2, pair_row_impulse_of(k, J, M_ab, x1 - a1, V_ab))
                 V_ef = pair_row_impulse_of(l2, J, M_ef, y2 - e2, pair_row_impulse_of(l, J, M_ef, y1 - e1, V_ef))

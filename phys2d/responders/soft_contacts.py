@@ -105,7 +105,7 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
         if as_block[m] and (use_bias or (s1 <= MET and C[c + 1] <= MET)):
             k2 = normal_row[c + 1]
             x1, x2, a1, a2, K11, K22 = soft_block(
-                k, k2, K12[m], inv_det[m], J, A_kk, lam, s1, C[c + 1], V_ab, h, use_bias, soft
+                k, k2, (K12[m], inv_det[m]), (s1, C[c + 1]), V_ab, (J, A_kk, lam), (h, use_bias, soft)
             )
             lam[k] = x1
             lam[k2] = x2
@@ -128,12 +128,17 @@ def soft_normal_rows(first, last, rows, manifolds, inv_A_kk, points, M_inv, V, h
 
 
 @njit(cache=True, inline="always")
-def soft_block(k, k2, K12, inv_det, J, A_kk, lam, s1, s2, V_ab, h, use_bias, soft):
+def soft_block(k, k2, K, s, V_ab, rows, push):
     """A two-point manifold's normal rows k and k2 solved together (``lcp2``) on the pair's
-    velocities V_ab, each row scaled by its softness at its separation s1, s2 (m); K12 =
-    J_k M^-1 J_k2^T and inv_det = 1 / det K (``manifold_constants``); J, A_kk, lam: the rows'
-    (``RowRecord``). Returns (x1, x2) the new accumulated lambdas (N s), (a1, a2) the old, and
-    (K11, K22) = (A_kk, A_k2k2); stores nothing."""
+    velocities V_ab, each row scaled by its softness at its separation (s = (s1, s2), m).
+    K = (K12, inv_det): J_k M^-1 J_k2^T and 1 / det K (``manifold_constants``); rows = (J, A_kk,
+    lam), the rows' arrays (``RowRecord``); push = (h, use_bias, soft): ``soft_push``'s. Returns
+    (x1, x2) the new accumulated lambdas (N s), (a1, a2) the old, and (K11, K22) = (A_kk,
+    A_k2k2); stores nothing."""
+    K12, inv_det = K
+    s1, s2 = s
+    J, A_kk, lam = rows
+    h, use_bias, soft = push
     K11, K22 = A_kk[k], A_kk[k2]
     bias1, ms1, is1 = soft_push(s1, h, use_bias, soft)
     bias2, ms2, is2 = soft_push(s2, h, use_bias, soft)
