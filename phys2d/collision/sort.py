@@ -43,8 +43,8 @@ def merge_runs(keys, src, dst, lo, mid, hi):
 def stable_argsort(keys):
     """Indices that sort the 1-D array keys ascending, equal keys in index order, NaN last:
     np.argsort(keys, kind="stable"). A natural merge sort: the runs in which keys already ascend
-    (boxes arrive row by row, bodies much as last tick) are found first, then merged in pairs,
-    pass after pass, until one is left."""
+    (a stack's or a pyramid's boxes, made row by row, arrive so) are found first, then merged in
+    pairs, pass after pass, until one is left."""
     n = keys.shape[0]
     src = np.arange(n)
     dst = np.empty(n, np.int64)
