@@ -27,6 +27,7 @@ registers its parser (``set_defaults(func=...)``) and append it there.
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import difflib
 import gc
@@ -230,9 +231,10 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
         def on_end(self, ev: event.Event) -> None:
             pass
 
-    with event.install_listener("numba:compile", Notice()):
+    with event.install_listener("numba:compile", Notice()), _KeptInterrupts() as kept:
         for w in worlds:
             w.step(dt)
+            kept.raise_if_lost()
     if Notice.said:
         took = time.perf_counter() - Notice.said
         print(f"phys2d: compiled in {took:.0f} s", file=out, flush=True)
@@ -454,6 +456,59 @@ class _HeldInterrupts:
             self.holding = False
         if self.pending:
             self.pending, self.raised = False, True
+            raise KeyboardInterrupt
+
+
+class _KeptInterrupts:
+    """Ctrl-C or SIGTERM while numba compiles may land in a C callback (LLVM calls back into Python
+    as it compiles), where Python cannot raise the KeyboardInterrupt: it hands it to
+    ``sys.unraisablehook`` ("Exception ignored") and goes on, and the run would not stop. Within
+    the block such an interrupt is kept: it is raised again in the main thread once the callback
+    has returned (``_thread.interrupt_main``, RESEND s later), and ``raise_if_lost`` raises it at
+    the caller's next safe point should that land in a callback too."""
+
+    RESEND = 0.01  # s: a callback's Python part takes microseconds
+
+    def __init__(self) -> None:
+        self.lost = False
+        self.former: Callable[[Any], Any] | None = None
+        self.resend: threading.Timer | None = None
+
+    def __enter__(self) -> _KeptInterrupts:
+        self.former = sys.unraisablehook
+        sys.unraisablehook = self._hook
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, *_: object) -> None:
+        if self.former is not None:
+            sys.unraisablehook = self.former
+        self.former = None
+        self._cancel()
+        if self.lost and kind is not None and not issubclass(kind, KeyboardInterrupt):
+            # what the dropped interrupt left behind (numba: "no compiled object yet"): still an interrupt
+            raise KeyboardInterrupt from error
+
+    def _hook(self, unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            if self.former is not None:
+                self.former(unraisable)
+            return
+        self.lost = True
+        if self.resend is None and threading.current_thread() is threading.main_thread():
+            self.resend = threading.Timer(self.RESEND, _thread.interrupt_main)
+            self.resend.daemon = True
+            self.resend.start()
+
+    def _cancel(self) -> None:
+        if self.resend is not None:
+            self.resend.cancel()
+            self.resend = None
+
+    def raise_if_lost(self) -> None:
+        """Raise the KeyboardInterrupt a C callback dropped, if one did."""
+        if self.lost:
+            self.lost = False
+            self._cancel()
             raise KeyboardInterrupt
 
 
@@ -682,7 +737,7 @@ def _step_run(
     step on (its compiling left out); (the seconds in all, the seconds after the first step)."""
     t0 = time.perf_counter()
     bar = None
-    with _HeldInterrupts() as interrupts:
+    with _HeldInterrupts() as interrupts, _KeptInterrupts() as kept:
         try:
             if rec is not None:
                 with interrupts.held():
@@ -700,6 +755,7 @@ def _step_run(
                         bar.close()
                     saved = f"; ticks 0-{w.tick} are recorded in {path}" if path else ""
                     raise CLIError(f"step {k + 1} failed: {e}{saved}") from None
+                kept.raise_if_lost()  # (a step that loads or compiles a kernel calls back from C)
                 watch.observe()
                 if rec is not None:
                     with interrupts.held():

@@ -591,6 +591,63 @@ def test_a_live_web_run_stopped_midway_stops_its_viewer(tmp_path):
     _wait_port_free(web)
 
 
+def _dropping_callback():
+    """A Python function called from C through ctypes, raising KeyboardInterrupt: what a signal
+    handler does when Ctrl-C or SIGTERM comes while LLVM calls numba back as it compiles."""
+    import ctypes
+
+    @ctypes.CFUNCTYPE(None)
+    def from_c() -> None:
+        raise KeyboardInterrupt
+
+    return from_c
+
+
+def test_python_drops_an_interrupt_raised_in_a_c_callback(monkeypatch):
+    """The fault the CLI guards against: the interrupt goes no further than the callback (Python
+    hands it to ``sys.unraisablehook``, which prints "Exception ignored", and goes on), so without
+    a guard a run would not stop."""
+    dropped: list[type] = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: dropped.append(type(unraisable.exc_value)))
+    _dropping_callback()()  # returns: no KeyboardInterrupt here
+    assert dropped == [KeyboardInterrupt]
+
+
+@pytest.mark.parametrize("then", ["goes-on", "fails"])
+def test_an_interrupt_dropped_while_a_run_steps_still_ends_it_at_once(monkeypatch, capsys, then):
+    """Ctrl-C or SIGTERM that lands in a C callback during a step (the first, compiling, or a later
+    one) still stops `phys2d run` within that step: exit 130, the rest of the step not waited for
+    (found on a cold cache, where a SIGTERM during the first step's compile was dropped and the run
+    went on). Also when the step then fails for want of what the callback did not finish (numba:
+    "no compiled object yet"), which was an internal error (exit 1)."""
+    from phys2d import cli
+
+    from_c, steps, finished, drop_at = _dropping_callback(), [], [], [0]
+    original = phys2d.World.step
+
+    def step(self, dt):
+        original(self, dt)
+        steps.append(self.tick)
+        if self.tick == drop_at[0]:
+            from_c()
+            if then == "fails":
+                raise RuntimeError("no compiled object yet")
+            until = time.monotonic() + 20.0  # the rest of a long compile, in Python
+            while time.monotonic() < until:
+                pass
+            finished.append(self.tick)
+
+    monkeypatch.setattr(phys2d.World, "step", step)
+    for drop_at[0] in (1, 5):  # the first step (where a cold cache compiles), and a later one
+        steps.clear()
+        argv = ["run", "pyramid", "--size", "2", "--steps", "40", "--no-record", "--no-progress"]
+        assert cli.main(argv) == 130
+        assert steps == list(range(1, drop_at[0] + 1))
+        assert finished == []
+        err = capsys.readouterr().err
+        assert "interrupted" in err and "Exception ignored" not in err
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="no process groups, no SIGTERM handler")
 @pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
 def test_a_recorded_run_stopped_midway_exits_130_with_its_recording_complete(tmp_path, how):
