@@ -568,6 +568,7 @@ def _wait_port_free(port: int, timeout: float = 20) -> None:
     raise AssertionError(f"something still listens on {port}: the viewer outlived the command")
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="no SIGTERM handler, no process groups")
 def test_a_live_web_run_stopped_midway_stops_its_viewer(tmp_path):
     """SIGTERM during the simulation: the command ends as interrupted (130), and the web viewer
     it started is not left serving on its ports."""
@@ -576,7 +577,10 @@ def test_a_live_web_run_stopped_midway_stops_its_viewer(tmp_path):
     cmd = [sys.executable, "-m", "phys2d", "run", "pyramid", "--size", "10", "--steps", "1000000", "--no-record"]
     cmd += ["--live", "web", "--web-port", str(web), "--port", str(grpc)]
     with open(tmp_path / "stderr.txt", "w") as err:  # a file: a viewer left behind would hold a pipe open
-        run = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=err, text=True)
+        # a group of its own: should the run hang, the web viewer it started goes with it
+        run = subprocess.Popen(
+            cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=err, text=True, start_new_session=True
+        )
     try:
         line = run.stdout.readline()
         assert line.startswith("live web viewer: http://127.0.0.1:"), line
@@ -586,7 +590,7 @@ def test_a_live_web_run_stopped_midway_stops_its_viewer(tmp_path):
         run.wait(30)
     finally:
         if run.poll() is None:
-            run.kill()
+            os.killpg(run.pid, signal.SIGKILL)
     assert run.returncode == 130, (tmp_path / "stderr.txt").read_text()
     _wait_port_free(web)
 
