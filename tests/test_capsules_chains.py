@@ -19,6 +19,10 @@ from phys2d.collision import describe_feature
 from phys2d.collision.narrowphase import pair_kind
 from phys2d.recording.sample import Strips
 
+# one worker runs the worlds at rest below: their ticks (capsules, each responder) compile once, not on
+# both workers at the same time (a module mark would also rename the fresh_cache test's group)
+AT_REST = pytest.mark.xdist_group("capsules_at_rest")
+
 DT = 1.0 / 60.0
 RESPONDERS = ("pgs", "pgs-block", "soft-step")
 
@@ -38,6 +42,7 @@ def run(w: phys2d.World, steps: int) -> None:
 # -- resting: heights and contact points from the geometry --------------------------------------
 
 
+@AT_REST
 @pytest.mark.parametrize("responder", RESPONDERS)
 def test_a_capsule_on_its_side_rests_radius_above_the_ground_on_two_points(responder):
     """Its core lies r above the ground; the two points sit under the core's ends, on the ground's
@@ -57,6 +62,7 @@ def test_a_capsule_on_its_side_rests_radius_above_the_ground_on_two_points(respo
     assert np.sum(c.lambda_n) == pytest.approx(cap.mass * 10.0 * DT, rel=1e-3)  # it carries its weight
 
 
+@AT_REST
 def test_a_capsule_standing_on_its_end_rests_on_one_point_under_its_axis():
     """Upright, its lowest point is its cap's: the centre stays h + r above the ground, one point
     right under the centre, and it does not tip."""
@@ -71,6 +77,7 @@ def test_a_capsule_standing_on_its_end_rests_on_one_point_under_its_axis():
     assert c.point[0] == pytest.approx([0.0, 0.0], abs=1e-4)
 
 
+@AT_REST
 def test_a_capsule_lies_on_a_capsule_and_a_ball_on_a_rounded_segment():
     """Rounded on rounded: a capsule across another rests 2 r above it (cores 2 r apart); a ball on
     a segment of radius r_s rests r_s + r_ball above the segment's core."""
@@ -87,6 +94,7 @@ def test_a_capsule_lies_on_a_capsule_and_a_ball_on_a_rounded_segment():
     assert (low.index, top.index) in pairs
 
 
+@AT_REST
 def test_a_box_on_a_segment_and_a_capsule_end_on_a_box_corner():
     """A box rests on a bare segment at its half height; a capsule lying against a box's top corner
     end first meets it with its cap: one point, the normal along the line from corner to cap centre."""

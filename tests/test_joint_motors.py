@@ -14,6 +14,9 @@ from hypothesis import strategies as st
 
 import phys2d
 
+# one worker runs this file and test_ragdoll_rest.py: their worlds' ticks (joints, each responder) compile once
+pytestmark = pytest.mark.xdist_group("joint_worlds")
+
 G = 10.0
 DT = 1.0 / 60.0
 

@@ -357,6 +357,7 @@ def segment_crossing(shape: Shape, start: Point, u: Point, length: float, tol: f
     return s, slope
 
 
+@pytest.mark.xdist_group("ray_casts")  # one worker: the kinds share one compiled ray cast
 @pytest.mark.parametrize("kind", KINDS)
 @given(data=st.data())
 def test_ray_cast_is_the_brute_forces_entry(kind: str, data: st.DataObject) -> None:

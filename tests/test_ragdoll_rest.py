@@ -20,6 +20,9 @@ from hypothesis import strategies as st
 import phys2d
 from phys2d import stock_scenes
 
+# one worker runs this file and test_joint_motors.py: their worlds' ticks (joints, each responder) compile once
+pytestmark = pytest.mark.xdist_group("joint_worlds")
+
 DT = 1 / 60
 RESPONDERS = {"pgs": lambda: phys2d.PGS(), "soft-step": lambda: phys2d.SoftStep()}
 SHOULDER = (0.0, 2.0)

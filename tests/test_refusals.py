@@ -59,6 +59,7 @@ def pile(responder: phys2d.Responder, threads: int, sleep: bool) -> phys2d.World
     return w
 
 
+@pytest.mark.xdist_group("threads_switched")  # one worker: each threaded tick compiles once
 @pytest.mark.parametrize("name", list(SWITCHING))
 def test_switching_threads_after_a_step_loses_none(name):
     """The probe's case: 60 steps on two threads, then one: the step is taken (no TypeError, no
@@ -74,6 +75,7 @@ def test_switching_threads_after_a_step_loses_none(name):
     assert state(w) == state(twin)
 
 
+@pytest.mark.xdist_group("threads_switched")  # one worker: each threaded tick compiles once
 @settings(max_examples=12)
 @given(
     name=st.sampled_from(list(SWITCHING)),
