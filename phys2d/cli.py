@@ -1208,7 +1208,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
     prog = f"phys2d {args.command}"
     try:
-        return int(args.func(args))
+        with _KeptInterrupts() as kept:  # (every command: Ctrl-C while numba compiles stays an interrupt)
+            code = int(args.func(args))
+            kept.raise_if_lost()
+        return code
     except CLIError as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
     except (ValueError, TypeError, OSError, StreamError) as e:

@@ -393,6 +393,37 @@ def phys2d_check(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     )
 
 
+def test_an_interrupt_dropped_while_checking_ends_the_check_at_once(tmp_path, monkeypatch, capsys) -> None:
+    """Ctrl-C or SIGTERM that lands in a C callback (numba compiling a student's kernel, say) stops
+    `phys2d check` too: exit 130 within the step it came in, as `phys2d run` (tests/test_cli.py)."""
+    import ctypes
+    import time
+
+    from phys2d import cli
+
+    @ctypes.CFUNCTYPE(None)
+    def from_c() -> None:  # as LLVM calls numba back while it compiles
+        raise KeyboardInterrupt
+
+    original, finished = phys2d.World.step, []
+
+    def step(self, dt):
+        original(self, dt)
+        if self.tick == 3:
+            from_c()
+            until = time.monotonic() + 20.0  # the rest of a long compile, in Python
+            while time.monotonic() < until:
+                pass
+            finished.append(self.tick)
+
+    monkeypatch.setattr(phys2d.World, "step", step)
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["check", TEMPLATE + ":LecturePGS", "--quick"]) == 130
+    assert finished == []
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "Exception ignored" not in err
+
+
 def test_cli_passes_the_lessons_pgs_with_exit_0_and_removes_a_stale_recording(tmp_path) -> None:
     stale = tmp_path / "recordings" / "check" / "lecture-pgs.rrd"  # a failing card's, from before a fix
     stale.parent.mkdir(parents=True)
