@@ -495,9 +495,13 @@ class _KeptInterrupts:
             return
         self.lost = True
         if self.resend is None and threading.current_thread() is threading.main_thread():
-            self.resend = threading.Timer(self.RESEND, _thread.interrupt_main)
+            self.resend = threading.Timer(self.RESEND, self._resend)
             self.resend.daemon = True
             self.resend.start()
+
+    def _resend(self) -> None:  # (on the timer's thread; a resent interrupt dropped again is resent again)
+        self.resend = None
+        _thread.interrupt_main()
 
     def _cancel(self) -> None:
         if self.resend is not None:
