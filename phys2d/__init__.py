@@ -25,6 +25,7 @@ from .collision import describe_feature
 from .collision.queries import RayHit
 from .constraints.joints import AngleJoint, DistanceJoint, Joint, MouseJoint, PinJoint, SliderJoint, WeldJoint
 from .contacts import Contacts
+from .interrupts import keep_interrupts_while_compiling
 from .responders import REGISTRY, make_responder
 from .responders.base import Responder, SolveResult, StepContext, StepReport
 from .responders.iterative import IterativeImpulse
@@ -33,6 +34,10 @@ from .responders.pgs import PGS
 from .responders.soft_step import SoftStep
 from .verdict import Verdict, Watch
 from .world import SimulationError, World
+
+# Ctrl-C during a numba compile would be lost in LLVM's callbacks, and the program go on
+# (``phys2d.interrupts``): every compile keeps it, in lessons and scripts as in ``phys2d``'s commands
+keep_interrupts_while_compiling()
 
 __version__ = "0.1.0"
 

@@ -27,7 +27,6 @@ registers its parser (``set_defaults(func=...)``) and append it there.
 
 from __future__ import annotations
 
-import _thread
 import argparse
 import difflib
 import gc
@@ -48,6 +47,7 @@ from typing import TYPE_CHECKING, Any, NoReturn, TextIO, cast
 import numpy as np
 
 from . import scenes
+from .interrupts import KeptInterrupts
 from .recording.sink_settings import STREAM_FLUSH_S, StreamError
 from .responders import REGISTRY
 from .responders.base import Responder
@@ -231,7 +231,7 @@ def first_step(worlds: Sequence[World], dt: float, stream: TextIO | None = None)
         def on_end(self, ev: event.Event) -> None:
             pass
 
-    with event.install_listener("numba:compile", Notice()), _KeptInterrupts() as kept:
+    with event.install_listener("numba:compile", Notice()), KeptInterrupts() as kept:
         for w in worlds:
             w.step(dt)
             kept.raise_if_lost()
@@ -456,63 +456,6 @@ class _HeldInterrupts:
             self.holding = False
         if self.pending:
             self.pending, self.raised = False, True
-            raise KeyboardInterrupt
-
-
-class _KeptInterrupts:
-    """Ctrl-C or SIGTERM while numba compiles may land in a C callback (LLVM calls back into Python
-    as it compiles), where Python cannot raise the KeyboardInterrupt: it hands it to
-    ``sys.unraisablehook`` ("Exception ignored") and goes on, and the run would not stop. Within
-    the block such an interrupt is kept: it is raised again in the main thread once the callback
-    has returned (``_thread.interrupt_main``, RESEND s later), and ``raise_if_lost`` raises it at
-    the caller's next safe point should that land in a callback too."""
-
-    RESEND = 0.01  # s: a callback's Python part takes microseconds
-
-    def __init__(self) -> None:
-        self.lost = False
-        self.former: Callable[[Any], Any] | None = None
-        self.resend: threading.Timer | None = None
-
-    def __enter__(self) -> _KeptInterrupts:
-        self.former = sys.unraisablehook
-        sys.unraisablehook = self._hook
-        return self
-
-    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None, *_: object) -> None:
-        if self.former is not None:
-            sys.unraisablehook = self.former
-        self.former = None
-        self._cancel()
-        if self.lost and kind is not None and not issubclass(kind, KeyboardInterrupt):
-            # what the dropped interrupt left behind (numba: "no compiled object yet"): still an interrupt
-            raise KeyboardInterrupt from error
-
-    def _hook(self, unraisable: Any) -> None:
-        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
-            if self.former is not None:
-                self.former(unraisable)
-            return
-        self.lost = True
-        if self.resend is None and threading.current_thread() is threading.main_thread():
-            self.resend = threading.Timer(self.RESEND, self._resend)
-            self.resend.daemon = True
-            self.resend.start()
-
-    def _resend(self) -> None:  # (on the timer's thread; a resent interrupt dropped again is resent again)
-        self.resend = None
-        _thread.interrupt_main()
-
-    def _cancel(self) -> None:
-        if self.resend is not None:
-            self.resend.cancel()
-            self.resend = None
-
-    def raise_if_lost(self) -> None:
-        """Raise the KeyboardInterrupt a C callback dropped, if one did."""
-        if self.lost:
-            self.lost = False
-            self._cancel()
             raise KeyboardInterrupt
 
 
@@ -741,7 +684,7 @@ def _step_run(
     step on (its compiling left out); (the seconds in all, the seconds after the first step)."""
     t0 = time.perf_counter()
     bar = None
-    with _HeldInterrupts() as interrupts, _KeptInterrupts() as kept:
+    with _HeldInterrupts() as interrupts, KeptInterrupts() as kept:
         try:
             if rec is not None:
                 with interrupts.held():
@@ -1212,7 +1155,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
     prog = f"phys2d {args.command}"
     try:
-        with _KeptInterrupts() as kept:  # (every command: Ctrl-C while numba compiles stays an interrupt)
+        with KeptInterrupts() as kept:  # (every command: Ctrl-C while numba compiles stays an interrupt)
             code = int(args.func(args))
             kept.raise_if_lost()
         return code

@@ -27,6 +27,7 @@ from phys2d.checks.hints import NEEDS
 from phys2d.testing.strategies import fingerprint
 from tests import card_docs
 from tests import responders_for_check as rc
+from tests.dropped import busy, dropping_callback
 
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATE = str(ROOT / "lessons" / "your_responder.py")
@@ -396,24 +397,16 @@ def phys2d_check(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 def test_an_interrupt_dropped_while_checking_ends_the_check_at_once(tmp_path, monkeypatch, capsys) -> None:
     """Ctrl-C or SIGTERM that lands in a C callback (numba compiling a student's kernel, say) stops
     `phys2d check` too: exit 130 within the step it came in, as `phys2d run` (tests/test_cli.py)."""
-    import ctypes
-    import time
-
     from phys2d import cli
 
-    @ctypes.CFUNCTYPE(None)
-    def from_c() -> None:  # as LLVM calls numba back while it compiles
-        raise KeyboardInterrupt
-
+    from_c = dropping_callback()  # as LLVM calls numba back while it compiles
     original, finished = phys2d.World.step, []
 
     def step(self, dt):
         original(self, dt)
         if self.tick == 3:
             from_c()
-            until = time.monotonic() + 20.0  # the rest of a long compile, in Python
-            while time.monotonic() < until:
-                pass
+            busy(20.0)  # the rest of a long compile, in Python
             finished.append(self.tick)
 
     monkeypatch.setattr(phys2d.World, "step", step)
