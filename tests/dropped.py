@@ -7,14 +7,14 @@ import time
 from collections.abc import Callable
 
 
-def dropping_callback() -> Callable[[], None]:
-    """A Python function called from C through ctypes, raising KeyboardInterrupt: what a signal
-    handler does when Ctrl-C or SIGTERM comes while LLVM calls numba back as it compiles. Python
-    cannot raise it out of the callback: it hands it to ``sys.unraisablehook`` and returns."""
+def dropping_callback(error: type[BaseException] = KeyboardInterrupt) -> Callable[[], None]:
+    """A Python function called from C through ctypes, raising ``error`` (KeyboardInterrupt: what a
+    signal handler does when Ctrl-C or SIGTERM comes while LLVM calls numba back as it compiles).
+    Python cannot raise it out of the callback: it hands it to ``sys.unraisablehook`` and returns."""
 
     @ctypes.CFUNCTYPE(None)
     def from_c() -> None:
-        raise KeyboardInterrupt
+        raise error
 
     return from_c
 
